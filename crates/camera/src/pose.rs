@@ -1,0 +1,134 @@
+//! Rigid world → camera transform in OpenCV's convention.
+
+use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::error::CameraError;
+
+/// Tolerance on `‖RᵀR − I‖∞` and `|det R − 1|` for a matrix to count as a rotation.
+pub const ROTATION_TOLERANCE: f64 = 1e-6;
+
+/// World → camera transform: `x_cam = R · X_world + t`, with `t` in mm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// `R`: rotates world vectors into the camera frame.
+    pub rotation: Rotation3<f64>,
+    /// `t`: the world origin expressed in the camera frame, mm.
+    pub translation: Vector3<f64>,
+}
+
+impl Pose {
+    /// The camera at the world origin looking along world +z.
+    pub fn identity() -> Self {
+        Pose {
+            rotation: Rotation3::identity(),
+            translation: Vector3::zeros(),
+        }
+    }
+
+    /// From a Rodrigues vector (axis × angle, radians) and a translation in mm, as OpenCV's
+    /// `rvec`/`tvec`.
+    pub fn from_rvec_tvec(rvec: Vector3<f64>, tvec: Vector3<f64>) -> Self {
+        Pose {
+            rotation: Rotation3::from_scaled_axis(rvec),
+            translation: tvec,
+        }
+    }
+
+    /// From a 3×3 matrix that must be a proper rotation (orthonormal within
+    /// [`ROTATION_TOLERANCE`], determinant +1); it is re-orthonormalized exactly.
+    pub fn from_matrix(r: &Matrix3<f64>, t: Vector3<f64>) -> Result<Self, CameraError> {
+        if r.iter().chain(t.iter()).any(|v| !v.is_finite()) {
+            return Err(CameraError::NotARotation {
+                reason: "contains NaN or infinity".into(),
+            });
+        }
+        let ortho = (r.transpose() * r - Matrix3::identity()).amax();
+        if ortho > ROTATION_TOLERANCE {
+            return Err(CameraError::NotARotation {
+                reason: format!("‖RᵀR − I‖ = {ortho:.2e} exceeds {ROTATION_TOLERANCE:e}"),
+            });
+        }
+        let det = r.determinant();
+        if (det - 1.0).abs() > ROTATION_TOLERANCE {
+            return Err(CameraError::NotARotation {
+                reason: format!("determinant is {det:.6}, not +1 (a reflection?)"),
+            });
+        }
+        Ok(Pose {
+            rotation: Rotation3::from_matrix(r),
+            translation: t,
+        })
+    }
+
+    /// Looking from `centre` (world, mm) at `target`, with `up` (world) pointing to the top of
+    /// the image (image y points down, so camera −y follows `up`).
+    pub fn look_at(centre: Point3<f64>, target: Point3<f64>, up: Vector3<f64>) -> Self {
+        let z = (target - centre).normalize();
+        let x = z.cross(&up).normalize();
+        let y = z.cross(&x);
+        let r = Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]);
+        let rotation = Rotation3::from_matrix_unchecked(r);
+        Pose {
+            rotation,
+            translation: -(rotation * centre.coords),
+        }
+    }
+
+    /// Rodrigues vector of `R` (radians), as OpenCV's `rvec`.
+    pub fn rvec(&self) -> Vector3<f64> {
+        self.rotation.scaled_axis()
+    }
+
+    /// World point → camera coordinates (mm).
+    pub fn to_camera(&self, p: &Point3<f64>) -> Point3<f64> {
+        self.rotation * p + self.translation
+    }
+
+    /// Camera-frame point → world coordinates (mm).
+    pub fn to_world(&self, p: &Point3<f64>) -> Point3<f64> {
+        self.rotation.inverse() * (p - self.translation)
+    }
+
+    /// Camera centre in world coordinates, `−Rᵀ t` (mm).
+    pub fn centre(&self) -> Point3<f64> {
+        Point3::from(-(self.rotation.inverse() * self.translation))
+    }
+
+    /// Viewing direction (camera +z) in world coordinates, unit length.
+    pub fn optical_axis(&self) -> Vector3<f64> {
+        self.rotation.inverse() * Vector3::z()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn look_at_sees_target_on_axis_and_up_is_image_up() {
+        let pose = Pose::look_at(
+            Point3::new(600.0, 0.0, 0.0),
+            Point3::origin(),
+            Vector3::z(),
+        );
+        let t = pose.to_camera(&Point3::origin());
+        assert!(t.x.abs() < 1e-12 && t.y.abs() < 1e-12 && (t.z - 600.0).abs() < 1e-12);
+        let up = pose.to_camera(&Point3::new(0.0, 0.0, 10.0));
+        assert!(up.y < 0.0, "world up must be image up (negative y)");
+        assert!((pose.centre() - Point3::new(600.0, 0.0, 0.0)).norm() < 1e-12);
+        assert!((pose.rotation.matrix().determinant() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn rejects_reflection_and_non_orthonormal() {
+        let refl = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
+        assert!(Pose::from_matrix(&refl, Vector3::zeros()).is_err());
+        let skew = Matrix3::new(1.0, 0.01, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+        assert!(Pose::from_matrix(&skew, Vector3::zeros()).is_err());
+        let rot = Rotation3::from_euler_angles(0.1, -0.4, 2.0);
+        let pose = Pose::from_matrix(rot.matrix(), Vector3::new(1.0, 2.0, 3.0)).unwrap();
+        let back = Pose::from_rvec_tvec(pose.rvec(), pose.translation);
+        assert!((back.rotation.matrix() - rot.matrix()).amax() < 1e-12);
+    }
+}
