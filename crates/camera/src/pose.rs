@@ -36,7 +36,8 @@ impl Pose {
     }
 
     /// From a 3×3 matrix that must be a proper rotation (orthonormal within
-    /// [`ROTATION_TOLERANCE`], determinant +1); it is re-orthonormalized exactly.
+    /// [`ROTATION_TOLERANCE`], determinant +1). A matrix orthonormal to 1e-12 is kept as is (so
+    /// files round-trip bit for bit); a less exact one is re-orthonormalized.
     pub fn from_matrix(r: &Matrix3<f64>, t: Vector3<f64>) -> Result<Self, CameraError> {
         if r.iter().chain(t.iter()).any(|v| !v.is_finite()) {
             return Err(CameraError::NotARotation {
@@ -55,8 +56,13 @@ impl Pose {
                 reason: format!("determinant is {det:.6}, not +1 (a reflection?)"),
             });
         }
+        let rotation = if ortho < 1e-12 {
+            Rotation3::from_matrix_unchecked(*r)
+        } else {
+            Rotation3::from_matrix(r)
+        };
         Ok(Pose {
-            rotation: Rotation3::from_matrix(r),
+            rotation,
             translation: t,
         })
     }

@@ -1,1 +1,19 @@
-//! todo
+//! Rig files for flexshape: the on-disk description of the cameras and the working volume.
+//!
+//! - [`camera_file`]: one camera's calibration in OpenCV `cv::FileStorage` YAML (OpenCV 4's
+//!   `%YAML:1.0` and OpenCV 5's `%YAML 1.2`, with `!!opencv-matrix`) or JSON, read and written.
+//! - [`Volume`]: the carving volume (minimum corner, voxel size, dimensions), in world mm.
+//! - [`Rig`]: named cameras + volume + per-stage processing settings, in one TOML file that
+//!   points at the per-camera files.
+//!
+//! Every loader validates what it reads and names the file and field of any problem.
+
+pub mod camera_file;
+mod error;
+mod opencv_matrix;
+mod rig;
+mod volume;
+
+pub use error::RigError;
+pub use rig::{Rig, RigCamera};
+pub use volume::{Volume, VolumeError, MAX_VOXELS};

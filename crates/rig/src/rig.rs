@@ -1,0 +1,284 @@
+//! The rig file: named cameras, the working volume and per-stage processing settings, in TOML.
+//!
+//! ```toml
+//! [volume]
+//! origin = [-128.0, -128.0, -128.0]  # world mm, minimum corner
+//! voxel_size = 1.0                   # mm; or [sx, sy, sz]
+//! dims = [256, 256, 256]
+//!
+//! [[cameras]]
+//! name = "cam0"
+//! file = "calibration/cam0.yml"      # relative to the rig file
+//! image_size = [640, 480]            # optional; must match the camera file
+//!
+//! [processing.silhouette]            # each stage reads its own table
+//! ```
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+use flexshape_camera::Camera;
+use serde::{Deserialize, Serialize};
+
+use crate::camera_file;
+use crate::error::RigError;
+use crate::volume::Volume;
+
+/// One camera of a rig.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigCamera {
+    /// Name used for folders and records (`cam0`, …).
+    pub name: String,
+    /// Calibration file, relative to the rig file (as written in it).
+    pub file: PathBuf,
+    /// The calibrated camera (world frame, mm).
+    pub camera: Camera,
+}
+
+/// Cameras, working volume and processing settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rig {
+    /// The cameras, in file order.
+    pub cameras: Vec<RigCamera>,
+    /// The volume to carve.
+    pub volume: Volume,
+    /// Per-stage settings (`[processing.<stage>]` tables), interpreted by each stage.
+    pub processing: toml::Table,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRig {
+    volume: Option<RawVolume>,
+    #[serde(default)]
+    cameras: Vec<RawRigCamera>,
+    #[serde(default)]
+    processing: toml::Table,
+}
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct RawVolume {
+    origin: [f64; 3],
+    voxel_size: VoxelSize,
+    dims: [u32; 3],
+}
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(untagged)]
+enum VoxelSize {
+    Cubic(f64),
+    PerAxis([f64; 3]),
+}
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct RawRigCamera {
+    name: String,
+    file: PathBuf,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    image_size: Option<[u32; 2]>,
+}
+
+#[derive(Serialize)]
+struct RigOut<'a> {
+    volume: RawVolume,
+    cameras: Vec<RawRigCamera>,
+    processing: &'a toml::Table,
+}
+
+impl Rig {
+    /// Reads and validates a rig file and every camera file it names.
+    pub fn load(path: &Path) -> Result<Rig, RigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| RigError::Read {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses rig TOML; camera files are resolved relative to `path`'s folder.
+    pub fn parse(text: &str, path: &Path) -> Result<Rig, RigError> {
+        let raw: RawRig = toml::from_str(text).map_err(|e| RigError::Syntax {
+            file: path.to_path_buf(),
+            message: format!("invalid rig TOML: {e}"),
+        })?;
+        let volume = match raw.volume {
+            None => Volume::default(),
+            Some(v) => {
+                let size = match v.voxel_size {
+                    VoxelSize::Cubic(s) => [s; 3],
+                    VoxelSize::PerAxis(s) => s,
+                };
+                Volume::new(v.origin, size, v.dims).map_err(|e| {
+                    RigError::field(path, format!("volume.{}", e.field), e.problem)
+                })?
+            }
+        };
+        if raw.cameras.is_empty() {
+            return Err(RigError::field(
+                path,
+                "cameras",
+                "no cameras; add one [[cameras]] table (name, file) per camera",
+            ));
+        }
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let mut seen = HashSet::new();
+        let mut cameras = Vec::with_capacity(raw.cameras.len());
+        for (i, c) in raw.cameras.into_iter().enumerate() {
+            if !valid_name(&c.name) {
+                return Err(RigError::field(
+                    path,
+                    format!("cameras[{i}].name"),
+                    format!(
+                        "`{}` is not usable as a folder name; use letters, digits, `_` or `-`",
+                        c.name
+                    ),
+                ));
+            }
+            if !seen.insert(c.name.clone()) {
+                return Err(RigError::field(
+                    path,
+                    format!("cameras[{i}].name"),
+                    format!("camera name `{}` appears twice; names must be unique", c.name),
+                ));
+            }
+            let file_path = dir.join(&c.file);
+            let cam_file = camera_file::read(&file_path)?;
+            let Some(pose) = cam_file.pose else {
+                return Err(RigError::field(
+                    &file_path,
+                    "R",
+                    "no extrinsics: a rig camera needs `R` (or `rvec`) and `T` (or `tvec`) in \
+                     the world frame; calibrate the rig's extrinsics",
+                ));
+            };
+            let k = &cam_file.intrinsics;
+            if let Some([w, h]) = c.image_size
+                && (w, h) != (k.width, k.height)
+            {
+                return Err(RigError::field(
+                    path,
+                    format!("cameras[{i}].image_size"),
+                    format!(
+                        "[{w}, {h}] does not match {}×{} in {}; the calibration belongs to \
+                         another image size",
+                        k.width,
+                        k.height,
+                        file_path.display()
+                    ),
+                ));
+            }
+            cameras.push(RigCamera {
+                name: c.name,
+                file: c.file,
+                camera: Camera::new(cam_file.intrinsics, pose),
+            });
+        }
+        Ok(Rig {
+            cameras,
+            volume,
+            processing: raw.processing,
+        })
+    }
+
+    /// Builds a rig from a folder of camera files (`*.yml`, `*.yaml`, `*.json`), one camera per
+    /// file named after the file stem, sorted by name.
+    pub fn from_calibration_dir(dir: &Path, volume: Volume) -> Result<Rig, RigError> {
+        let entries = std::fs::read_dir(dir).map_err(|source| RigError::Read {
+            file: dir.to_path_buf(),
+            source,
+        })?;
+        let mut files: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                    matches!(e.to_ascii_lowercase().as_str(), "yml" | "yaml" | "json")
+                })
+            })
+            .collect();
+        files.sort();
+        if files.is_empty() {
+            return Err(RigError::field(
+                dir,
+                "cameras",
+                "no camera files (*.yml, *.yaml, *.json) in this folder",
+            ));
+        }
+        let toml = files
+            .iter()
+            .map(|f| {
+                let name = f.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
+                let file = f.file_name().and_then(|s| s.to_str()).unwrap_or_default();
+                format!("[[cameras]]\nname = {name:?}\nfile = {file:?}\n")
+            })
+            .collect::<String>();
+        let mut rig = Self::parse(&toml, &dir.join("(calibration folder)"))?;
+        rig.volume = volume;
+        Ok(rig)
+    }
+
+    /// The rig as TOML text.
+    pub fn to_toml(&self) -> String {
+        let v = &self.volume;
+        let voxel_size = if v.voxel_size.iter().all(|&s| s == v.voxel_size[0]) {
+            VoxelSize::Cubic(v.voxel_size[0])
+        } else {
+            VoxelSize::PerAxis(v.voxel_size)
+        };
+        let out = RigOut {
+            volume: RawVolume {
+                origin: v.origin,
+                voxel_size,
+                dims: v.dims,
+            },
+            cameras: self
+                .cameras
+                .iter()
+                .map(|c| RawRigCamera {
+                    name: c.name.clone(),
+                    file: c.file.clone(),
+                    image_size: Some([c.camera.intrinsics.width, c.camera.intrinsics.height]),
+                })
+                .collect(),
+            processing: &self.processing,
+        };
+        let body = toml::to_string(&out).unwrap_or_default();
+        format!(
+            "# flexshape rig: cameras (OpenCV files, paths relative to this file) and the working\n\
+             # volume (world frame, mm; origin = minimum corner). See docs/formats.md.\n{body}"
+        )
+    }
+
+    /// Writes the rig TOML to `path` and every camera file (OpenCV YAML/JSON by extension) to
+    /// its `file`, relative to `path`'s folder, creating folders as needed.
+    pub fn save(&self, path: &Path) -> Result<(), RigError> {
+        let dir = path.parent().unwrap_or(Path::new("."));
+        for c in &self.cameras {
+            let file = dir.join(&c.file);
+            if let Some(parent) = file.parent() {
+                std::fs::create_dir_all(parent).map_err(|source| RigError::Write {
+                    file: parent.to_path_buf(),
+                    source,
+                })?;
+            }
+            camera_file::write_camera(&file, &c.camera)?;
+        }
+        std::fs::write(path, self.to_toml()).map_err(|source| RigError::Write {
+            file: path.to_path_buf(),
+            source,
+        })
+    }
+
+    /// The camera named `name`.
+    pub fn camera(&self, name: &str) -> Option<&RigCamera> {
+        self.cameras.iter().find(|c| c.name == name)
+    }
+}
+
+fn valid_name(name: &str) -> bool {
+    !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
