@@ -1,1 +1,12 @@
-//! todo
+//! Centerline curves shared by the simulator, shape estimation and the manipulator model.
+//!
+//! - [`Polyline`]: a densely sampled 3-D curve with cumulative arc length (mm).
+//! - [`Section`] and [`SectionChain`]: piecewise constant-curvature curves in the paper's
+//!   convention (local axis along +y; curvatures κx, κz about the local x and z axes, 1/mm;
+//!   axial strain ε, compression positive), with closed-form frames.
+
+mod polyline;
+mod section;
+
+pub use polyline::{CurveError, Polyline};
+pub use section::{Frame, Section, SectionChain};
