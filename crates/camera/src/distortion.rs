@@ -172,11 +172,25 @@ impl Distortion {
         valid_radius: f64,
         pixel: (f64, f64),
     ) -> Result<Vector2<f64>, UndistortError> {
+        let start = self.radial_initial_guess(target, valid_radius);
+        self.undistort_from(target, start, valid_radius, pixel)
+    }
+
+    /// Like [`Distortion::undistort`], but Newton starts from `start` (e.g. the solution for a
+    /// neighbouring pixel), which saves the radial bisection when many nearby points are
+    /// undistorted. A poor start can fail where [`Distortion::undistort`] succeeds.
+    pub fn undistort_from(
+        &self,
+        target: Vector2<f64>,
+        start: Vector2<f64>,
+        valid_radius: f64,
+        pixel: (f64, f64),
+    ) -> Result<Vector2<f64>, UndistortError> {
         let not_invertible = UndistortError::NotInvertible {
             u: pixel.0,
             v: pixel.1,
         };
-        let mut x = self.radial_initial_guess(target, valid_radius);
+        let mut x = start;
         let (f0, mut jac) = self.distort_with_jacobian(x);
         let mut err = f0 - target;
         let mut norm = err.amax();

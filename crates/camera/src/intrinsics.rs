@@ -165,6 +165,19 @@ impl Intrinsics {
             .undistort(d, self.valid_radius, (px.x, px.y))
     }
 
+    /// Pixel → normalized point, with Newton started at `guess` (a neighbour's solution); falls
+    /// back to [`Intrinsics::normalized_from_pixel`] if that does not converge.
+    pub fn normalized_from_pixel_near(
+        &self,
+        px: Point2<f64>,
+        guess: Vector2<f64>,
+    ) -> Result<Vector2<f64>, UndistortError> {
+        let d = Vector2::new((px.x - self.cx) / self.fx, (px.y - self.cy) / self.fy);
+        self.distortion
+            .undistort_from(d, guess, self.valid_radius, (px.x, px.y))
+            .or_else(|_| self.normalized_from_pixel(px))
+    }
+
     /// True when `px` lies on the image: `u ∈ [−0.5, width − 0.5)`, `v ∈ [−0.5, height − 0.5)`.
     pub fn contains(&self, px: Point2<f64>) -> bool {
         px.x >= -0.5

@@ -16,4 +16,7 @@ mod volume;
 
 pub use error::RigError;
 pub use rig::{Rig, RigCamera};
-pub use volume::{Volume, VolumeError, MAX_VOXELS};
+pub use volume::{MAX_VOXELS, Volume, VolumeError};
+
+/// Per-stage processing settings (`[processing.<stage>]` tables of the rig file).
+pub use toml::Table as ProcessingTable;

@@ -1,1 +1,32 @@
-//! todo
+//! The simulated rig: a deterministic, seeded stand-in for real cameras looking at a catheter,
+//! with exact ground truth. Used by the tests of every stage, by `flexshape simulate` and
+//! `flexshape demo`, and by users planning a rig.
+//!
+//! - [`SimRigConfig`]: cameras around the working cube (default: three near-orthogonal
+//!   640×480 cameras about 600 mm away, with realistic distortion).
+//! - [`Catheter`] and [`CatheterPose`]: a tube (radius 3 mm) with a straight proximal section
+//!   and a 160 mm bending section of constant-curvature pieces, red bands at both ends of the
+//!   bending section.
+//! - [`Renderer`]: per-pixel ray casting with supersampled edges, Lambert + highlight shading,
+//!   a bright textured backdrop, optional soft shadows and Gaussian noise.
+//! - [`Simulator`]: all of it together, producing [`SimFrame`]s (images + exact masks + truth)
+//!   and writing recordings.
+//!
+//! World frame: mm, right-handed, z up; the default volume is the 256 mm cube centred on the
+//! origin.
+
+mod catheter;
+mod error;
+mod render;
+mod rig;
+mod scene;
+mod sequence;
+mod simulator;
+
+pub use catheter::{Catheter, CatheterPose, CatheterState, RENDER_STEP, TRUTH_STEP};
+pub use error::SimError;
+pub use render::{RenderSettings, Renderer, View};
+pub use rig::SimRigConfig;
+pub use scene::{Albedo, BAND_ALBEDO, BODY_ALBEDO, OCCLUDER_ALBEDO, Occluder, Scene, Tube};
+pub use sequence::{MAX_BEND_ANGLE, MAX_INSERTION, sweep};
+pub use simulator::{SimConfig, SimFrame, Simulator};

@@ -1,0 +1,73 @@
+//! Paths of everything in a recording folder.
+
+use std::path::{Path, PathBuf};
+
+/// The paths of a recording rooted at one folder. Frame `i` of camera `cam` is
+/// `frames/<cam>/<i:06>.png`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Layout {
+    root: PathBuf,
+}
+
+impl Layout {
+    /// The layout of the recording at `root`.
+    pub fn new(root: impl Into<PathBuf>) -> Self {
+        Layout { root: root.into() }
+    }
+
+    /// The recording folder.
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// `DIR/rig.toml`.
+    pub fn rig(&self) -> PathBuf {
+        self.root.join("rig.toml")
+    }
+
+    /// `DIR/calibration`.
+    pub fn calibration_dir(&self) -> PathBuf {
+        self.root.join("calibration")
+    }
+
+    /// `DIR/calibration/<cam>.yml`, relative to the folder (as the rig file names it).
+    pub fn calibration_file_relative(cam: &str) -> PathBuf {
+        Path::new("calibration").join(format!("{cam}.yml"))
+    }
+
+    /// `DIR/background/<cam>.png`.
+    pub fn background(&self, cam: &str) -> PathBuf {
+        self.root.join("background").join(format!("{cam}.png"))
+    }
+
+    /// `DIR/frames/<cam>`.
+    pub fn frames_dir(&self, cam: &str) -> PathBuf {
+        self.root.join("frames").join(cam)
+    }
+
+    /// `DIR/frames/<cam>/<frame:06>.png`.
+    pub fn frame(&self, cam: &str, frame: u64) -> PathBuf {
+        self.frames_dir(cam).join(format!("{frame:06}.png"))
+    }
+
+    /// `DIR/truth/<frame:06>.json`.
+    pub fn truth(&self, frame: u64) -> PathBuf {
+        self.root.join("truth").join(format!("{frame:06}.json"))
+    }
+
+    /// `DIR/truth/masks/<cam>/<frame:06>.png`.
+    pub fn truth_mask(&self, cam: &str, frame: u64) -> PathBuf {
+        self.root
+            .join("truth/masks")
+            .join(cam)
+            .join(format!("{frame:06}.png"))
+    }
+
+    /// `DIR/truth/markers/<cam>/<frame:06>.png`.
+    pub fn truth_markers(&self, cam: &str, frame: u64) -> PathBuf {
+        self.root
+            .join("truth/markers")
+            .join(cam)
+            .join(format!("{frame:06}.png"))
+    }
+}

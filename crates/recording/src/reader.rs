@@ -1,0 +1,174 @@
+//! Reading a recording folder, checking its structure up front.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use flexshape_rig::{Rig, Volume};
+use image::{GrayImage, RgbImage};
+
+use crate::error::RecordingError;
+use crate::layout::Layout;
+use crate::truth::Truth;
+
+/// An opened recording: its rig and the frame numbers present for every camera.
+#[derive(Debug)]
+pub struct RecordingReader {
+    layout: Layout,
+    rig: Rig,
+    frames: Vec<u64>,
+}
+
+impl RecordingReader {
+    /// Opens the recording at `root`: the rig from `rig.toml` if present, otherwise from the
+    /// camera files in `calibration/` (with the default volume); then lists
+    /// `frames/<cam>/NNNNNN.png` for every camera and checks they hold the same frame numbers.
+    pub fn open(root: &Path) -> Result<Self, RecordingError> {
+        let layout = Layout::new(root);
+        if !root.is_dir() {
+            return Err(RecordingError::Layout {
+                path: root.to_path_buf(),
+                problem: "not a folder; give the recording folder (with calibration/ and frames/)"
+                    .into(),
+            });
+        }
+        let rig = if layout.rig().is_file() {
+            Rig::load(&layout.rig())?
+        } else {
+            Rig::from_calibration_dir(&layout.calibration_dir(), Volume::default())?
+        };
+        let mut frames: Option<(String, BTreeSet<u64>)> = None;
+        for cam in &rig.cameras {
+            let dir = layout.frames_dir(&cam.name);
+            let entries = std::fs::read_dir(&dir).map_err(|e| RecordingError::Layout {
+                path: dir.clone(),
+                problem: format!("camera `{}` has no frames folder ({e})", cam.name),
+            })?;
+            let numbers: BTreeSet<u64> = entries
+                .filter_map(|e| e.ok())
+                .filter_map(|e| frame_number(&e.path()))
+                .collect();
+            match &frames {
+                None => frames = Some((cam.name.clone(), numbers)),
+                Some((first, set)) if *set != numbers => {
+                    let only_first = set.difference(&numbers).next();
+                    let only_this = numbers.difference(set).next();
+                    let detail = match (only_first, only_this) {
+                        (Some(f), _) => format!("frame {f:06} exists for `{first}` but not for `{}`", cam.name),
+                        (_, Some(f)) => format!("frame {f:06} exists for `{}` but not for `{first}`", cam.name),
+                        _ => String::new(),
+                    };
+                    return Err(RecordingError::Layout {
+                        path: root.to_path_buf(),
+                        problem: format!(
+                            "cameras have different frames ({} for `{first}`, {} for `{}`): {detail}",
+                            set.len(),
+                            numbers.len(),
+                            cam.name
+                        ),
+                    });
+                }
+                Some(_) => {}
+            }
+        }
+        let frames = frames.map(|(_, s)| s.into_iter().collect()).unwrap_or_default();
+        Ok(RecordingReader { layout, rig, frames })
+    }
+
+    /// The recording's rig.
+    pub fn rig(&self) -> &Rig {
+        &self.rig
+    }
+
+    /// The layout (paths).
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// Frame numbers present for every camera, ascending.
+    pub fn frames(&self) -> &[u64] {
+        &self.frames
+    }
+
+    /// Reads frame `frame` of camera number `cam` as 8-bit RGB, checking its size.
+    pub fn read_frame(&self, cam: usize, frame: u64) -> Result<RgbImage, RecordingError> {
+        let name = &self.rig.cameras[cam].name;
+        self.read_rgb(cam, &self.layout.frame(name, frame))
+    }
+
+    /// Reads camera `cam`'s background image, if the recording has one.
+    pub fn read_background(&self, cam: usize) -> Result<Option<RgbImage>, RecordingError> {
+        let path = self.layout.background(&self.rig.cameras[cam].name);
+        if !path.is_file() {
+            return Ok(None);
+        }
+        self.read_rgb(cam, &path).map(Some)
+    }
+
+    fn read_rgb(&self, cam: usize, path: &Path) -> Result<RgbImage, RecordingError> {
+        let img = decode(path)?.to_rgb8();
+        self.check_size(cam, path, img.dimensions())?;
+        Ok(img)
+    }
+
+    fn check_size(&self, cam: usize, path: &Path, (width, height): (u32, u32)) -> Result<(), RecordingError> {
+        let c = &self.rig.cameras[cam];
+        let k = &c.camera.intrinsics;
+        if (width, height) != (k.width, k.height) {
+            return Err(RecordingError::ImageSize {
+                path: path.to_path_buf(),
+                camera: c.name.clone(),
+                width,
+                height,
+                expected_width: k.width,
+                expected_height: k.height,
+            });
+        }
+        Ok(())
+    }
+
+    /// Reads `truth/<frame>.json`, if present (simulated recordings).
+    pub fn read_truth(&self, frame: u64) -> Result<Option<Truth>, RecordingError> {
+        let path = self.layout.truth(frame);
+        if !path.is_file() {
+            return Ok(None);
+        }
+        let text = std::fs::read(&path).map_err(|e| RecordingError::io(&path, e))?;
+        serde_json::from_slice(&text)
+            .map(Some)
+            .map_err(|e| RecordingError::Truth {
+                path,
+                message: e.to_string(),
+            })
+    }
+
+    /// Reads camera `cam`'s exact object mask of `frame`, if present (simulated recordings).
+    pub fn read_truth_mask(&self, cam: usize, frame: u64) -> Result<Option<GrayImage>, RecordingError> {
+        let path = self.layout.truth_mask(&self.rig.cameras[cam].name, frame);
+        if !path.is_file() {
+            return Ok(None);
+        }
+        let img = decode(&path)?.to_luma8();
+        self.check_size(cam, &path, img.dimensions())?;
+        Ok(Some(img))
+    }
+}
+
+fn decode(path: &Path) -> Result<image::DynamicImage, RecordingError> {
+    let bytes = std::fs::read(path).map_err(|e| RecordingError::io(path, e))?;
+    image::load_from_memory(&bytes).map_err(|e| RecordingError::Image {
+        path: path.to_path_buf(),
+        message: format!("cannot decode image: {e}"),
+    })
+}
+
+/// `NNNNNN.png` → `Some(NNNNNN)`.
+fn frame_number(path: &Path) -> Option<u64> {
+    if !path.extension()?.eq_ignore_ascii_case("png") {
+        return None;
+    }
+    let stem = path.file_stem()?.to_str()?;
+    if stem.is_empty() || !stem.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    stem.parse().ok()
+}

@@ -1,0 +1,68 @@
+//! Ground truth of one simulated frame (`DIR/truth/NNNNNN.json`).
+
+use serde::{Deserialize, Serialize};
+
+/// A marker band: the centerline point at the band's centre.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthBand {
+    /// Centerline point at the band's centre, world mm.
+    pub position: [f64; 3],
+    /// Arc length of that point from the centerline's first sample, mm.
+    pub arc_length: f64,
+    /// Band width along the centerline, mm (additive field).
+    #[serde(default)]
+    pub width: f64,
+}
+
+/// One constant-curvature section of a simulated catheter.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthSection {
+    /// Material (unstrained) length, mm.
+    pub length: f64,
+    /// `[κx, κz]`, 1/mm, about the section's local x and z axes (local axis along y).
+    pub kappa: [f64; 2],
+    /// Axial strain, compression positive.
+    pub strain: f64,
+}
+
+/// Ground truth of one frame. Keys `frame`, `centerline`, `radius`, `tip`, `tip_direction`,
+/// `bands`, `kappa`, `eps` are a contract; others are additive.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    /// Frame number.
+    pub frame: u64,
+    /// Centerline samples, world mm, from the proximal end to the tip, ≤ 0.5 mm apart.
+    pub centerline: Vec<[f64; 3]>,
+    /// Tube radius, mm.
+    pub radius: f64,
+    /// Tip point (end of the centerline), world mm.
+    pub tip: [f64; 3],
+    /// Unit tangent at the tip, world.
+    pub tip_direction: [f64; 3],
+    /// Marker bands, proximal to distal.
+    pub bands: Vec<TruthBand>,
+    /// `[κx, κz]` of the bending section (1/mm, in its frame), or null for a free-form curve.
+    pub kappa: Option<[f64; 2]>,
+    /// `[ε0, ε1]`: axial strain of the proximal and bending sections (compression positive),
+    /// or null for a free-form curve.
+    pub eps: Option<[f64; 2]>,
+    /// Arc length (mm) where the bending section starts (additive).
+    #[serde(default)]
+    pub bend_start_arc_length: Option<f64>,
+    /// All constant-curvature sections from the proximal end (additive).
+    #[serde(default)]
+    pub sections: Vec<TruthSection>,
+    /// The bending section's base frame, world: origin (mm) and axes x, y (tangent), z as
+    /// columns `[[x0, y0, z0], [x1, y1, z1], [x2, y2, z2]]` (additive).
+    #[serde(default)]
+    pub bend_base: Option<BendBase>,
+}
+
+/// Position and orientation of the bending section's base (the model frame of the paper).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BendBase {
+    /// Origin, world mm.
+    pub origin: [f64; 3],
+    /// Rotation local → world, row-major.
+    pub rotation: [[f64; 3]; 3],
+}

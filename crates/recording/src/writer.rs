@@ -1,0 +1,124 @@
+//! Writing a recording folder. Every file is written whole (to a temporary name, then renamed),
+//! so an interrupted run never leaves a truncated frame behind.
+
+use std::io::Cursor;
+use std::path::{Path, PathBuf};
+
+use flexshape_rig::{Rig, RigCamera};
+use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+use image::{ExtendedColorType, GrayImage, ImageEncoder, RgbImage};
+
+use crate::error::RecordingError;
+use crate::layout::Layout;
+use crate::truth::Truth;
+
+/// Writes one recording: calibration and rig first, then frames and truth as they come.
+#[derive(Debug)]
+pub struct RecordingWriter {
+    layout: Layout,
+}
+
+impl RecordingWriter {
+    /// Creates the folder tree at `root` and writes `rig.toml` and `calibration/<cam>.yml`
+    /// for every camera of `rig`. A non-empty `root` is refused unless `overwrite` is set, so
+    /// an earlier recording is never clobbered by accident.
+    pub fn create(root: &Path, rig: &Rig, overwrite: bool) -> Result<Self, RecordingError> {
+        let layout = Layout::new(root);
+        if !overwrite
+            && let Ok(mut entries) = std::fs::read_dir(root)
+            && entries.next().is_some()
+        {
+            return Err(RecordingError::Layout {
+                path: root.to_path_buf(),
+                problem: "folder exists and is not empty; choose a new folder or pass --overwrite"
+                    .into(),
+            });
+        }
+        let mut dirs = vec![
+            layout.calibration_dir(),
+            root.join("background"),
+            root.join("truth"),
+        ];
+        for c in &rig.cameras {
+            dirs.push(layout.frames_dir(&c.name));
+        }
+        for d in &dirs {
+            std::fs::create_dir_all(d).map_err(|e| RecordingError::io(d, e))?;
+        }
+        let rebased = Rig {
+            cameras: rig
+                .cameras
+                .iter()
+                .map(|c| RigCamera {
+                    file: Layout::calibration_file_relative(&c.name),
+                    ..c.clone()
+                })
+                .collect(),
+            ..rig.clone()
+        };
+        rebased.save(&layout.rig())?;
+        Ok(RecordingWriter { layout })
+    }
+
+    /// The layout being written.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// Writes `background/<cam>.png`.
+    pub fn write_background(&self, cam: &str, image: &RgbImage) -> Result<(), RecordingError> {
+        write_png(&self.layout.background(cam), image.as_raw(), image.dimensions(), ExtendedColorType::Rgb8)
+    }
+
+    /// Writes `frames/<cam>/<frame:06>.png`.
+    pub fn write_frame(&self, cam: &str, frame: u64, image: &RgbImage) -> Result<(), RecordingError> {
+        write_png(&self.layout.frame(cam, frame), image.as_raw(), image.dimensions(), ExtendedColorType::Rgb8)
+    }
+
+    /// Writes `truth/<frame:06>.json`.
+    pub fn write_truth(&self, truth: &Truth) -> Result<(), RecordingError> {
+        let path = self.layout.truth(truth.frame);
+        let text = serde_json::to_vec(truth).map_err(|e| RecordingError::Truth {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        write_atomic(&path, &text)
+    }
+
+    /// Writes `truth/masks/<cam>/<frame:06>.png` (0 = background, 255 = object).
+    pub fn write_truth_mask(&self, cam: &str, frame: u64, mask: &GrayImage) -> Result<(), RecordingError> {
+        write_png(&self.layout.truth_mask(cam, frame), mask.as_raw(), mask.dimensions(), ExtendedColorType::L8)
+    }
+
+    /// Writes `truth/markers/<cam>/<frame:06>.png` (0 = not a band, 255 = band).
+    pub fn write_truth_markers(&self, cam: &str, frame: u64, mask: &GrayImage) -> Result<(), RecordingError> {
+        write_png(&self.layout.truth_markers(cam, frame), mask.as_raw(), mask.dimensions(), ExtendedColorType::L8)
+    }
+}
+
+fn write_png(
+    path: &Path,
+    data: &[u8],
+    (w, h): (u32, u32),
+    color: ExtendedColorType,
+) -> Result<(), RecordingError> {
+    let mut bytes = Vec::with_capacity(data.len() / 2);
+    PngEncoder::new_with_quality(Cursor::new(&mut bytes), CompressionType::Fast, FilterType::Adaptive)
+        .write_image(data, w, h, color)
+        .map_err(|e| RecordingError::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+    write_atomic(path, &bytes)
+}
+
+/// Writes `bytes` to `path` via a temporary sibling and a rename, creating the parent folder.
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RecordingError> {
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent).map_err(|e| RecordingError::io(parent, e))?;
+    }
+    let mut tmp: PathBuf = path.to_path_buf();
+    tmp.as_mut_os_string().push(".partial");
+    std::fs::write(&tmp, bytes).map_err(|e| RecordingError::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| RecordingError::io(path, e))
+}

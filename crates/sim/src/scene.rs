@@ -1,0 +1,58 @@
+//! What the renderer draws: tubes (swept spheres along a centerline, with marker bands) and
+//! spherical occluders, in world coordinates (mm).
+
+use flexshape_camera::nalgebra::Point3;
+use flexshape_curve::Polyline;
+
+/// Linear RGB reflectance in `[0, 1]`.
+pub type Albedo = [f64; 3];
+
+/// Default catheter body: dark blue-grey plastic.
+pub const BODY_ALBEDO: Albedo = [0.20, 0.25, 0.33];
+/// Default marker tape: red.
+pub const BAND_ALBEDO: Albedo = [0.78, 0.09, 0.08];
+/// Default occluder: neutral grey.
+pub const OCCLUDER_ALBEDO: Albedo = [0.45, 0.43, 0.41];
+
+/// A tube of constant radius around a centerline, ending in hemispherical caps.
+#[derive(Debug, Clone)]
+pub struct Tube {
+    /// Centerline (world mm). It is drawn as a chain of capsules through its vertices, so
+    /// vertices about 1 mm apart keep the chord error below 0.01 mm for bend radii ≥ 15 mm.
+    pub centerline: Polyline,
+    /// Radius, mm.
+    pub radius: f64,
+    /// Marker bands as arc-length intervals `[start, end]` (mm along the centerline).
+    pub bands: Vec<[f64; 2]>,
+    /// Body colour.
+    pub albedo: Albedo,
+    /// Band colour.
+    pub band_albedo: Albedo,
+}
+
+impl Tube {
+    /// True when arc length `s` lies on a band.
+    pub fn is_band(&self, s: f64) -> bool {
+        self.bands.iter().any(|&[a, b]| s >= a && s <= b)
+    }
+}
+
+/// A sphere that hides what is behind it (a clamp, a hand, a cable).
+#[derive(Debug, Clone)]
+pub struct Occluder {
+    /// Centre, world mm.
+    pub centre: Point3<f64>,
+    /// Radius, mm.
+    pub radius: f64,
+    /// Colour.
+    pub albedo: Albedo,
+}
+
+/// Everything in front of the backdrops.
+#[derive(Debug, Clone, Default)]
+pub struct Scene {
+    /// Objects whose silhouettes are measured (their pixels form the truth mask).
+    pub tubes: Vec<Tube>,
+    /// Objects that only hide and shadow (never in the truth mask).
+    pub occluders: Vec<Occluder>,
+}

@@ -1,0 +1,164 @@
+//! The whole simulated rig: cameras, catheter, occluders and renderer, producing frames with
+//! ground truth and writing recordings.
+
+use std::path::Path;
+
+use flexshape_camera::Camera;
+use flexshape_camera::nalgebra::Point3;
+use flexshape_recording::{RecordingWriter, Truth};
+use flexshape_rig::Rig;
+use image::RgbImage;
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::{RngExt, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+use crate::catheter::{Catheter, CatheterPose};
+use crate::error::SimError;
+use crate::render::{RenderSettings, Renderer, View};
+use crate::rig::SimRigConfig;
+use crate::scene::{OCCLUDER_ALBEDO, Occluder, Scene};
+use crate::sequence;
+
+/// Everything that defines a simulation.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct SimConfig {
+    /// Cameras and working volume.
+    pub rig: SimRigConfig,
+    /// Image formation.
+    pub render: RenderSettings,
+    /// Catheter geometry.
+    pub catheter: Catheter,
+    /// Number of spherical occluders, each between one camera and the volume (outside the
+    /// volume, so it hides part of that camera's view without touching the catheter).
+    pub occluders: usize,
+    /// Seed of the pose sequence and occluder placement.
+    pub seed: u64,
+}
+
+/// One simulated frame: a view per camera and the truth.
+#[derive(Debug, Clone)]
+pub struct SimFrame {
+    /// Rendered images and exact masks, one per camera in rig order.
+    pub views: Vec<View>,
+    /// Ground truth.
+    pub truth: Truth,
+}
+
+/// A ready-to-render simulated rig.
+pub struct Simulator {
+    config: SimConfig,
+    rig: Rig,
+    renderer: Renderer,
+    occluders: Vec<Occluder>,
+}
+
+impl Simulator {
+    /// Builds the rig and precomputes the renderer.
+    pub fn new(config: SimConfig) -> Result<Self, SimError> {
+        let rig = config.rig.rig()?;
+        let cameras: Vec<Camera> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
+        let renderer = Renderer::new(&cameras, config.render.clone())?;
+        let occluders = place_occluders(&cameras, config.occluders, config.seed);
+        Ok(Simulator { config, rig, renderer, occluders })
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &SimConfig {
+        &self.config
+    }
+
+    /// The simulated rig (true calibration).
+    pub fn rig(&self) -> &Rig {
+        &self.rig
+    }
+
+    /// The default seeded sweep of `frames` poses.
+    pub fn sweep(&self, frames: usize) -> Vec<CatheterPose> {
+        sequence::sweep(&self.config.catheter, self.config.seed, frames)
+    }
+
+    /// The scene of the catheter in `pose` with the occluders.
+    pub fn scene(&self, pose: &CatheterPose) -> Result<Scene, SimError> {
+        let state = self.config.catheter.state(pose)?;
+        Ok(Scene {
+            tubes: vec![self.config.catheter.tube(&state)?],
+            occluders: self.occluders.clone(),
+        })
+    }
+
+    /// Renders frame number `frame` with the catheter in `pose`.
+    pub fn render(&self, frame: u64, pose: &CatheterPose) -> Result<SimFrame, SimError> {
+        let catheter = &self.config.catheter;
+        let state = catheter.state(pose)?;
+        let scene = Scene {
+            tubes: vec![catheter.tube(&state)?],
+            occluders: self.occluders.clone(),
+        };
+        Ok(SimFrame {
+            views: self.renderer.render(&scene, frame),
+            truth: catheter.truth(frame, pose, &state)?,
+        })
+    }
+
+    /// Renders an arbitrary scene (any tubes and occluders) through the rig.
+    pub fn render_scene(&self, scene: &Scene, frame: u64) -> Vec<View> {
+        self.renderer.render(scene, frame)
+    }
+
+    /// Background images (no catheter; occluders stay, as they are part of the set), with the
+    /// noise of an average of 16 frames.
+    pub fn backgrounds(&self) -> Vec<RgbImage> {
+        let scene = Scene { tubes: Vec::new(), occluders: self.occluders.clone() };
+        if scene.occluders.is_empty() {
+            return (0..self.renderer.camera_count()).map(|c| self.renderer.render_background(c, 0.25)).collect();
+        }
+        // Occluders need the full renderer; use a distinct frame number for their noise.
+        self.renderer.render(&scene, u64::MAX - 1).into_iter().map(|v| v.image).collect()
+    }
+
+    /// Writes a recording of `poses` to `dir` (see `flexshape_recording`), calling `progress`
+    /// after each frame. Refuses a non-empty `dir` unless `overwrite`.
+    pub fn write_recording(
+        &self,
+        dir: &Path,
+        poses: &[CatheterPose],
+        overwrite: bool,
+        mut progress: impl FnMut(u64),
+    ) -> Result<(), SimError> {
+        let writer = RecordingWriter::create(dir, &self.rig, overwrite)?;
+        let names: Vec<&str> = self.rig.cameras.iter().map(|c| c.name.as_str()).collect();
+        for (name, bg) in names.iter().zip(self.backgrounds()) {
+            writer.write_background(name, &bg)?;
+        }
+        for (i, pose) in poses.iter().enumerate() {
+            let frame = i as u64;
+            let sim = self.render(frame, pose)?;
+            for (name, view) in names.iter().zip(&sim.views) {
+                writer.write_frame(name, frame, &view.image)?;
+                writer.write_truth_mask(name, frame, &view.mask)?;
+                writer.write_truth_markers(name, frame, &view.markers)?;
+            }
+            writer.write_truth(&sim.truth)?;
+            progress(frame);
+        }
+        Ok(())
+    }
+}
+
+/// Occluder `k` sits on the line from camera `k mod n` to the origin, 250 mm from the camera,
+/// with radius 10–16 mm and a lateral offset of up to 40 mm.
+fn place_occluders(cameras: &[Camera], count: usize, seed: u64) -> Vec<Occluder> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x0CC1_0DE5);
+    (0..count)
+        .map(|k| {
+            let cam = &cameras[k % cameras.len()];
+            let c = cam.centre();
+            let axis = (Point3::origin() - c).normalize();
+            let side = axis.cross(&flexshape_camera::nalgebra::Vector3::z());
+            let side = if side.norm() < 1e-6 { axis.cross(&flexshape_camera::nalgebra::Vector3::y()) } else { side }.normalize();
+            let up = side.cross(&axis);
+            let centre = c + axis * 250.0 + side * rng.random_range(-40.0..40.0) + up * rng.random_range(-40.0..40.0);
+            Occluder { centre, radius: rng.random_range(10.0..16.0), albedo: OCCLUDER_ALBEDO }
+        })
+        .collect()
+}
