@@ -1,6 +1,7 @@
 //! The whole simulated rig: cameras, catheter, occluders and renderer, producing frames with
 //! ground truth and writing recordings.
 
+use std::ops::ControlFlow;
 use std::path::Path;
 
 use flexshape_camera::Camera;
@@ -117,14 +118,16 @@ impl Simulator {
     }
 
     /// Writes a recording of `poses` to `dir` (see `flexshape_recording`), calling `progress`
-    /// after each frame. Refuses a non-empty `dir` unless `overwrite`.
+    /// after each complete frame; it returns `ControlFlow::Break` to stop early (e.g. on
+    /// Ctrl-C). Refuses a non-empty `dir` unless `overwrite`. Returns the number of frames
+    /// written; every written file is complete.
     pub fn write_recording(
         &self,
         dir: &Path,
         poses: &[CatheterPose],
         overwrite: bool,
-        mut progress: impl FnMut(u64),
-    ) -> Result<(), SimError> {
+        mut progress: impl FnMut(u64) -> ControlFlow<()>,
+    ) -> Result<u64, SimError> {
         let writer = RecordingWriter::create(dir, &self.rig, overwrite)?;
         let names: Vec<&str> = self.rig.cameras.iter().map(|c| c.name.as_str()).collect();
         for (name, bg) in names.iter().zip(self.backgrounds()) {
@@ -139,9 +142,11 @@ impl Simulator {
                 writer.write_truth_markers(name, frame, &view.markers)?;
             }
             writer.write_truth(&sim.truth)?;
-            progress(frame);
+            if progress(frame).is_break() {
+                return Ok(frame + 1);
+            }
         }
-        Ok(())
+        Ok(poses.len() as u64)
     }
 }
 

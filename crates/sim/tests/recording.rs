@@ -1,6 +1,8 @@
 //! A simulated recording written to disk reads back whole, and broken recordings give errors
 //! that name the file.
 
+use std::ops::ControlFlow;
+
 use flexshape_recording::{RecordingError, RecordingReader};
 use flexshape_sim::{SimConfig, Simulator};
 
@@ -8,7 +10,13 @@ fn write(dir: &std::path::Path, frames: usize) -> Simulator {
     let sim = Simulator::new(SimConfig::default()).unwrap();
     let poses = sim.sweep(frames);
     let mut seen = Vec::new();
-    sim.write_recording(dir, &poses, false, |f| seen.push(f)).unwrap();
+    let written = sim
+        .write_recording(dir, &poses, false, |f| {
+            seen.push(f);
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+    assert_eq!(written, frames as u64);
     assert_eq!(seen, (0..frames as u64).collect::<Vec<_>>());
     sim
 }
@@ -39,7 +47,10 @@ fn recording_round_trips() {
     assert_eq!(rec.read_truth(1).unwrap().unwrap(), again.truth);
     assert!(rec.read_background(0).unwrap().is_some());
     // The same folder is not overwritten by accident.
-    let err = sim.write_recording(dir.path(), &sim.sweep(1), false, |_| {}).err().unwrap();
+    let err = sim
+        .write_recording(dir.path(), &sim.sweep(1), false, |_| ControlFlow::Continue(()))
+        .err()
+        .unwrap();
     assert!(err.to_string().contains("--overwrite"), "{err}");
     // A calibration folder alone (no rig.toml) is enough to open it.
     std::fs::remove_file(dir.path().join("rig.toml")).unwrap();
@@ -73,4 +84,30 @@ fn broken_recordings_name_the_problem() {
     // Not a recording at all.
     let err = RecordingReader::open(&dir.path().join("nope")).unwrap_err();
     assert!(err.to_string().contains("not a folder"), "{err}");
+}
+
+#[test]
+fn stopping_early_leaves_whole_frames_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = Simulator::new(SimConfig::default()).unwrap();
+    let written = sim
+        .write_recording(dir.path(), &sim.sweep(5), false, |f| {
+            if f == 1 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+        })
+        .unwrap();
+    assert_eq!(written, 2);
+    let rec = RecordingReader::open(dir.path()).unwrap();
+    assert_eq!(rec.frames(), &[0, 1]);
+    assert!(rec.read_truth(1).unwrap().is_some() && rec.read_truth(2).unwrap().is_none());
+    let partial = walk(dir.path()).into_iter().filter(|p| p.to_string_lossy().ends_with(".partial")).count();
+    assert_eq!(partial, 0);
+}
+
+fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() { out.extend(walk(&p)); } else { out.push(p); }
+    }
+    out
 }

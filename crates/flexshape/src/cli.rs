@@ -1,0 +1,100 @@
+//! Command-line arguments.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+/// Real-time 3-D shape sensing of flexible manipulators from calibrated cameras.
+#[derive(Debug, Parser)]
+#[command(name = "flexshape", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run flexshape on the built-in simulated rig and report what it measures.
+    Demo(DemoArgs),
+    /// Write a simulated recording (calibration, backgrounds, frames, ground truth).
+    Simulate(SimulateArgs),
+    /// Inspect rig files.
+    Rig {
+        #[command(subcommand)]
+        command: RigCommand,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+pub enum RigCommand {
+    /// Load and validate a rig (a rig TOML or a folder of OpenCV camera files) and show what
+    /// every camera sees of the working volume.
+    Check {
+        /// Rig TOML file, or a folder of camera files (*.yml, *.yaml, *.json).
+        path: PathBuf,
+    },
+}
+
+/// Settings of the simulated rig shared by `demo` and `simulate`.
+#[derive(Debug, Args)]
+pub struct SimArgs {
+    /// Seed of the pose sequence, texture and noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Number of cameras.
+    #[arg(long, default_value_t = 3)]
+    pub cams: usize,
+    /// Image width and height in pixels.
+    #[arg(long, value_name = "WxH", default_value = "640x480", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Focal length in pixels (default: 800 px at 640 px width, scaled with the width).
+    #[arg(long)]
+    pub focal: Option<f64>,
+    /// Cast soft shadows on the backdrops.
+    #[arg(long)]
+    pub shadows: bool,
+    /// Sensor noise, standard deviation in grey levels.
+    #[arg(long, value_name = "SIGMA", default_value_t = 2.0)]
+    pub noise: f64,
+    /// Number of spherical occluders between cameras and volume.
+    #[arg(long, default_value_t = 0)]
+    pub occluders: usize,
+    /// Catheter radius in mm.
+    #[arg(long, default_value_t = 3.0)]
+    pub radius: f64,
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Folder to write the recording to.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Number of frames.
+    #[arg(long, default_value_t = 20)]
+    pub frames: usize,
+    /// Write into a non-empty folder, replacing files of the same names.
+    #[arg(long)]
+    pub overwrite: bool,
+    #[command(flatten)]
+    pub sim: SimArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct DemoArgs {
+    /// Number of frames.
+    #[arg(long, default_value_t = 20)]
+    pub frames: usize,
+    /// Also write the simulated recording to this folder.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub sim: SimArgs,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT, e.g. 640x480"))?;
+    let n = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("`{v}` is not a pixel count"));
+    Ok((n(w)?, n(h)?))
+}

@@ -1,0 +1,77 @@
+//! `flexshape rig check`: validate a rig and show what each camera sees of the volume.
+
+use std::path::Path;
+
+use anyhow::Context;
+use flexshape_camera::nalgebra::Point3;
+use flexshape_rig::{Rig, Volume};
+
+pub fn run(path: &Path) -> anyhow::Result<()> {
+    let rig = if path.is_dir() {
+        Rig::from_calibration_dir(path, Volume::default())
+    } else {
+        Rig::load(path)
+    }
+    .with_context(|| format!("{} is not a valid rig", path.display()))?;
+    let v = &rig.volume;
+    let hi = v.max_corner();
+    println!(
+        "{}: {} cameras; volume {}×{}×{} voxels of {:?} mm from ({}, {}, {}) to ({}, {}, {}) mm{}",
+        path.display(),
+        rig.cameras.len(),
+        v.dims[0],
+        v.dims[1],
+        v.dims[2],
+        v.voxel_size,
+        v.origin[0],
+        v.origin[1],
+        v.origin[2],
+        hi.x,
+        hi.y,
+        hi.z,
+        if path.is_dir() { " (default volume: a folder has none)" } else { "" }
+    );
+    let corners = v.corners();
+    let centre = Point3::from((Point3::from(v.origin).coords + hi.coords) / 2.0);
+    let mut all_ok = true;
+    for c in &rig.cameras {
+        let cam = &c.camera;
+        let k = &cam.intrinsics;
+        let seen = corners
+            .iter()
+            .filter(|p| cam.project(p).is_ok_and(|q| k.contains(q.pixel)))
+            .count();
+        let centre_px = cam.project(&centre);
+        let o = cam.centre();
+        let a = cam.pose.optical_axis();
+        println!(
+            "  {:<8} {}×{}  fx {:.1} fy {:.1}  centre ({:.1}, {:.1}, {:.1}) mm  axis ({:.3}, {:.3}, {:.3})  volume corners in view {seen}/8  volume centre {}",
+            c.name,
+            k.width,
+            k.height,
+            k.fx,
+            k.fy,
+            o.x,
+            o.y,
+            o.z,
+            a.x,
+            a.y,
+            a.z,
+            match centre_px {
+                Ok(p) if k.contains(p.pixel) => format!("at pixel ({:.0}, {:.0}), depth {:.0} mm", p.pixel.x, p.pixel.y, p.depth),
+                _ => "NOT IN VIEW".into(),
+            }
+        );
+        all_ok &= seen == 8;
+    }
+    for (i, a) in rig.cameras.iter().enumerate() {
+        for b in &rig.cameras[i + 1..] {
+            let angle = a.camera.pose.optical_axis().angle(&b.camera.pose.optical_axis()).to_degrees();
+            println!("  angle between {} and {} axes: {angle:.1}°", a.name, b.name);
+        }
+    }
+    if !all_ok {
+        println!("  note: some cameras do not see the whole volume; parts of the volume outside a camera's view are not constrained by it");
+    }
+    Ok(())
+}
