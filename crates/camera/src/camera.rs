@@ -71,18 +71,12 @@ impl Camera {
         // ∂(X/Z, Y/Z)/∂(X, Y, Z)
         let j_c = Matrix2x3::new(iz, 0.0, -c.x * iz * iz, 0.0, iz, -c.y * iz * iz);
         let j_world = j_n * j_c * self.pose.rotation.matrix();
-        Ok((
-            Projection {
-                pixel,
-                depth: c.z,
-            },
-            j_world,
-        ))
+        Ok((Projection { pixel, depth: c.z }, j_world))
     }
 
     fn normalize(&self, c: &Point3<f64>) -> Result<Vector2<f64>, ProjectError> {
-        // Written as a negated comparison so NaN depths are rejected too.
-        if !(c.z > 0.0) {
+        // NaN depths are rejected too.
+        if c.z.is_nan() || c.z <= 0.0 {
             return Err(ProjectError::BehindCamera { depth: c.z });
         }
         let n = Vector2::new(c.x / c.z, c.y / c.z);

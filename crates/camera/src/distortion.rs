@@ -223,7 +223,7 @@ impl Distortion {
                 break;
             }
         }
-        if !(norm < UNDISTORT_TOLERANCE) {
+        if norm.is_nan() || norm >= UNDISTORT_TOLERANCE {
             return Err(UndistortError::NotConverged {
                 u: pixel.0,
                 v: pixel.1,
@@ -346,11 +346,14 @@ mod tests {
     fn wide_lens_corner_finds_the_root_inside_the_fold() {
         // A wide rational lens: the image corner is at normalized radius ≈ 3.3, and a second,
         // spurious root lies beyond the fold at ≈ 7.2 (OpenCV 5 agrees on the first).
-        let d = Distortion::from_opencv(&[-0.05, 0.02, 0.0005, 0.0004, 0.0, 0.3, 0.03, 0.001])
-            .unwrap();
+        let d =
+            Distortion::from_opencv(&[-0.05, 0.02, 0.0005, 0.0004, 0.0, 0.3, 0.03, 0.001]).unwrap();
         let valid = d.monotonic_radius(10.0);
         let target = Vector2::new((39.5 - 402.0) / 380.0, (179.5 - 297.0) / 381.0);
         let x = d.undistort(target, valid, (39.5, 179.5)).unwrap();
-        assert!((x - Vector2::new(-3.12314847, -1.02272159)).amax() < 1e-7, "{x:?}");
+        assert!(
+            (x - Vector2::new(-3.12314847, -1.02272159)).amax() < 1e-7,
+            "{x:?}"
+        );
     }
 }

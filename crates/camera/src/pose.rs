@@ -113,11 +113,7 @@ mod tests {
 
     #[test]
     fn look_at_sees_target_on_axis_and_up_is_image_up() {
-        let pose = Pose::look_at(
-            Point3::new(600.0, 0.0, 0.0),
-            Point3::origin(),
-            Vector3::z(),
-        );
+        let pose = Pose::look_at(Point3::new(600.0, 0.0, 0.0), Point3::origin(), Vector3::z());
         let t = pose.to_camera(&Point3::origin());
         assert!(t.x.abs() < 1e-12 && t.y.abs() < 1e-12 && (t.z - 600.0).abs() < 1e-12);
         let up = pose.to_camera(&Point3::new(0.0, 0.0, 10.0));

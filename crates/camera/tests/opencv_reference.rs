@@ -79,7 +79,11 @@ fn jacobian_matches_opencv_tvec_jacobian() {
 #[test]
 fn undistortion_matches_opencv_undistort_points() {
     for (r, cam) in load() {
-        assert!(r.undistort_pixels.len() >= 50, "{}: too few reference pixels", r.name);
+        assert!(
+            r.undistort_pixels.len() >= 50,
+            "{}: too few reference pixels",
+            r.name
+        );
         for (px, n) in r.undistort_pixels.iter().zip(&r.undistort_normalized) {
             let ours = cam
                 .intrinsics

@@ -189,7 +189,11 @@ impl SectionChain {
     /// The chain as a polyline sampled every `step` mm or less; fails for a chain of zero
     /// length or with non-finite parameters.
     pub fn polyline(&self, step: f64) -> Result<Polyline, CurveError> {
-        let pts = self.sample_frames(step).into_iter().map(|(_, f)| f.position).collect();
+        let pts = self
+            .sample_frames(step)
+            .into_iter()
+            .map(|(_, f)| f.position)
+            .collect();
         Polyline::new(pts)
     }
 }
@@ -212,10 +216,16 @@ mod tests {
         let r = 50.0;
         let l = PI / 2.0 * r;
         let tip = sec(l, 1.0 / r, 0.0).local_frame(l);
-        assert!((tip.position - Point3::new(0.0, r, r)).norm() < 1e-12, "{tip:?}");
+        assert!(
+            (tip.position - Point3::new(0.0, r, r)).norm() < 1e-12,
+            "{tip:?}"
+        );
         assert!((tip.tangent() - Vector3::z()).norm() < 1e-12);
         let tip = sec(l, 0.0, 1.0 / r).local_frame(l);
-        assert!((tip.position - Point3::new(-r, r, 0.0)).norm() < 1e-12, "{tip:?}");
+        assert!(
+            (tip.position - Point3::new(-r, r, 0.0)).norm() < 1e-12,
+            "{tip:?}"
+        );
         assert!((tip.tangent() + Vector3::x()).norm() < 1e-12);
     }
 
@@ -295,7 +305,8 @@ mod tests {
             sections: vec![sec(100.0, 0.01, 0.004)],
         }
         .tip();
-        let approx = SectionChain::from_curvature(Frame::identity(), 100.0, 1.0, |_| [0.01, 0.004]).tip();
+        let approx =
+            SectionChain::from_curvature(Frame::identity(), 100.0, 1.0, |_| [0.01, 0.004]).tip();
         assert!((exact.position - approx.position).norm() < 1e-9);
     }
 }

@@ -95,6 +95,10 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT, e.g. 640x480"))?;
-    let n = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("`{v}` is not a pixel count"));
+    let n = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("`{v}` is not a pixel count"))
+    };
     Ok((n(w)?, n(h)?))
 }

@@ -53,8 +53,14 @@ impl RecordingReader {
                     let only_first = set.difference(&numbers).next();
                     let only_this = numbers.difference(set).next();
                     let detail = match (only_first, only_this) {
-                        (Some(f), _) => format!("frame {f:06} exists for `{first}` but not for `{}`", cam.name),
-                        (_, Some(f)) => format!("frame {f:06} exists for `{}` but not for `{first}`", cam.name),
+                        (Some(f), _) => format!(
+                            "frame {f:06} exists for `{first}` but not for `{}`",
+                            cam.name
+                        ),
+                        (_, Some(f)) => format!(
+                            "frame {f:06} exists for `{}` but not for `{first}`",
+                            cam.name
+                        ),
                         _ => String::new(),
                     };
                     return Err(RecordingError::Layout {
@@ -70,8 +76,14 @@ impl RecordingReader {
                 Some(_) => {}
             }
         }
-        let frames = frames.map(|(_, s)| s.into_iter().collect()).unwrap_or_default();
-        Ok(RecordingReader { layout, rig, frames })
+        let frames = frames
+            .map(|(_, s)| s.into_iter().collect())
+            .unwrap_or_default();
+        Ok(RecordingReader {
+            layout,
+            rig,
+            frames,
+        })
     }
 
     /// The recording's rig.
@@ -110,7 +122,12 @@ impl RecordingReader {
         Ok(img)
     }
 
-    fn check_size(&self, cam: usize, path: &Path, (width, height): (u32, u32)) -> Result<(), RecordingError> {
+    fn check_size(
+        &self,
+        cam: usize,
+        path: &Path,
+        (width, height): (u32, u32),
+    ) -> Result<(), RecordingError> {
         let c = &self.rig.cameras[cam];
         let k = &c.camera.intrinsics;
         if (width, height) != (k.width, k.height) {
@@ -142,7 +159,11 @@ impl RecordingReader {
     }
 
     /// Reads camera `cam`'s exact object mask of `frame`, if present (simulated recordings).
-    pub fn read_truth_mask(&self, cam: usize, frame: u64) -> Result<Option<GrayImage>, RecordingError> {
+    pub fn read_truth_mask(
+        &self,
+        cam: usize,
+        frame: u64,
+    ) -> Result<Option<GrayImage>, RecordingError> {
         let path = self.layout.truth_mask(&self.rig.cameras[cam].name, frame);
         if !path.is_file() {
             return Ok(None);

@@ -67,12 +67,27 @@ impl RecordingWriter {
 
     /// Writes `background/<cam>.png`.
     pub fn write_background(&self, cam: &str, image: &RgbImage) -> Result<(), RecordingError> {
-        write_png(&self.layout.background(cam), image.as_raw(), image.dimensions(), ExtendedColorType::Rgb8)
+        write_png(
+            &self.layout.background(cam),
+            image.as_raw(),
+            image.dimensions(),
+            ExtendedColorType::Rgb8,
+        )
     }
 
     /// Writes `frames/<cam>/<frame:06>.png`.
-    pub fn write_frame(&self, cam: &str, frame: u64, image: &RgbImage) -> Result<(), RecordingError> {
-        write_png(&self.layout.frame(cam, frame), image.as_raw(), image.dimensions(), ExtendedColorType::Rgb8)
+    pub fn write_frame(
+        &self,
+        cam: &str,
+        frame: u64,
+        image: &RgbImage,
+    ) -> Result<(), RecordingError> {
+        write_png(
+            &self.layout.frame(cam, frame),
+            image.as_raw(),
+            image.dimensions(),
+            ExtendedColorType::Rgb8,
+        )
     }
 
     /// Writes `truth/<frame:06>.json`.
@@ -86,13 +101,33 @@ impl RecordingWriter {
     }
 
     /// Writes `truth/masks/<cam>/<frame:06>.png` (0 = background, 255 = object).
-    pub fn write_truth_mask(&self, cam: &str, frame: u64, mask: &GrayImage) -> Result<(), RecordingError> {
-        write_png(&self.layout.truth_mask(cam, frame), mask.as_raw(), mask.dimensions(), ExtendedColorType::L8)
+    pub fn write_truth_mask(
+        &self,
+        cam: &str,
+        frame: u64,
+        mask: &GrayImage,
+    ) -> Result<(), RecordingError> {
+        write_png(
+            &self.layout.truth_mask(cam, frame),
+            mask.as_raw(),
+            mask.dimensions(),
+            ExtendedColorType::L8,
+        )
     }
 
     /// Writes `truth/markers/<cam>/<frame:06>.png` (0 = not a band, 255 = band).
-    pub fn write_truth_markers(&self, cam: &str, frame: u64, mask: &GrayImage) -> Result<(), RecordingError> {
-        write_png(&self.layout.truth_markers(cam, frame), mask.as_raw(), mask.dimensions(), ExtendedColorType::L8)
+    pub fn write_truth_markers(
+        &self,
+        cam: &str,
+        frame: u64,
+        mask: &GrayImage,
+    ) -> Result<(), RecordingError> {
+        write_png(
+            &self.layout.truth_markers(cam, frame),
+            mask.as_raw(),
+            mask.dimensions(),
+            ExtendedColorType::L8,
+        )
     }
 }
 
@@ -103,12 +138,16 @@ fn write_png(
     color: ExtendedColorType,
 ) -> Result<(), RecordingError> {
     let mut bytes = Vec::with_capacity(data.len() / 2);
-    PngEncoder::new_with_quality(Cursor::new(&mut bytes), CompressionType::Fast, FilterType::Adaptive)
-        .write_image(data, w, h, color)
-        .map_err(|e| RecordingError::Image {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+    PngEncoder::new_with_quality(
+        Cursor::new(&mut bytes),
+        CompressionType::Fast,
+        FilterType::Adaptive,
+    )
+    .write_image(data, w, h, color)
+    .map_err(|e| RecordingError::Image {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
     write_atomic(path, &bytes)
 }
 

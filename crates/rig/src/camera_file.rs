@@ -79,7 +79,10 @@ fn validate(raw: RawCameraFile, path: &Path) -> Result<CameraFile, RigError> {
     let size = |name: &str, v: Option<f64>| -> Result<u32, RigError> {
         let v = v.ok_or_else(|| field(name, "missing; add the image size in pixels".into()))?;
         if v.fract() != 0.0 || !(1.0..=1e6).contains(&v) {
-            return Err(field(name, format!("{v} is not a valid image size in pixels")));
+            return Err(field(
+                name,
+                format!("{v} is not a valid image size in pixels"),
+            ));
         }
         Ok(v as u32)
     };
@@ -88,8 +91,13 @@ fn validate(raw: RawCameraFile, path: &Path) -> Result<CameraFile, RigError> {
 
     let k = matrix(&raw.camera_matrix, "camera_matrix", path, Some((3, 3)))?
         .ok_or_else(|| field("camera_matrix", "missing; add the 3×3 camera matrix".into()))?;
-    let dist = matrix(&raw.distortion_coefficients, "distortion_coefficients", path, None)?
-        .unwrap_or_default();
+    let dist = matrix(
+        &raw.distortion_coefficients,
+        "distortion_coefficients",
+        path,
+        None,
+    )?
+    .unwrap_or_default();
     let distortion = Distortion::from_opencv(&dist)
         .map_err(|e| field("distortion_coefficients", camera_problem(&e)))?;
     let k = Matrix3::from_row_slice(&k);
@@ -167,7 +175,8 @@ fn read_pose(raw: &RawCameraFile, path: &Path) -> Result<Option<Pose>, RigError>
         ),
         None => None,
     };
-    let from_rvec = rvec.map(|v| Pose::from_rvec_tvec(Vector3::from_row_slice(&v), Vector3::zeros()).rotation);
+    let from_rvec =
+        rvec.map(|v| Pose::from_rvec_tvec(Vector3::from_row_slice(&v), Vector3::zeros()).rotation);
     let rotation = match (from_r, from_rvec) {
         (Some(a), Some(b)) => {
             if a.angle_to(&b) > 1e-6 {
@@ -231,7 +240,13 @@ pub fn to_yaml(intrinsics: &Intrinsics, pose: Option<&Pose>) -> String {
     let mut s = String::from("%YAML:1.0\n---\n");
     s.push_str(&format!("image_width: {}\n", intrinsics.width));
     s.push_str(&format!("image_height: {}\n", intrinsics.height));
-    yaml_matrix(&mut s, "camera_matrix", 3, 3, &row_major(&intrinsics.matrix()));
+    yaml_matrix(
+        &mut s,
+        "camera_matrix",
+        3,
+        3,
+        &row_major(&intrinsics.matrix()),
+    );
     let d = intrinsics.distortion.to_opencv();
     yaml_matrix(&mut s, "distortion_coefficients", 1, d.len(), &d);
     if let Some(p) = pose {

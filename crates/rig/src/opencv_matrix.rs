@@ -105,10 +105,13 @@ mod tests {
 
     #[test]
     fn formatted_doubles_read_back_exactly() {
-        for v in [0.0, 612.0, -0.0091, 1.5e-7, 0.045600000000000002, 1e300, -3.0e-12, 0.5] {
+        for v in [0.0, 612.0, -0.0091, 1.5e-7, 0.0456, 1e300, -3.0e-12, 0.5] {
             let s = format_f64(v);
             assert_eq!(s.parse::<f64>().unwrap(), v, "{s}");
-            assert!(s.contains('.') || s.contains('e'), "{s} must read as a float");
+            assert!(
+                s.contains('.') || s.contains('e'),
+                "{s} must read as a float"
+            );
         }
     }
 }

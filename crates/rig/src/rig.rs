@@ -110,9 +110,8 @@ impl Rig {
                     VoxelSize::Cubic(s) => [s; 3],
                     VoxelSize::PerAxis(s) => s,
                 };
-                Volume::new(v.origin, size, v.dims).map_err(|e| {
-                    RigError::field(path, format!("volume.{}", e.field), e.problem)
-                })?
+                Volume::new(v.origin, size, v.dims)
+                    .map_err(|e| RigError::field(path, format!("volume.{}", e.field), e.problem))?
             }
         };
         if raw.cameras.is_empty() {
@@ -140,7 +139,10 @@ impl Rig {
                 return Err(RigError::field(
                     path,
                     format!("cameras[{i}].name"),
-                    format!("camera name `{}` appears twice; names must be unique", c.name),
+                    format!(
+                        "camera name `{}` appears twice; names must be unique",
+                        c.name
+                    ),
                 ));
             }
             let file_path = dir.join(&c.file);

@@ -44,7 +44,11 @@ impl Default for Volume {
 impl Volume {
     /// Validated constructor: finite origin, positive finite voxel sizes, at least one voxel per
     /// axis and at most [`MAX_VOXELS`] in all.
-    pub fn new(origin: [f64; 3], voxel_size: [f64; 3], dims: [u32; 3]) -> Result<Self, VolumeError> {
+    pub fn new(
+        origin: [f64; 3],
+        voxel_size: [f64; 3],
+        dims: [u32; 3],
+    ) -> Result<Self, VolumeError> {
         let v = Volume {
             origin,
             voxel_size,
@@ -103,7 +107,11 @@ impl Volume {
                 problem: format!("{o} is not a finite coordinate in mm"),
             });
         }
-        if let Some(s) = self.voxel_size.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+        if let Some(s) = self
+            .voxel_size
+            .iter()
+            .find(|s| !(s.is_finite() && **s > 0.0))
+        {
             return Err(VolumeError {
                 field: "voxel_size",
                 problem: format!("{s} mm is not a positive voxel size"),
@@ -177,13 +185,30 @@ mod tests {
     #[test]
     fn rejects_absurd_volumes() {
         assert_eq!(
-            Volume::new([0.0; 3], [1.0; 3], [2048, 2048, 1024]).unwrap_err().field,
+            Volume::new([0.0; 3], [1.0; 3], [2048, 2048, 1024])
+                .unwrap_err()
+                .field,
             "dims"
         );
         assert!(Volume::new([0.0; 3], [1.0; 3], [2048, 1024, 1024]).is_ok());
-        assert_eq!(Volume::new([0.0; 3], [0.0, 1.0, 1.0], [1; 3]).unwrap_err().field, "voxel_size");
-        assert_eq!(Volume::new([f64::NAN, 0.0, 0.0], [1.0; 3], [1; 3]).unwrap_err().field, "origin");
-        assert_eq!(Volume::new([0.0; 3], [1.0; 3], [0, 1, 1]).unwrap_err().field, "dims");
+        assert_eq!(
+            Volume::new([0.0; 3], [0.0, 1.0, 1.0], [1; 3])
+                .unwrap_err()
+                .field,
+            "voxel_size"
+        );
+        assert_eq!(
+            Volume::new([f64::NAN, 0.0, 0.0], [1.0; 3], [1; 3])
+                .unwrap_err()
+                .field,
+            "origin"
+        );
+        assert_eq!(
+            Volume::new([0.0; 3], [1.0; 3], [0, 1, 1])
+                .unwrap_err()
+                .field,
+            "dims"
+        );
         assert!(Volume::from_bounds([0.0; 3], [1e6; 3], 0.001).is_err());
     }
 

@@ -10,7 +10,9 @@ use flexshape_rig::{Rig, RigCamera, RigError, Volume};
 use serde::Deserialize;
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
 }
 
 #[derive(Deserialize)]
@@ -57,8 +59,8 @@ fn files_written_by_opencv_4_and_5_load() {
 }
 
 fn sample_camera() -> Camera {
-    let d = Distortion::from_opencv(&[-0.2, 0.071, 0.00031, -0.00042, -0.013, 0.0, 0.0, 0.0])
-        .unwrap();
+    let d =
+        Distortion::from_opencv(&[-0.2, 0.071, 0.00031, -0.00042, -0.013, 0.0, 0.0, 0.0]).unwrap();
     let k = Intrinsics::new(640, 480, 805.25, 803.5, 317.75, 244.125, d).unwrap();
     let pose = Pose {
         rotation: Rotation3::from_euler_angles(0.3, -1.1, 2.4),
@@ -102,7 +104,11 @@ fn write_golden_files() {
     let cam = sample_camera();
     let yaml = camera_file::to_yaml(&cam.intrinsics, Some(&cam.pose));
     let json = camera_file::to_json(&cam.intrinsics, Some(&cam.pose));
-    let rows = |m: &Matrix3<f64>| (0..3).map(|r| (0..3).map(|c| m[(r, c)]).collect()).collect();
+    let rows = |m: &Matrix3<f64>| {
+        (0..3)
+            .map(|r| (0..3).map(|c| m[(r, c)]).collect())
+            .collect()
+    };
     let expect = Expect {
         image_width: cam.intrinsics.width,
         camera_matrix: rows(&cam.intrinsics.matrix()),
@@ -117,19 +123,32 @@ fn write_golden_files() {
             std::fs::write(fixture(&format!("{name}.expect")), &expect).unwrap();
         }
     }
-    assert_eq!(yaml, std::fs::read_to_string(fixture("ours_camera.yml")).unwrap());
-    assert_eq!(json, std::fs::read_to_string(fixture("ours_camera.json")).unwrap());
+    assert_eq!(
+        yaml,
+        std::fs::read_to_string(fixture("ours_camera.yml")).unwrap()
+    );
+    assert_eq!(
+        json,
+        std::fs::read_to_string(fixture("ours_camera.json")).unwrap()
+    );
 }
 
 fn yaml_with(replace: &str, with: &str) -> String {
     let base = camera_file::to_yaml(&sample_camera().intrinsics, Some(&sample_camera().pose));
-    assert!(base.contains(replace), "test setup: `{replace}` not in base file");
+    assert!(
+        base.contains(replace),
+        "test setup: `{replace}` not in base file"
+    );
     base.replacen(replace, with, 1)
 }
 
 fn field_error(text: &str) -> (String, String) {
     match camera_file::parse(text, false, Path::new("bad.yml")) {
-        Err(RigError::Field { file, field, problem }) => {
+        Err(RigError::Field {
+            file,
+            field,
+            problem,
+        }) => {
             assert_eq!(file, Path::new("bad.yml"));
             (field, problem)
         }
@@ -145,23 +164,50 @@ fn bad_camera_files_name_the_field() {
         (yaml_with("803.5,", "0.0,"), "camera_matrix", "positive"),
         (yaml_with("805.25", ".nan"), "camera_matrix", "finite"),
         (yaml_with("805.25", ".Nan"), "camera_matrix", "finite"),
-        (yaml_with("-0.2,", ".inf,"), "distortion_coefficients", "finite"),
+        (
+            yaml_with("-0.2,", ".inf,"),
+            "distortion_coefficients",
+            "finite",
+        ),
         (
             yaml_with(k_line, "data: [ 805.25, 0.0, 317.75, 0.0, 803.5, 244.125 ]"),
             "camera_matrix",
             "data has 6 values",
         ),
-        (yaml_with("cols: 5", "cols: 6"), "distortion_coefficients", "data has 5"),
-        (yaml_with("image_width: 640", "image_width: -640"), "image_width", "image size"),
-        (yaml_with("image_height: 480\n", ""), "image_height", "missing"),
+        (
+            yaml_with("cols: 5", "cols: 6"),
+            "distortion_coefficients",
+            "data has 5",
+        ),
+        (
+            yaml_with("image_width: 640", "image_width: -640"),
+            "image_width",
+            "image size",
+        ),
+        (
+            yaml_with("image_height: 480\n", ""),
+            "image_height",
+            "missing",
+        ),
         (yaml_with("317.75", "9317.75"), "camera_matrix", "outside"),
-        (yaml_with("0.0, 317.75", "3.0, 317.75"), "camera_matrix", "skew"),
-        (yaml_with("T: !!opencv-matrix", "Tx: !!opencv-matrix"), "T", "without translation"),
+        (
+            yaml_with("0.0, 317.75", "3.0, 317.75"),
+            "camera_matrix",
+            "skew",
+        ),
+        (
+            yaml_with("T: !!opencv-matrix", "Tx: !!opencv-matrix"),
+            "T",
+            "without translation",
+        ),
     ];
     for (text, field, needle) in cases {
         let (f, problem) = field_error(&text);
         assert_eq!(f, field, "{problem}");
-        assert!(problem.contains(needle), "`{problem}` should mention `{needle}`");
+        assert!(
+            problem.contains(needle),
+            "`{problem}` should mention `{needle}`"
+        );
     }
     // A rotation that is not orthonormal, and one that is a reflection.
     let cam = sample_camera();
@@ -199,16 +245,22 @@ fn write_rig(dir: &Path) -> PathBuf {
             camera.pose.translation.x += i as f64 * 10.0;
             RigCamera {
                 name: format!("cam{i}"),
-                file: PathBuf::from(format!("calibration/cam{i}.{}", if i == 2 { "json" } else { "yml" })),
+                file: PathBuf::from(format!(
+                    "calibration/cam{i}.{}",
+                    if i == 2 { "json" } else { "yml" }
+                )),
                 camera,
             }
         })
         .collect();
     let mut processing = toml::Table::new();
-    processing.insert("silhouette".into(), toml::Value::Table(toml::Table::from_iter([(
-        "threshold".to_string(),
-        toml::Value::Integer(30),
-    )])));
+    processing.insert(
+        "silhouette".into(),
+        toml::Value::Table(toml::Table::from_iter([(
+            "threshold".to_string(),
+            toml::Value::Integer(30),
+        )])),
+    );
     let rig = Rig {
         cameras: cams,
         volume: Volume::new([-100.0, -90.0, -80.0], [0.5, 0.5, 1.0], [400, 360, 160]).unwrap(),
@@ -236,7 +288,11 @@ fn rig_error(edit: impl Fn(&str) -> String) -> (PathBuf, String, String) {
     let text = edit(&std::fs::read_to_string(&path).unwrap());
     std::fs::write(&path, text).unwrap();
     match Rig::load(&path) {
-        Err(RigError::Field { file, field, problem }) => {
+        Err(RigError::Field {
+            file,
+            field,
+            problem,
+        }) => {
             let rel = file.strip_prefix(dir.path()).unwrap_or(&file).to_path_buf();
             (rel, field, problem)
         }
@@ -246,12 +302,17 @@ fn rig_error(edit: impl Fn(&str) -> String) -> (PathBuf, String, String) {
 
 #[test]
 fn bad_rig_files_name_the_file_and_field() {
-    let (file, field, p) = rig_error(|t| t.replace("dims = [400, 360, 160]", "dims = [4000, 3600, 1600]"));
-    assert_eq!((file.as_path(), field.as_str()), (Path::new("rig.toml"), "volume.dims"));
+    let (file, field, p) =
+        rig_error(|t| t.replace("dims = [400, 360, 160]", "dims = [4000, 3600, 1600]"));
+    assert_eq!(
+        (file.as_path(), field.as_str()),
+        (Path::new("rig.toml"), "volume.dims")
+    );
     assert!(p.contains("2^31"), "{p}");
     let (_, field, _) = rig_error(|t| t.replace("0.5,", "-0.5,"));
     assert_eq!(field, "volume.voxel_size");
-    let (_, field, p) = rig_error(|t| t.replacen("image_size = [640, 480]", "image_size = [1280, 960]", 1));
+    let (_, field, p) =
+        rig_error(|t| t.replacen("image_size = [640, 480]", "image_size = [1280, 960]", 1));
     assert_eq!(field, "cameras[0].image_size");
     assert!(p.contains("640×480"), "{p}");
     let (_, field, p) = rig_error(|t| t.replace("name = \"cam1\"", "name = \"cam0\""));
@@ -263,14 +324,22 @@ fn bad_rig_files_name_the_file_and_field() {
     let dir = tempfile::tempdir().unwrap();
     let path = write_rig(dir.path());
     let cam1 = dir.path().join("calibration/cam1.yml");
-    let text = std::fs::read_to_string(&cam1).unwrap().replace("805.25", "0.0");
+    let text = std::fs::read_to_string(&cam1)
+        .unwrap()
+        .replace("805.25", "0.0");
     std::fs::write(&cam1, text).unwrap();
     let err = Rig::load(&path).unwrap_err();
-    assert!(matches!(&err, RigError::Field { file, field, .. } if *file == cam1 && field == "camera_matrix"), "{err}");
+    assert!(
+        matches!(&err, RigError::Field { file, field, .. } if *file == cam1 && field == "camera_matrix"),
+        "{err}"
+    );
     // A missing camera file names it.
     std::fs::remove_file(&cam1).unwrap();
     let err = Rig::load(&path).unwrap_err();
-    assert!(matches!(&err, RigError::Read { file, .. } if *file == cam1), "{err}");
+    assert!(
+        matches!(&err, RigError::Read { file, .. } if *file == cam1),
+        "{err}"
+    );
     // Intrinsics-only camera files are not enough for a rig.
     let cam0 = dir.path().join("calibration/cam0.yml");
     let cam = sample_camera();
@@ -282,10 +351,23 @@ fn bad_rig_files_name_the_file_and_field() {
 #[test]
 fn rig_structure_errors() {
     let p = Path::new("r.toml");
-    let err = Rig::parse("[volume]\norigin = [0, 0, 0]\nvoxel_size = 1\ndims = [1, 1, 1]\n", p)
-        .unwrap_err();
-    assert!(matches!(&err, RigError::Field { field, .. } if field == "cameras"), "{err}");
-    let err = Rig::parse("[[cameras]]\nname = \"a\"\nfile = \"a.yml\"\nfocal = 3\n", p).unwrap_err();
+    let err = Rig::parse(
+        "[volume]\norigin = [0, 0, 0]\nvoxel_size = 1\ndims = [1, 1, 1]\n",
+        p,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(&err, RigError::Field { field, .. } if field == "cameras"),
+        "{err}"
+    );
+    let err = Rig::parse(
+        "[[cameras]]\nname = \"a\"\nfile = \"a.yml\"\nfocal = 3\n",
+        p,
+    )
+    .unwrap_err();
     assert!(matches!(&err, RigError::Syntax { .. }), "{err}");
-    assert!(err.to_string().contains("focal"), "unknown key must be named: {err}");
+    assert!(
+        err.to_string().contains("focal"),
+        "unknown key must be named: {err}"
+    );
 }

@@ -82,24 +82,49 @@ impl CatheterPose {
     }
 
     /// Two constant-curvature pieces splitting the bending section at `split` mm of material.
-    pub fn two_section(catheter: &Catheter, first: [f64; 2], second: [f64; 2], split: f64, eps: [f64; 2], insertion: f64) -> Self {
-        let piece = |length, kappa| Section { length, kappa, strain: eps[1] };
+    pub fn two_section(
+        catheter: &Catheter,
+        first: [f64; 2],
+        second: [f64; 2],
+        split: f64,
+        eps: [f64; 2],
+        insertion: f64,
+    ) -> Self {
+        let piece = |length, kappa| Section {
+            length,
+            kappa,
+            strain: eps[1],
+        };
         CatheterPose {
             insertion,
             eps0: eps[0],
-            bend: vec![piece(split, first), piece(catheter.bend_length - split, second)],
+            bend: vec![
+                piece(split, first),
+                piece(catheter.bend_length - split, second),
+            ],
             free_form: false,
         }
     }
 
     /// A smooth free-form bend whose curvature varies along the tube as `kappa(s)` (1/mm, at
     /// `s` mm of material from the bending base), built from 1 mm constant-curvature pieces.
-    pub fn smooth(catheter: &Catheter, kappa: impl Fn(f64) -> [f64; 2], eps: [f64; 2], insertion: f64) -> Self {
-        let mut chain = SectionChain::from_curvature(Frame::identity(), catheter.bend_length, 1.0, kappa);
+    pub fn smooth(
+        catheter: &Catheter,
+        kappa: impl Fn(f64) -> [f64; 2],
+        eps: [f64; 2],
+        insertion: f64,
+    ) -> Self {
+        let mut chain =
+            SectionChain::from_curvature(Frame::identity(), catheter.bend_length, 1.0, kappa);
         for s in &mut chain.sections {
             s.strain = eps[1];
         }
-        CatheterPose { insertion, eps0: eps[0], bend: chain.sections, free_form: true }
+        CatheterPose {
+            insertion,
+            eps0: eps[0],
+            bend: chain.sections,
+            free_form: true,
+        }
     }
 }
 
@@ -117,7 +142,14 @@ pub struct CatheterState {
 impl Catheter {
     fn validate(&self, pose: &CatheterPose) -> Result<(), SimError> {
         let positive = |field: &str, v: f64| {
-            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(config_error(field, format!("{v} must be a positive length in mm"))) }
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(config_error(
+                    field,
+                    format!("{v} must be a positive length in mm"),
+                ))
+            }
         };
         positive("radius", self.radius)?;
         positive("proximal_length", self.proximal_length)?;
@@ -125,14 +157,29 @@ impl Catheter {
         positive("band_width", self.band_width)?;
         let total: f64 = pose.bend.iter().map(|s| s.length).sum();
         if pose.bend.is_empty() || (total - self.bend_length).abs() > 1e-6 * self.bend_length {
-            return Err(config_error("bend", format!("pieces add up to {total} mm but the bending section is {} mm", self.bend_length)));
+            return Err(config_error(
+                "bend",
+                format!(
+                    "pieces add up to {total} mm but the bending section is {} mm",
+                    self.bend_length
+                ),
+            ));
         }
-        for (field, e) in std::iter::once(("eps0", pose.eps0)).chain(pose.bend.iter().map(|s| ("strain", s.strain))) {
+        for (field, e) in std::iter::once(("eps0", pose.eps0))
+            .chain(pose.bend.iter().map(|s| ("strain", s.strain)))
+        {
             if !(e.is_finite() && e > -0.5 && e < 0.5) {
-                return Err(config_error(field, format!("axial strain {e} is outside (−0.5, 0.5)")));
+                return Err(config_error(
+                    field,
+                    format!("axial strain {e} is outside (−0.5, 0.5)"),
+                ));
             }
         }
-        if pose.bend.iter().any(|s| !(s.kappa[0].is_finite() && s.kappa[1].is_finite())) {
+        if pose
+            .bend
+            .iter()
+            .any(|s| !(s.kappa[0].is_finite() && s.kappa[1].is_finite()))
+        {
             return Err(config_error("kappa", "curvature must be finite"));
         }
         if !pose.insertion.is_finite() {
@@ -148,7 +195,11 @@ impl Catheter {
             position: self.base.position + self.base.tangent() * pose.insertion,
             rotation: self.base.rotation,
         };
-        let mut sections = vec![Section { length: self.proximal_length, kappa: [0.0, 0.0], strain: pose.eps0 }];
+        let mut sections = vec![Section {
+            length: self.proximal_length,
+            kappa: [0.0, 0.0],
+            strain: pose.eps0,
+        }];
         sections.extend_from_slice(&pose.bend);
         let chain = SectionChain { base, sections };
         let half = self.band_width / 2.0;
@@ -156,9 +207,21 @@ impl Catheter {
         centres.extend(self.extra_bands.iter().copied());
         centres.sort_by(f64::total_cmp);
         let material = |sigma: f64| chain.arc_of_material(self.proximal_length + sigma);
-        let bands = centres.iter().map(|&c| [material(c - half), material((c + half).min(self.bend_length))]).collect();
+        let bands = centres
+            .iter()
+            .map(|&c| {
+                [
+                    material(c - half),
+                    material((c + half).min(self.bend_length)),
+                ]
+            })
+            .collect();
         let band_centres = centres.iter().map(|&c| material(c)).collect();
-        Ok(CatheterState { chain, bands, band_centres })
+        Ok(CatheterState {
+            chain,
+            bands,
+            band_centres,
+        })
     }
 
     /// The tube to render for `state`.
@@ -173,9 +236,19 @@ impl Catheter {
     }
 
     /// The ground-truth record of `state` in `pose` for frame `frame`.
-    pub fn truth(&self, frame: u64, pose: &CatheterPose, state: &CatheterState) -> Result<Truth, SimError> {
+    pub fn truth(
+        &self,
+        frame: u64,
+        pose: &CatheterPose,
+        state: &CatheterState,
+    ) -> Result<Truth, SimError> {
         let chain = &state.chain;
-        let centerline: Vec<[f64; 3]> = chain.polyline(TRUTH_STEP)?.points().iter().map(|p| [p.x, p.y, p.z]).collect();
+        let centerline: Vec<[f64; 3]> = chain
+            .polyline(TRUTH_STEP)?
+            .points()
+            .iter()
+            .map(|p| [p.x, p.y, p.z])
+            .collect();
         let tip = chain.tip();
         let bands = state
             .band_centres
@@ -183,7 +256,11 @@ impl Catheter {
             .zip(&state.bands)
             .map(|(&s, &[a, b])| {
                 let p = chain.frame_at(s).position;
-                TruthBand { position: [p.x, p.y, p.z], arc_length: s, width: b - a }
+                TruthBand {
+                    position: [p.x, p.y, p.z],
+                    arc_length: s,
+                    width: b - a,
+                }
             })
             .collect();
         let single = (pose.bend.len() == 1 && !pose.free_form).then(|| &pose.bend[0]);
@@ -200,7 +277,15 @@ impl Catheter {
             kappa: single.map(|s| s.kappa),
             eps: single.map(|s| [pose.eps0, s.strain]),
             bend_start_arc_length: Some(bend_start),
-            sections: chain.sections.iter().map(|s| TruthSection { length: s.length, kappa: s.kappa, strain: s.strain }).collect(),
+            sections: chain
+                .sections
+                .iter()
+                .map(|s| TruthSection {
+                    length: s.length,
+                    kappa: s.kappa,
+                    strain: s.strain,
+                })
+                .collect(),
             bend_base: Some(BendBase {
                 origin: bend_frame.position.into(),
                 rotation: std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)])),

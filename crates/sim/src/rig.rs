@@ -66,12 +66,17 @@ impl SimRigConfig {
             return Err(config_error("focal", "must be a positive number of pixels"));
         }
         if !(self.distance.is_finite() && self.distance > 0.0) {
-            return Err(config_error("distance", "must be a positive distance in mm"));
+            return Err(config_error(
+                "distance",
+                "must be a positive distance in mm",
+            ));
         }
         if self.distortion.iter().any(|d| !d.is_finite()) {
             return Err(config_error("distortion", "coefficients must be finite"));
         }
-        self.volume.validate().map_err(|e| config_error("volume", e.to_string()))
+        self.volume
+            .validate()
+            .map_err(|e| config_error("volume", e.to_string()))
     }
 
     /// Unit direction from the origin to camera `k`, and the world direction that is "up" in
@@ -99,13 +104,21 @@ impl SimRigConfig {
     pub fn cameras(&self) -> Result<Vec<(String, Camera)>, SimError> {
         self.validate()?;
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(self.seed);
-        let mut jit = |scale: f64| if self.jitter { rng.random_range(-1.0..1.0) * scale } else { 0.0 };
+        let mut jit = |scale: f64| {
+            if self.jitter {
+                rng.random_range(-1.0..1.0) * scale
+            } else {
+                0.0
+            }
+        };
         (0..self.cameras)
             .map(|k| {
                 let (dir, up) = self.placement(k);
                 // Tilt the viewing direction about a random axis perpendicular to it.
                 let right = dir.cross(&up).normalize();
-                let tilt_axis = Unit::new_normalize(right * jit(1.0) + right.cross(&dir) * jit(1.0) + right * 1e-12);
+                let tilt_axis = Unit::new_normalize(
+                    right * jit(1.0) + right.cross(&dir) * jit(1.0) + right * 1e-12,
+                );
                 let dir = Rotation3::from_axis_angle(&tilt_axis, jit(3f64.to_radians())) * dir;
                 let target = Point3::new(jit(5.0), jit(5.0), jit(5.0));
                 let centre = Point3::from(dir * (self.distance + jit(20.0)));

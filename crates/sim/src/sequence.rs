@@ -32,7 +32,12 @@ pub fn sweep(catheter: &Catheter, seed: u64, frames: usize) -> Vec<CatheterPose>
             let eps = [0.01 * rng.random::<f64>(), 0.03 * rng.random::<f64>()];
             let arc = catheter.bend_length * (1.0 - eps[1]);
             let kappa = angle / arc;
-            CatheterPose::arc(catheter, [kappa * phi.cos(), kappa * phi.sin()], eps, insertion)
+            CatheterPose::arc(
+                catheter,
+                [kappa * phi.cos(), kappa * phi.sin()],
+                eps,
+                insertion,
+            )
         })
         .collect()
 }

@@ -60,7 +60,12 @@ impl Simulator {
         let cameras: Vec<Camera> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
         let renderer = Renderer::new(&cameras, config.render.clone())?;
         let occluders = place_occluders(&cameras, config.occluders, config.seed);
-        Ok(Simulator { config, rig, renderer, occluders })
+        Ok(Simulator {
+            config,
+            rig,
+            renderer,
+            occluders,
+        })
     }
 
     /// The settings.
@@ -109,12 +114,21 @@ impl Simulator {
     /// Background images (no catheter; occluders stay, as they are part of the set), with the
     /// noise of an average of 16 frames.
     pub fn backgrounds(&self) -> Vec<RgbImage> {
-        let scene = Scene { tubes: Vec::new(), occluders: self.occluders.clone() };
+        let scene = Scene {
+            tubes: Vec::new(),
+            occluders: self.occluders.clone(),
+        };
         if scene.occluders.is_empty() {
-            return (0..self.renderer.camera_count()).map(|c| self.renderer.render_background(c, 0.25)).collect();
+            return (0..self.renderer.camera_count())
+                .map(|c| self.renderer.render_background(c, 0.25))
+                .collect();
         }
         // Occluders need the full renderer; use a distinct frame number for their noise.
-        self.renderer.render(&scene, u64::MAX - 1).into_iter().map(|v| v.image).collect()
+        self.renderer
+            .render(&scene, u64::MAX - 1)
+            .into_iter()
+            .map(|v| v.image)
+            .collect()
     }
 
     /// Writes a recording of `poses` to `dir` (see `flexshape_recording`), calling `progress`
@@ -160,10 +174,22 @@ fn place_occluders(cameras: &[Camera], count: usize, seed: u64) -> Vec<Occluder>
             let c = cam.centre();
             let axis = (Point3::origin() - c).normalize();
             let side = axis.cross(&flexshape_camera::nalgebra::Vector3::z());
-            let side = if side.norm() < 1e-6 { axis.cross(&flexshape_camera::nalgebra::Vector3::y()) } else { side }.normalize();
+            let side = if side.norm() < 1e-6 {
+                axis.cross(&flexshape_camera::nalgebra::Vector3::y())
+            } else {
+                side
+            }
+            .normalize();
             let up = side.cross(&axis);
-            let centre = c + axis * 250.0 + side * rng.random_range(-40.0..40.0) + up * rng.random_range(-40.0..40.0);
-            Occluder { centre, radius: rng.random_range(10.0..16.0), albedo: OCCLUDER_ALBEDO }
+            let centre = c
+                + axis * 250.0
+                + side * rng.random_range(-40.0..40.0)
+                + up * rng.random_range(-40.0..40.0);
+            Occluder {
+                centre,
+                radius: rng.random_range(10.0..16.0),
+                albedo: OCCLUDER_ALBEDO,
+            }
         })
         .collect()
 }

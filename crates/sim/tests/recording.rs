@@ -42,19 +42,34 @@ fn recording_round_trips() {
     assert_eq!(rec.frames(), &[0, 1]);
     assert_eq!(rec.rig(), sim.rig(), "calibration must round-trip exactly");
     let again = sim.render(1, &sim.sweep(2)[1]).unwrap();
-    assert_eq!(rec.read_frame(2, 1).unwrap().as_raw(), again.views[2].image.as_raw());
-    assert_eq!(rec.read_truth_mask(0, 1).unwrap().unwrap().as_raw(), again.views[0].mask.as_raw());
+    assert_eq!(
+        rec.read_frame(2, 1).unwrap().as_raw(),
+        again.views[2].image.as_raw()
+    );
+    assert_eq!(
+        rec.read_truth_mask(0, 1).unwrap().unwrap().as_raw(),
+        again.views[0].mask.as_raw()
+    );
     assert_eq!(rec.read_truth(1).unwrap().unwrap(), again.truth);
     assert!(rec.read_background(0).unwrap().is_some());
     // The same folder is not overwritten by accident.
     let err = sim
-        .write_recording(dir.path(), &sim.sweep(1), false, |_| ControlFlow::Continue(()))
+        .write_recording(dir.path(), &sim.sweep(1), false, |_| {
+            ControlFlow::Continue(())
+        })
         .err()
         .unwrap();
     assert!(err.to_string().contains("--overwrite"), "{err}");
     // A calibration folder alone (no rig.toml) is enough to open it.
     std::fs::remove_file(dir.path().join("rig.toml")).unwrap();
-    assert_eq!(RecordingReader::open(dir.path()).unwrap().rig().cameras.len(), 3);
+    assert_eq!(
+        RecordingReader::open(dir.path())
+            .unwrap()
+            .rig()
+            .cameras
+            .len(),
+        3
+    );
 }
 
 #[test]
@@ -66,21 +81,37 @@ fn broken_recordings_name_the_problem() {
     std::fs::write(&bad, b"\x89PNG\r\n\x1a\nnot really").unwrap();
     let rec = RecordingReader::open(dir.path()).unwrap();
     let err = rec.read_frame(1, 1).unwrap_err();
-    assert!(matches!(&err, RecordingError::Image { path, .. } if *path == bad), "{err}");
+    assert!(
+        matches!(&err, RecordingError::Image { path, .. } if *path == bad),
+        "{err}"
+    );
     assert!(rec.read_frame(1, 0).is_ok());
     // A frame of the wrong size.
     let small = image::RgbImage::new(320, 240);
-    small.save(dir.path().join("frames/cam0/000001.png")).unwrap();
+    small
+        .save(dir.path().join("frames/cam0/000001.png"))
+        .unwrap();
     let err = rec.read_frame(0, 1).unwrap_err();
-    assert!(err.to_string().contains("320×240") && err.to_string().contains("640×480"), "{err}");
+    assert!(
+        err.to_string().contains("320×240") && err.to_string().contains("640×480"),
+        "{err}"
+    );
     // Cameras with different frames.
     std::fs::remove_file(dir.path().join("frames/cam2/000001.png")).unwrap();
     let err = RecordingReader::open(dir.path()).unwrap_err();
-    assert!(err.to_string().contains("frame 000001 exists for `cam0` but not for `cam2`"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("frame 000001 exists for `cam0` but not for `cam2`"),
+        "{err}"
+    );
     // A missing camera folder.
     std::fs::remove_dir_all(dir.path().join("frames/cam2")).unwrap();
     let err = RecordingReader::open(dir.path()).unwrap_err();
-    assert!(err.to_string().contains("camera `cam2` has no frames folder"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("camera `cam2` has no frames folder"),
+        "{err}"
+    );
     // Not a recording at all.
     let err = RecordingReader::open(&dir.path().join("nope")).unwrap_err();
     assert!(err.to_string().contains("not a folder"), "{err}");
@@ -92,14 +123,21 @@ fn stopping_early_leaves_whole_frames_only() {
     let sim = Simulator::new(SimConfig::default()).unwrap();
     let written = sim
         .write_recording(dir.path(), &sim.sweep(5), false, |f| {
-            if f == 1 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+            if f == 1 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
         })
         .unwrap();
     assert_eq!(written, 2);
     let rec = RecordingReader::open(dir.path()).unwrap();
     assert_eq!(rec.frames(), &[0, 1]);
     assert!(rec.read_truth(1).unwrap().is_some() && rec.read_truth(2).unwrap().is_none());
-    let partial = walk(dir.path()).into_iter().filter(|p| p.to_string_lossy().ends_with(".partial")).count();
+    let partial = walk(dir.path())
+        .into_iter()
+        .filter(|p| p.to_string_lossy().ends_with(".partial"))
+        .count();
     assert_eq!(partial, 0);
 }
 
@@ -107,7 +145,11 @@ fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     let mut out = Vec::new();
     for e in std::fs::read_dir(dir).unwrap().flatten() {
         let p = e.path();
-        if p.is_dir() { out.extend(walk(&p)); } else { out.push(p); }
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
     }
     out
 }

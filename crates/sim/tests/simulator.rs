@@ -22,14 +22,27 @@ fn centerline_projects_inside_the_mask_in_every_camera() {
         for (c, (cam, view)) in sim.rig().cameras.iter().zip(&f.views).enumerate() {
             let (mut inside, mut total) = (0, 0);
             for p in &f.truth.centerline {
-                let Ok(proj) = cam.camera.project(&Point3::from(*p)) else { continue };
-                let Some((u, v)) = cam.camera.intrinsics.pixel_index(proj.pixel) else { continue };
+                let Ok(proj) = cam.camera.project(&Point3::from(*p)) else {
+                    continue;
+                };
+                let Some((u, v)) = cam.camera.intrinsics.pixel_index(proj.pixel) else {
+                    continue;
+                };
                 total += 1;
                 inside += (view.mask.get_pixel(u, v)[0] == 255) as usize;
             }
-            assert!(total > 200, "frame {} cam {c}: only {total} samples in view", f.truth.frame);
+            assert!(
+                total > 200,
+                "frame {} cam {c}: only {total} samples in view",
+                f.truth.frame
+            );
             let ratio = inside as f64 / total as f64;
-            assert!(ratio > 0.99, "frame {} cam {c}: {:.2} % inside", f.truth.frame, ratio * 100.0);
+            assert!(
+                ratio > 0.99,
+                "frame {} cam {c}: {:.2} % inside",
+                f.truth.frame,
+                ratio * 100.0
+            );
         }
     }
 }
@@ -75,7 +88,13 @@ fn rendered_tube_width_matches_two_r_f_over_depth() {
                 let width: f64 = (-400..=400)
                     .map(|n| {
                         let s = n as f64 * step;
-                        coverage_at(&view.coverage, w, h, proj.pixel.x + across.x * s, proj.pixel.y + across.y * s) * step
+                        coverage_at(
+                            &view.coverage,
+                            w,
+                            h,
+                            proj.pixel.x + across.x * s,
+                            proj.pixel.y + across.y * s,
+                        ) * step
                     })
                     .sum();
                 let simple = 2.0 * r * camera.intrinsics.fx / proj.depth;
@@ -85,8 +104,14 @@ fn rendered_tube_width_matches_two_r_f_over_depth() {
                 let normal = t.cross(&view_dir).normalize();
                 let g = jac * normal;
                 let exact = 2.0 * r * Point2::new(g.x, g.y).coords.dot(&across.xy()).abs();
-                assert!((width / simple - 1.0).abs() < 0.05, "cam {c}: {width:.3} px vs 2rf/z {simple:.3}");
-                assert!((width / exact - 1.0).abs() < 0.02, "cam {c}: {width:.3} px vs lens-exact {exact:.3}");
+                assert!(
+                    (width / simple - 1.0).abs() < 0.05,
+                    "cam {c}: {width:.3} px vs 2rf/z {simple:.3}"
+                );
+                assert!(
+                    (width / exact - 1.0).abs() < 0.02,
+                    "cam {c}: {width:.3} px vs lens-exact {exact:.3}"
+                );
                 checked += 1;
             }
         }
@@ -102,7 +127,10 @@ fn same_seed_gives_byte_identical_images_and_another_seed_does_not() {
     let fa = a.render(2, &pose(&a)).unwrap();
     let fb = b.render(2, &pose(&b)).unwrap();
     for (va, vb) in fa.views.iter().zip(&fb.views) {
-        assert!(va.image.as_raw() == vb.image.as_raw(), "same seed, different images");
+        assert!(
+            va.image.as_raw() == vb.image.as_raw(),
+            "same seed, different images"
+        );
         assert!(va.mask.as_raw() == vb.mask.as_raw());
     }
     assert_eq!(fa.truth, fb.truth);
@@ -111,19 +139,28 @@ fn same_seed_gives_byte_identical_images_and_another_seed_does_not() {
     let c = sim(other);
     let fc = c.render(2, &pose(&a)).unwrap();
     assert!(fc.views[0].image.as_raw() != fa.views[0].image.as_raw());
-    assert!(fc.views[0].mask.as_raw() == fa.views[0].mask.as_raw(), "noise must not move the object");
+    assert!(
+        fc.views[0].mask.as_raw() == fa.views[0].mask.as_raw(),
+        "noise must not move the object"
+    );
 }
 
 /// True when the surface point seen on the sight line from `eye` to the centerline point
 /// `point` (arc length `s`) may not belong to the 5 mm band there: the line meets the tube
 /// r·cot(θ) along the axis from `point` (θ: angle to the tangent), which must stay within the
 /// band's half-width, and no other part of the tube may pass in front within one radius.
-fn hidden_by_tube(truth: &flexshape_recording::Truth, eye: Point3<f64>, point: Point3<f64>, s: f64) -> bool {
+fn hidden_by_tube(
+    truth: &flexshape_recording::Truth,
+    eye: Point3<f64>,
+    point: Point3<f64>,
+    s: f64,
+) -> bool {
     let ray = point - eye;
     let len = ray.norm();
     let dir = ray / len;
     let i = ((s / TRUTH_STEP) as usize).clamp(1, truth.centerline.len() - 2);
-    let tangent = (Point3::from(truth.centerline[i + 1]) - Point3::from(truth.centerline[i - 1])).normalize();
+    let tangent =
+        (Point3::from(truth.centerline[i + 1]) - Point3::from(truth.centerline[i - 1])).normalize();
     let cos = tangent.dot(&dir).abs();
     let cot = cos / (1.0 - cos * cos).sqrt().max(1e-9);
     if truth.radius * cot > 2.0 {
@@ -133,7 +170,9 @@ fn hidden_by_tube(truth: &flexshape_recording::Truth, eye: Point3<f64>, point: P
         let q = Point3::from(*q);
         let along = (q - eye).dot(&dir);
         let off = ((q - eye) - dir * along).norm();
-        (i as f64 * TRUTH_STEP - s).abs() > 8.0 && along < len - truth.radius && off < truth.radius + 0.5
+        (i as f64 * TRUTH_STEP - s).abs() > 8.0
+            && along < len - truth.radius
+            && off < truth.radius + 0.5
     })
 }
 
@@ -146,8 +185,12 @@ fn band_centres_land_on_marker_pixels() {
         for (cam, view) in sim.rig().cameras.iter().zip(&f.views) {
             for band in &f.truth.bands {
                 let centre = Point3::from(band.position);
-                let Ok(p) = cam.camera.project(&centre) else { continue };
-                let Some((u, v)) = cam.camera.intrinsics.pixel_index(p.pixel) else { continue };
+                let Ok(p) = cam.camera.project(&centre) else {
+                    continue;
+                };
+                let Some((u, v)) = cam.camera.intrinsics.pixel_index(p.pixel) else {
+                    continue;
+                };
                 if hidden_by_tube(&f.truth, cam.camera.centre(), centre, band.arc_length) {
                     hidden += 1;
                     continue;
@@ -158,11 +201,22 @@ fn band_centres_land_on_marker_pixels() {
         }
         // Marker pixels are object pixels.
         for view in &f.views {
-            assert!(view.markers.pixels().zip(view.mask.pixels()).all(|(m, o)| m[0] == 0 || o[0] == 255));
+            assert!(
+                view.markers
+                    .pixels()
+                    .zip(view.mask.pixels())
+                    .all(|(m, o)| m[0] == 0 || o[0] == 255)
+            );
         }
     }
-    assert!(total >= 30, "only {total} visible band centres ({hidden} hidden)");
-    assert_eq!(hits, total, "{hits}/{total} visible band centres on marker pixels");
+    assert!(
+        total >= 30,
+        "only {total} visible band centres ({hidden} hidden)"
+    );
+    assert_eq!(
+        hits, total,
+        "{hits}/{total} visible band centres on marker pixels"
+    );
 }
 
 #[test]
@@ -194,8 +248,36 @@ fn truth_is_consistent_with_the_pose() {
     let base = Point3::from(t.bend_base.as_ref().unwrap().origin);
     let chord = (Point3::from(t.tip) - base).norm();
     assert!((chord - 2.0 * (k * arc / 2.0).sin() / k).abs() < 1e-6);
+    // Two pieces: the tip is the first arc's tip frame composed with the second arc.
+    let two =
+        CatheterPose::two_section(catheter, [0.012, 0.0], [0.0, -0.02], 70.0, [0.0, 0.01], 5.0);
+    let f = sim.render(1, &two).unwrap();
+    assert_eq!(f.truth.kappa, None);
+    assert_eq!(f.truth.sections.len(), 3);
+    let base = f.truth.bend_base.as_ref().unwrap();
+    let r = flexshape_camera::nalgebra::Matrix3::from_fn(|i, j| base.rotation[i][j]);
+    let first = flexshape_curve::Section {
+        length: 70.0,
+        kappa: [0.012, 0.0],
+        strain: 0.01,
+    }
+    .local_frame(70.0 * 0.99);
+    let second = flexshape_curve::Section {
+        length: 90.0,
+        kappa: [0.0, -0.02],
+        strain: 0.01,
+    }
+    .local_frame(90.0 * 0.99);
+    let tip_local = first.compose(&second).position;
+    let tip = Point3::from(base.origin) + r * tip_local.coords;
+    assert!((tip - Point3::from(f.truth.tip)).norm() < 1e-9);
     // A free-form bend has no single κ.
-    let smooth = CatheterPose::smooth(catheter, |s| [0.01 * (s / 40.0).sin(), 0.005], [0.0, 0.0], 0.0);
+    let smooth = CatheterPose::smooth(
+        catheter,
+        |s| [0.01 * (s / 40.0).sin(), 0.005],
+        [0.0, 0.0],
+        0.0,
+    );
     let f = sim.render(1, &smooth).unwrap();
     assert_eq!(f.truth.kappa, None);
     assert_eq!(f.truth.eps, None);
@@ -213,7 +295,12 @@ fn shadows_darken_the_backdrop_without_changing_its_colour_or_the_mask() {
     for (va, vb) in fa.views.iter().zip(&fb.views) {
         assert!(va.mask.as_raw() == vb.mask.as_raw());
         let mut dark = 0;
-        for ((pa, pb), m) in va.image.pixels().zip(vb.image.pixels()).zip(va.mask.pixels()) {
+        for ((pa, pb), m) in va
+            .image
+            .pixels()
+            .zip(vb.image.pixels())
+            .zip(va.mask.pixels())
+        {
             if m[0] != 0 || pa[1] < 100 {
                 continue;
             }
@@ -223,7 +310,10 @@ fn shadows_darken_the_backdrop_without_changing_its_colour_or_the_mask() {
                 // Same chromaticity: every channel scaled alike (to 8-bit rounding).
                 for c in [0, 2] {
                     let rc = pb[c] as f64 / pa[c] as f64;
-                    assert!((rc - ratio).abs() < 0.03, "channel {c}: {rc:.3} vs green {ratio:.3}");
+                    assert!(
+                        (rc - ratio).abs() < 0.03,
+                        "channel {c}: {rc:.3} vs green {ratio:.3}"
+                    );
                 }
             }
         }
@@ -234,28 +324,52 @@ fn shadows_darken_the_backdrop_without_changing_its_colour_or_the_mask() {
 #[test]
 fn occluders_hide_the_catheter_and_are_not_in_the_mask() {
     let plain = sim(SimConfig::default());
-    let occluded = sim(SimConfig { occluders: 3, ..SimConfig::default() });
+    let occluded = sim(SimConfig {
+        occluders: 3,
+        ..SimConfig::default()
+    });
     let mut hidden = 0;
     for (i, pose) in plain.sweep(4).iter().enumerate() {
-        let (fa, fb) = (plain.render(i as u64, pose).unwrap(), occluded.render(i as u64, pose).unwrap());
+        let (fa, fb) = (
+            plain.render(i as u64, pose).unwrap(),
+            occluded.render(i as u64, pose).unwrap(),
+        );
         for (va, vb) in fa.views.iter().zip(&fb.views) {
             for (ma, mb) in va.mask.pixels().zip(vb.mask.pixels()) {
-                assert!(mb[0] == 0 || ma[0] == 255, "occluders cannot add object pixels");
+                assert!(
+                    mb[0] == 0 || ma[0] == 255,
+                    "occluders cannot add object pixels"
+                );
                 hidden += (ma[0] == 255 && mb[0] == 0) as usize;
             }
         }
     }
-    assert!(hidden > 100, "occluders hid only {hidden} object pixels over 4 frames");
+    assert!(
+        hidden > 100,
+        "occluders hid only {hidden} object pixels over 4 frames"
+    );
 }
 
 #[test]
 fn bad_settings_are_errors_naming_the_setting() {
     let mut c = SimConfig::default();
     c.rig.cameras = 0;
-    assert!(Simulator::new(c).err().unwrap().to_string().contains("cameras"));
+    assert!(
+        Simulator::new(c)
+            .err()
+            .unwrap()
+            .to_string()
+            .contains("cameras")
+    );
     let mut c = SimConfig::default();
     c.render.supersampling = 0;
-    assert!(Simulator::new(c).err().unwrap().to_string().contains("supersampling"));
+    assert!(
+        Simulator::new(c)
+            .err()
+            .unwrap()
+            .to_string()
+            .contains("supersampling")
+    );
     let mut c = SimConfig::default();
     c.rig.distortion = [-0.9, 0.0, 0.0, 0.0, 0.0];
     let err = Simulator::new(c).err().unwrap().to_string();
@@ -263,7 +377,13 @@ fn bad_settings_are_errors_naming_the_setting() {
     let s = sim(SimConfig::default());
     let mut pose = s.sweep(1)[0].clone();
     pose.bend[0].length = 10.0;
-    assert!(s.render(0, &pose).err().unwrap().to_string().contains("bend"));
+    assert!(
+        s.render(0, &pose)
+            .err()
+            .unwrap()
+            .to_string()
+            .contains("bend")
+    );
 }
 
 #[test]
@@ -278,6 +398,10 @@ fn other_camera_counts_and_sizes() {
     assert_eq!(f.views.len(), 5);
     for (cam, v) in s.rig().cameras.iter().zip(&f.views) {
         assert_eq!(v.image.dimensions(), (320, 240));
-        assert!(v.mask.pixels().filter(|p| p[0] == 255).count() > 100, "{} sees too little", cam.name);
+        assert!(
+            v.mask.pixels().filter(|p| p[0] == 255).count() > 100,
+            "{} sees too little",
+            cam.name
+        );
     }
 }

@@ -23,14 +23,32 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let v = &sim.rig().volume;
     println!(
         "flexshape demo: simulated rig of {} cameras at {}×{}, volume {}×{}×{} voxels of {} mm, catheter r = {} mm with a {} mm bending section",
-        c.rig.cameras, c.rig.width, c.rig.height, v.dims[0], v.dims[1], v.dims[2], v.voxel_size[0], c.catheter.radius, c.catheter.bend_length
+        c.rig.cameras,
+        c.rig.width,
+        c.rig.height,
+        v.dims[0],
+        v.dims[1],
+        v.dims[2],
+        v.voxel_size[0],
+        c.catheter.radius,
+        c.catheter.bend_length
     );
-    println!("stages in this build: simulator (silhouettes, carving and shape estimation are not built yet)");
+    println!(
+        "stages in this build: simulator (silhouettes, carving and shape estimation are not built yet)"
+    );
     println!("rig set up in {setup_ms:.0} ms\n");
     let names: Vec<&str> = sim.rig().cameras.iter().map(|c| c.name.as_str()).collect();
+    let pixels_header = format!("object px ({})", names.join("/"));
     println!(
         "{:>5} {:>6} {:>7} {:>26} {:>8} {:>7}  {}  {:>9}",
-        "frame", "bend°", "plane°", "tip x, y, z (mm)", "arc mm", "ε1 %", format!("object px ({})", names.join("/")), "render ms"
+        "frame",
+        "bend°",
+        "plane°",
+        "tip x, y, z (mm)",
+        "arc mm",
+        "ε1 %",
+        pixels_header,
+        "render ms"
     );
     let mut render_ms = Vec::new();
     for (i, pose) in sim.sweep(args.frames).iter().enumerate() {
@@ -38,7 +56,9 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             break;
         }
         let t = Instant::now();
-        let frame = sim.render(i as u64, pose).with_context(|| format!("frame {i}"))?;
+        let frame = sim
+            .render(i as u64, pose)
+            .with_context(|| format!("frame {i}"))?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         render_ms.push(ms);
         let truth = &frame.truth;
@@ -59,14 +79,18 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             arc,
             e1 * 100.0,
             pixels.join("/"),
-            w = format!("object px ({})", names.join("/")).len(),
+            w = pixels_header.len(),
         );
     }
     if let Some(dir) = &args.out {
         let poses = sim.sweep(args.frames);
         let written = sim
             .write_recording(dir, &poses, false, |_| {
-                if stop.requested() { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+                if stop.requested() {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
             })
             .with_context(|| format!("cannot write the recording to {}", dir.display()))?;
         println!("\nwrote {written} frames to {}", dir.display());

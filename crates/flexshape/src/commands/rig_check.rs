@@ -29,7 +29,11 @@ pub fn run(path: &Path) -> anyhow::Result<()> {
         hi.x,
         hi.y,
         hi.z,
-        if path.is_dir() { " (default volume: a folder has none)" } else { "" }
+        if path.is_dir() {
+            " (default volume: a folder has none)"
+        } else {
+            ""
+        }
     );
     let corners = v.corners();
     let centre = Point3::from((Point3::from(v.origin).coords + hi.coords) / 2.0);
@@ -58,7 +62,10 @@ pub fn run(path: &Path) -> anyhow::Result<()> {
             a.y,
             a.z,
             match centre_px {
-                Ok(p) if k.contains(p.pixel) => format!("at pixel ({:.0}, {:.0}), depth {:.0} mm", p.pixel.x, p.pixel.y, p.depth),
+                Ok(p) if k.contains(p.pixel) => format!(
+                    "at pixel ({:.0}, {:.0}), depth {:.0} mm",
+                    p.pixel.x, p.pixel.y, p.depth
+                ),
                 _ => "NOT IN VIEW".into(),
             }
         );
@@ -66,12 +73,22 @@ pub fn run(path: &Path) -> anyhow::Result<()> {
     }
     for (i, a) in rig.cameras.iter().enumerate() {
         for b in &rig.cameras[i + 1..] {
-            let angle = a.camera.pose.optical_axis().angle(&b.camera.pose.optical_axis()).to_degrees();
-            println!("  angle between {} and {} axes: {angle:.1}°", a.name, b.name);
+            let angle = a
+                .camera
+                .pose
+                .optical_axis()
+                .angle(&b.camera.pose.optical_axis())
+                .to_degrees();
+            println!(
+                "  angle between {} and {} axes: {angle:.1}°",
+                a.name, b.name
+            );
         }
     }
     if !all_ok {
-        println!("  note: some cameras do not see the whole volume; parts of the volume outside a camera's view are not constrained by it");
+        println!(
+            "  note: some cameras do not see the whole volume; parts of the volume outside a camera's view are not constrained by it"
+        );
     }
     Ok(())
 }

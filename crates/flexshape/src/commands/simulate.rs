@@ -12,7 +12,8 @@ use crate::interrupt::Interrupt;
 
 pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let stop = Interrupt::install();
-    let sim = Simulator::new(super::sim_config(&args.sim)).context("cannot set up the simulated rig")?;
+    let sim =
+        Simulator::new(super::sim_config(&args.sim)).context("cannot set up the simulated rig")?;
     let poses = sim.sweep(args.frames);
     let bar = ProgressBar::new(args.frames as u64).with_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} frames, {per_sec}, eta {eta}")
@@ -24,7 +25,11 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let written = sim
         .write_recording(&args.out, &poses, args.overwrite, |_| {
             bar.inc(1);
-            if stop.requested() { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+            if stop.requested() {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
         })
         .with_context(|| format!("cannot write the recording to {}", args.out.display()))?;
     bar.finish_and_clear();
@@ -33,8 +38,15 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         "wrote {written} frames × {cams} cameras to {} in {:.1} s{}",
         args.out.display(),
         start.elapsed().as_secs_f64(),
-        if (written as usize) < args.frames { " (stopped early by Ctrl-C; every written frame is whole)" } else { "" }
+        if (written as usize) < args.frames {
+            " (stopped early by Ctrl-C; every written frame is whole)"
+        } else {
+            ""
+        }
     );
-    println!("  layout: docs/formats.md; check its rig with: flexshape rig check {}", args.out.join("rig.toml").display());
+    println!(
+        "  layout: docs/formats.md; check its rig with: flexshape rig check {}",
+        args.out.join("rig.toml").display()
+    );
     Ok(())
 }

@@ -21,9 +21,9 @@ impl Rect {
     };
 
     pub fn include(&mut self, p: [f64; 2]) {
-        for a in 0..2 {
-            self.min[a] = self.min[a].min(p[a]);
-            self.max[a] = self.max[a].max(p[a]);
+        for (a, v) in p.into_iter().enumerate() {
+            self.min[a] = self.min[a].min(v);
+            self.max[a] = self.max[a].max(v);
         }
     }
 
@@ -35,7 +35,10 @@ impl Rect {
     }
 
     pub fn overlaps(&self, o: &Rect) -> bool {
-        self.min[0] <= o.max[0] && o.min[0] <= self.max[0] && self.min[1] <= o.max[1] && o.min[1] <= self.max[1]
+        self.min[0] <= o.max[0]
+            && o.min[0] <= self.max[0]
+            && self.min[1] <= o.max[1]
+            && o.min[1] <= self.max[1]
     }
 
     /// Bound of the central projection of a convex set given by its vertices: a perspective
@@ -59,8 +62,16 @@ impl Rect {
 
 /// The 8 corners of the axis-aligned box around segment `a → b` grown by `pad`.
 pub(crate) fn box_corners(a: [f64; 3], b: [f64; 3], pad: f64) -> [[f64; 3]; 8] {
-    let lo = [a[0].min(b[0]) - pad, a[1].min(b[1]) - pad, a[2].min(b[2]) - pad];
-    let hi = [a[0].max(b[0]) + pad, a[1].max(b[1]) + pad, a[2].max(b[2]) + pad];
+    let lo = [
+        a[0].min(b[0]) - pad,
+        a[1].min(b[1]) - pad,
+        a[2].min(b[2]) - pad,
+    ];
+    let hi = [
+        a[0].max(b[0]) + pad,
+        a[1].max(b[1]) + pad,
+        a[2].max(b[2]) + pad,
+    ];
     std::array::from_fn(|n| {
         [
             if n & 1 == 0 { lo[0] } else { hi[0] },
@@ -115,15 +126,30 @@ mod tests {
         let rects: Vec<Rect> = (0..40)
             .map(|i| {
                 let x = i as f64;
-                Rect { min: [x, 0.0], max: [x + 0.5, 1.0] }
+                Rect {
+                    min: [x, 0.0],
+                    max: [x + 0.5, 1.0],
+                }
             })
             .collect();
         let index = RectIndex::new(rects);
         let mut out = Vec::new();
-        index.query(&Rect { min: [9.7, 0.5], max: [17.2, 0.6] }, &mut out);
+        index.query(
+            &Rect {
+                min: [9.7, 0.5],
+                max: [17.2, 0.6],
+            },
+            &mut out,
+        );
         assert_eq!(out, (10..=17).collect::<Vec<_>>());
         out.clear();
-        index.query(&Rect { min: [9.7, 2.0], max: [17.2, 3.0] }, &mut out);
+        index.query(
+            &Rect {
+                min: [9.7, 2.0],
+                max: [17.2, 3.0],
+            },
+            &mut out,
+        );
         assert!(out.is_empty());
     }
 }

@@ -16,7 +16,12 @@ pub(crate) struct Capsule {
 }
 
 /// Nearest positive hit distance of the ray `o + t·d` with a sphere.
-pub(crate) fn ray_sphere(o: &Vector3<f64>, d: &Vector3<f64>, c: &Vector3<f64>, r: f64) -> Option<f64> {
+pub(crate) fn ray_sphere(
+    o: &Vector3<f64>,
+    d: &Vector3<f64>,
+    c: &Vector3<f64>,
+    r: f64,
+) -> Option<f64> {
     let oc = o - c;
     let b = d.dot(&oc);
     let h = b * b - (oc.norm_squared() - r * r);
@@ -92,8 +97,16 @@ pub(crate) fn segment_distance(
     let e = v.dot(&w);
     let den = a * c - b * b;
     // Parameter on the first segment for the infinite lines, then clamp and re-solve.
-    let mut s = if den > 1e-12 * a * c { ((b * e - c * d) / den).clamp(0.0, 1.0) } else { 0.0 };
-    let t = if c > 0.0 { ((b * s + e) / c).clamp(0.0, 1.0) } else { 0.0 };
+    let mut s = if den > 1e-12 * a * c {
+        ((b * e - c * d) / den).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let t = if c > 0.0 {
+        ((b * s + e) / c).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     if a > 0.0 {
         s = ((b * t - d) / a).clamp(0.0, 1.0);
     }
@@ -140,11 +153,26 @@ mod tests {
     #[test]
     fn segment_distance_cases() {
         let z = |x, y, zz| Vector3::new(x, y, zz);
-        let (d, s) = segment_distance(&z(0.0, 0.0, 0.0), &z(10.0, 0.0, 0.0), &z(5.0, -5.0, 2.0), &z(5.0, 5.0, 2.0));
+        let (d, s) = segment_distance(
+            &z(0.0, 0.0, 0.0),
+            &z(10.0, 0.0, 0.0),
+            &z(5.0, -5.0, 2.0),
+            &z(5.0, 5.0, 2.0),
+        );
         assert!((d - 2.0).abs() < 1e-12 && (s - 0.5).abs() < 1e-12);
-        let (d, _) = segment_distance(&z(0.0, 0.0, 0.0), &z(1.0, 0.0, 0.0), &z(3.0, 0.0, 0.0), &z(4.0, 0.0, 0.0));
+        let (d, _) = segment_distance(
+            &z(0.0, 0.0, 0.0),
+            &z(1.0, 0.0, 0.0),
+            &z(3.0, 0.0, 0.0),
+            &z(4.0, 0.0, 0.0),
+        );
         assert!((d - 2.0).abs() < 1e-12);
-        let (d, _) = segment_distance(&z(0.0, 0.0, 0.0), &z(10.0, 0.0, 0.0), &z(0.0, 1.0, 0.0), &z(10.0, 1.0, 0.0));
+        let (d, _) = segment_distance(
+            &z(0.0, 0.0, 0.0),
+            &z(10.0, 0.0, 0.0),
+            &z(0.0, 1.0, 0.0),
+            &z(10.0, 1.0, 0.0),
+        );
         assert!((d - 1.0).abs() < 1e-12);
     }
 }

@@ -68,12 +68,20 @@ impl Default for RenderSettings {
 
 impl RenderSettings {
     fn validate(&self) -> Result<(), SimError> {
-        let bad = |field: &str, why: &str| Err(SimError::Config { field: field.into(), problem: why.into() });
+        let bad = |field: &str, why: &str| {
+            Err(SimError::Config {
+                field: field.into(),
+                problem: why.into(),
+            })
+        };
         if !(1..=16).contains(&self.supersampling) {
             return bad("supersampling", "must be between 1 and 16");
         }
         if !(self.noise_sigma.is_finite() && self.noise_sigma >= 0.0) {
-            return bad("noise_sigma", "must be a non-negative number of grey levels");
+            return bad(
+                "noise_sigma",
+                "must be a non-negative number of grey levels",
+            );
         }
         if !(self.backdrop_depth.is_finite() && self.backdrop_depth > 0.0) {
             return bad("backdrop_depth", "must be a positive distance in mm");
@@ -162,7 +170,8 @@ impl Renderer {
     /// frames had been averaged), for background images.
     pub fn render_background(&self, cam: usize, noise_scale: f64) -> RgbImage {
         let sigma = self.settings.noise_sigma * noise_scale;
-        self.render_view(&self.views[cam], cam, &Scene::default(), u64::MAX, sigma).image
+        self.render_view(&self.views[cam], cam, &Scene::default(), u64::MAX, sigma)
+            .image
     }
 
     fn prepare<'a>(&self, view: &CameraView, scene: &'a Scene) -> Prepared<'a> {
@@ -183,7 +192,11 @@ impl Renderer {
                 });
             }
         }
-        let spheres: Vec<_> = scene.occluders.iter().map(|o| (to_cam(&o.centre), o.radius, o.albedo)).collect();
+        let spheres: Vec<_> = scene
+            .occluders
+            .iter()
+            .map(|o| (to_cam(&o.centre), o.radius, o.albedo))
+            .collect();
         let image_plane = |v: [f64; 3]| (v[2] > NEAR).then(|| [v[0] / v[2], v[1] / v[2]]);
         let depth = self.settings.backdrop_depth;
         let lamp = view.lamp;
@@ -192,12 +205,19 @@ impl Renderer {
             let dz = v[2] - lamp.z;
             (dz > NEAR && v[2] < depth).then(|| {
                 let s = (depth - lamp.z) / dz;
-                [(lamp.x + (v[0] - lamp.x) * s) / depth, (lamp.y + (v[1] - lamp.y) * s) / depth]
+                [
+                    (lamp.x + (v[0] - lamp.x) * s) / depth,
+                    (lamp.y + (v[1] - lamp.y) * s) / depth,
+                ]
             })
         };
         let bounds = |pad: f64, project: &dyn Fn([f64; 3]) -> Option<[f64; 2]>| {
-            let caps = capsules.iter().map(|c| Rect::of_projected(box_corners(c.a.into(), c.b.into(), c.radius + pad), project));
-            let sph = spheres.iter().map(|(c, r, _)| Rect::of_projected(box_corners((*c).into(), (*c).into(), r + pad), project));
+            let caps = capsules.iter().map(|c| {
+                Rect::of_projected(box_corners(c.a.into(), c.b.into(), c.radius + pad), project)
+            });
+            let sph = spheres.iter().map(|(c, r, _)| {
+                Rect::of_projected(box_corners((*c).into(), (*c).into(), r + pad), project)
+            });
             RectIndex::new(caps.chain(sph).collect())
         };
         let primary = bounds(0.0, &image_plane);
@@ -206,10 +226,23 @@ impl Renderer {
         } else {
             RectIndex::default()
         };
-        Prepared { scene, capsules, spheres, primary, shadow }
+        Prepared {
+            scene,
+            capsules,
+            spheres,
+            primary,
+            shadow,
+        }
     }
 
-    fn render_view(&self, view: &CameraView, cam: usize, scene: &Scene, frame: u64, sigma: f64) -> View {
+    fn render_view(
+        &self,
+        view: &CameraView,
+        cam: usize,
+        scene: &Scene,
+        frame: u64,
+        sigma: f64,
+    ) -> View {
         let prep = self.prepare(view, scene);
         let (w, h) = (view.width, view.height);
         let mut rgb = vec![0u8; w * h * 3];
@@ -227,10 +260,19 @@ impl Renderer {
                 let rows = rgb.len() / (w * 3);
                 for r in 0..rows {
                     let y = (ty * TILE + r) as u64;
-                    let mut rng = Xoshiro256PlusPlus::seed_from_u64(noise_seed(self.settings.seed, frame, cam as u64, y));
+                    let mut rng = Xoshiro256PlusPlus::seed_from_u64(noise_seed(
+                        self.settings.seed,
+                        frame,
+                        cam as u64,
+                        y,
+                    ));
                     for x in 0..w {
                         for c in 0..3 {
-                            let noise = if sigma > 0.0 { sigma * Distribution::<f64>::sample(&StandardNormal, &mut rng) } else { 0.0 };
+                            let noise = if sigma > 0.0 {
+                                sigma * Distribution::<f64>::sample(&StandardNormal, &mut rng)
+                            } else {
+                                0.0
+                            };
                             let v = linear[r * w + x][c] * 255.0 + noise;
                             rgb[(r * w + x) * 3 + c] = v.round().clamp(0.0, 255.0) as u8;
                         }
@@ -297,7 +339,12 @@ impl Renderer {
                     let mut tube_hits = 0;
                     for sy in 0..n {
                         for sx in 0..n {
-                            let p = view.normalized(px, py, (sx as f64 + 0.5) / n as f64, (sy as f64 + 0.5) / n as f64);
+                            let p = view.normalized(
+                                px,
+                                py,
+                                (sx as f64 + 0.5) / n as f64,
+                                (sy as f64 + 0.5) / n as f64,
+                            );
                             let col = match self.trace(prep, &cands, p) {
                                 None => bg,
                                 Some((t, hit)) => {
@@ -336,21 +383,42 @@ impl Renderer {
             if let Some(t) = t
                 && best.as_ref().is_none_or(|(b, _)| t < *b)
             {
-                best = Some((t, if i < ncap { Hit::Capsule(i) } else { Hit::Sphere(i - ncap) }));
+                best = Some((
+                    t,
+                    if i < ncap {
+                        Hit::Capsule(i)
+                    } else {
+                        Hit::Sphere(i - ncap)
+                    },
+                ));
             }
         }
         best
     }
 
     /// Colour of a surface point: Lambert + a small plastic highlight from the camera's lamp.
-    fn shade(&self, view: &CameraView, prep: &Prepared, d: &Vector3<f64>, t: f64, hit: &Hit) -> [f64; 3] {
+    fn shade(
+        &self,
+        view: &CameraView,
+        prep: &Prepared,
+        d: &Vector3<f64>,
+        t: f64,
+        hit: &Hit,
+    ) -> [f64; 3] {
         let x = d * t;
         let (normal, albedo) = match *hit {
             Hit::Capsule(i) => {
                 let c = &prep.capsules[i];
                 let (q, s) = capsule_point(c, d, t);
                 let tube = &prep.scene.tubes[c.tube];
-                ((x - q) / c.radius, if tube.is_band(s) { tube.band_albedo } else { tube.albedo })
+                (
+                    (x - q) / c.radius,
+                    if tube.is_band(s) {
+                        tube.band_albedo
+                    } else {
+                        tube.albedo
+                    },
+                )
             }
             Hit::Sphere(j) => {
                 let (c, r, a) = &prep.spheres[j];
@@ -362,12 +430,23 @@ impl Renderer {
         let half = (l - d).normalize();
         let specular = 0.15 * normal.dot(&half).max(0.0).powi(30);
         let k = 0.3 + 0.7 * diffuse;
-        [albedo[0] * k + specular, albedo[1] * k + specular, albedo[2] * k + specular]
+        [
+            albedo[0] * k + specular,
+            albedo[1] * k + specular,
+            albedo[2] * k + specular,
+        ]
     }
 
     /// Light reaching the backdrop point seen at normalized `(x, y)`: 1 unshadowed, down to
     /// `1 − shadow_strength` in full shadow.
-    fn shadow_factor(&self, view: &CameraView, prep: &Prepared, cands: &[usize], x: f64, y: f64) -> f64 {
+    fn shadow_factor(
+        &self,
+        view: &CameraView,
+        prep: &Prepared,
+        cands: &[usize],
+        x: f64,
+        y: f64,
+    ) -> f64 {
         let depth = self.settings.backdrop_depth;
         let p = Vector3::new(x * depth, y * depth, depth);
         let lamp = view.lamp;

@@ -5,9 +5,9 @@ use flexshape_camera::Camera;
 use flexshape_camera::nalgebra::{Point2, Vector2, Vector3};
 use rayon::prelude::*;
 
+use super::RenderSettings;
 use super::backdrop::{lamp_shading, texture};
 use super::cull::Rect;
-use super::RenderSettings;
 use crate::error::SimError;
 
 /// Tile edge in pixels: primitives are culled per tile.
@@ -95,13 +95,21 @@ impl CameraView {
     pub fn normalized(&self, px: usize, py: usize, fx: f64, fy: f64) -> [f64; 2] {
         let stride = self.width + 1;
         let i = py * stride + px;
-        let (c00, c10, c01, c11) = (self.corners[i], self.corners[i + 1], self.corners[i + stride], self.corners[i + stride + 1]);
+        let (c00, c10, c01, c11) = (
+            self.corners[i],
+            self.corners[i + 1],
+            self.corners[i + stride],
+            self.corners[i + stride + 1],
+        );
         let lerp = |a: f64, b: f64, c: f64, d: f64| {
             let top = a + (b - a) * fx;
             let bottom = c + (d - c) * fx;
             top + (bottom - top) * fy
         };
-        [lerp(c00[0], c10[0], c01[0], c11[0]), lerp(c00[1], c10[1], c01[1], c11[1])]
+        [
+            lerp(c00[0], c10[0], c01[0], c11[0]),
+            lerp(c00[1], c10[1], c01[1], c11[1]),
+        ]
     }
 
     fn render_backdrop(&self, s: &RenderSettings) -> Vec<[f64; 3]> {
@@ -115,13 +123,22 @@ impl CameraView {
                     let mut acc = 0.0;
                     for sy in 0..n {
                         for sx in 0..n {
-                            let [x, y] = self.normalized(px, py, (sx as f64 + 0.5) / n as f64, (sy as f64 + 0.5) / n as f64);
+                            let [x, y] = self.normalized(
+                                px,
+                                py,
+                                (sx as f64 + 0.5) / n as f64,
+                                (sy as f64 + 0.5) / n as f64,
+                            );
                             let p = Vector3::new(x * depth, y * depth, depth);
                             acc += texture(p.x, p.y, s.seed) * lamp_shading(&p, &self.lamp, depth);
                         }
                     }
                     let b = acc / (n * n) as f64;
-                    [s.backdrop_albedo[0] * b, s.backdrop_albedo[1] * b, s.backdrop_albedo[2] * b]
+                    [
+                        s.backdrop_albedo[0] * b,
+                        s.backdrop_albedo[1] * b,
+                        s.backdrop_albedo[2] * b,
+                    ]
                 })
             })
             .collect()

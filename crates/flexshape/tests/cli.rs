@@ -1,0 +1,132 @@
+//! The `flexshape` binary end to end.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn flexshape(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_flexshape"))
+        .args(args)
+        .output()
+        .expect("flexshape runs")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+#[test]
+fn simulate_writes_the_recording_layout_and_refuses_to_overwrite() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rec");
+    let o = flexshape(&["simulate", "--out", out.to_str().unwrap(), "--frames", "5"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("wrote 5 frames × 3 cameras"),
+        "{}",
+        text(&o)
+    );
+    let mut expected = vec!["rig.toml".to_string()];
+    for cam in ["cam0", "cam1", "cam2"] {
+        expected.push(format!("calibration/{cam}.yml"));
+        expected.push(format!("background/{cam}.png"));
+        for f in 0..5 {
+            expected.push(format!("frames/{cam}/{f:06}.png"));
+            expected.push(format!("truth/masks/{cam}/{f:06}.png"));
+        }
+    }
+    for f in 0..5 {
+        expected.push(format!("truth/{f:06}.json"));
+    }
+    for rel in &expected {
+        assert!(out.join(rel).is_file(), "{rel} missing");
+    }
+    assert!(!out.join("frames/cam0/000005.png").exists());
+    // A second run into the same folder is refused and leaves it as it was.
+    let before = std::fs::read(out.join("truth/000004.json")).unwrap();
+    let o = flexshape(&[
+        "simulate",
+        "--out",
+        out.to_str().unwrap(),
+        "--frames",
+        "2",
+        "--seed",
+        "9",
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("--overwrite"), "{}", text(&o));
+    assert_eq!(
+        std::fs::read(out.join("truth/000004.json")).unwrap(),
+        before
+    );
+    // The written rig checks out.
+    let o = flexshape(&["rig", "check", out.join("rig.toml").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("3 cameras") && text(&o).contains("volume corners in view 8/8"),
+        "{}",
+        text(&o)
+    );
+    let o = flexshape(&["rig", "check", out.join("calibration").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+}
+
+#[test]
+fn rig_check_names_the_bad_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rec");
+    let o = flexshape(&[
+        "simulate",
+        "--out",
+        out.to_str().unwrap(),
+        "--frames",
+        "1",
+        "--cams",
+        "2",
+        "--size",
+        "320x240",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let cam = out.join("calibration/cam1.yml");
+    let yaml = std::fs::read_to_string(&cam).unwrap();
+    std::fs::write(&cam, yaml.replacen("image_width: 320", "image_width: 0", 1)).unwrap();
+    let o = flexshape(&["rig", "check", out.join("rig.toml").to_str().unwrap()]);
+    assert!(!o.status.success());
+    let t = text(&o);
+    assert!(t.contains("cam1.yml") && t.contains("image_width"), "{t}");
+    let o = flexshape(&[
+        "rig",
+        "check",
+        Path::new("/nonexistent/rig.toml").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("/nonexistent/rig.toml"), "{}", text(&o));
+}
+
+#[test]
+fn demo_runs_and_reports() {
+    let o = flexshape(&["demo", "--frames", "2"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("2 frames: rendering 3 cameras"), "{t}");
+    assert_eq!(
+        t.lines()
+            .filter(|l| l.trim_start().starts_with(['0', '1']))
+            .count(),
+        2,
+        "{t}"
+    );
+}
+
+#[test]
+fn bad_arguments_are_clear() {
+    let o = flexshape(&["simulate", "--out", "/tmp/never", "--size", "640by480"]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("WIDTHxHEIGHT"), "{}", text(&o));
+    let o = flexshape(&["demo", "--frames", "1", "--cams", "0"]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("cameras"), "{}", text(&o));
+}
