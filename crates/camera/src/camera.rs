@@ -1,7 +1,6 @@
 //! A calibrated camera: intrinsics plus world → camera pose.
 
 use nalgebra::{Matrix2x3, Point2, Point3, Vector2, Vector3};
-use serde::{Deserialize, Serialize};
 
 use crate::error::{ProjectError, UndistortError};
 use crate::intrinsics::Intrinsics;
@@ -33,7 +32,7 @@ impl Ray {
 }
 
 /// A calibrated camera in OpenCV's conventions.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Camera {
     /// Image size, focal lengths, principal point, distortion.
     pub intrinsics: Intrinsics,

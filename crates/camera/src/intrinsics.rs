@@ -1,7 +1,6 @@
 //! Image size, pinhole parameters and lens distortion of one camera.
 
 use nalgebra::{Matrix2, Matrix3, Point2, Vector2};
-use serde::{Deserialize, Serialize};
 
 use crate::distortion::Distortion;
 use crate::error::{CameraError, UndistortError};
@@ -12,7 +11,7 @@ const FOLD_SEARCH_LIMIT: f64 = 10.0;
 /// Intrinsic parameters in OpenCV's meaning: focal lengths and principal point in pixels
 /// (pixel (0, 0) is the centre of the top-left pixel), image size in pixels, and lens distortion.
 /// Skew is not modelled (OpenCV's `projectPoints` ignores it).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Intrinsics {
     /// Image width in pixels.
     pub width: u32,
@@ -29,12 +28,7 @@ pub struct Intrinsics {
     /// Lens distortion on normalized coordinates.
     pub distortion: Distortion,
     /// Largest normalized radius where the radial distortion is monotonic (derived).
-    #[serde(skip, default = "unbounded")]
     valid_radius: f64,
-}
-
-fn unbounded() -> f64 {
-    f64::INFINITY
 }
 
 impl Intrinsics {

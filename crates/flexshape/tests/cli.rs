@@ -111,7 +111,7 @@ fn demo_runs_and_reports() {
     let o = flexshape(&["demo", "--frames", "2"]);
     assert!(o.status.success(), "{}", text(&o));
     let t = text(&o);
-    assert!(t.contains("2 frames: rendering 3 cameras"), "{t}");
+    assert!(t.contains("2 frames: simulating 3 cameras"), "{t}");
     assert_eq!(
         t.lines()
             .filter(|l| l.trim_start().starts_with(['0', '1']))

@@ -21,18 +21,32 @@ pub struct RecordingWriter {
 impl RecordingWriter {
     /// Creates the folder tree at `root` and writes `rig.toml` and `calibration/<cam>.yml`
     /// for every camera of `rig`. A non-empty `root` is refused unless `overwrite` is set, so
-    /// an earlier recording is never clobbered by accident.
+    /// an earlier recording is never clobbered by accident; with `overwrite`, the parts of a
+    /// recording (`rig.toml`, `calibration/`, `background/`, `frames/`, `truth/`) are removed
+    /// first so no stale frame of the old recording survives, and nothing else is touched.
     pub fn create(root: &Path, rig: &Rig, overwrite: bool) -> Result<Self, RecordingError> {
         let layout = Layout::new(root);
-        if !overwrite
-            && let Ok(mut entries) = std::fs::read_dir(root)
+        if let Ok(mut entries) = std::fs::read_dir(root)
             && entries.next().is_some()
         {
-            return Err(RecordingError::Layout {
-                path: root.to_path_buf(),
-                problem: "folder exists and is not empty; choose a new folder or pass --overwrite"
-                    .into(),
-            });
+            if !overwrite {
+                return Err(RecordingError::Layout {
+                    path: root.to_path_buf(),
+                    problem:
+                        "folder exists and is not empty; choose a new folder or pass --overwrite"
+                            .into(),
+                });
+            }
+            for part in ["calibration", "background", "frames", "truth"] {
+                let dir = root.join(part);
+                if dir.is_dir() {
+                    std::fs::remove_dir_all(&dir).map_err(|e| RecordingError::io(&dir, e))?;
+                }
+            }
+            let rig_file = layout.rig();
+            if rig_file.is_file() {
+                std::fs::remove_file(&rig_file).map_err(|e| RecordingError::io(&rig_file, e))?;
+            }
         }
         let mut dirs = vec![
             layout.calibration_dir(),

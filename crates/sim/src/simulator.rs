@@ -131,16 +131,17 @@ impl Simulator {
             .collect()
     }
 
-    /// Writes a recording of `poses` to `dir` (see `flexshape_recording`), calling `progress`
-    /// after each complete frame; it returns `ControlFlow::Break` to stop early (e.g. on
-    /// Ctrl-C). Refuses a non-empty `dir` unless `overwrite`. Returns the number of frames
-    /// written; every written file is complete.
+    /// Writes a recording of `poses` to `dir` (see `flexshape_recording`), handing each frame
+    /// to `on_frame` once it is on disk; `on_frame` returns `ControlFlow::Break` to stop early
+    /// (e.g. on Ctrl-C). Refuses a non-empty `dir` unless `overwrite` (see
+    /// [`RecordingWriter::create`]). Returns the number of frames written; every written file
+    /// is complete.
     pub fn write_recording(
         &self,
         dir: &Path,
         poses: &[CatheterPose],
         overwrite: bool,
-        mut progress: impl FnMut(u64) -> ControlFlow<()>,
+        mut on_frame: impl FnMut(&SimFrame) -> ControlFlow<()>,
     ) -> Result<u64, SimError> {
         let writer = RecordingWriter::create(dir, &self.rig, overwrite)?;
         let names: Vec<&str> = self.rig.cameras.iter().map(|c| c.name.as_str()).collect();
@@ -156,7 +157,7 @@ impl Simulator {
                 writer.write_truth_markers(name, frame, &view.markers)?;
             }
             writer.write_truth(&sim.truth)?;
-            if progress(frame).is_break() {
+            if on_frame(&sim).is_break() {
                 return Ok(frame + 1);
             }
         }

@@ -12,7 +12,7 @@ fn write(dir: &std::path::Path, frames: usize) -> Simulator {
     let mut seen = Vec::new();
     let written = sim
         .write_recording(dir, &poses, false, |f| {
-            seen.push(f);
+            seen.push(f.truth.frame);
             ControlFlow::Continue(())
         })
         .unwrap();
@@ -60,6 +60,17 @@ fn recording_round_trips() {
         .err()
         .unwrap();
     assert!(err.to_string().contains("--overwrite"), "{err}");
+    // Overwriting a longer recording with a shorter one leaves no stale frame behind.
+    let keep = dir.path().join("notes.txt");
+    std::fs::write(&keep, "mine").unwrap();
+    sim.write_recording(dir.path(), &sim.sweep(1), true, |_| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let rec = RecordingReader::open(dir.path()).unwrap();
+    assert_eq!(rec.frames(), &[0]);
+    assert!(rec.read_truth(1).unwrap().is_none());
+    assert_eq!(std::fs::read_to_string(&keep).unwrap(), "mine");
     // A calibration folder alone (no rig.toml) is enough to open it.
     std::fs::remove_file(dir.path().join("rig.toml")).unwrap();
     assert_eq!(
@@ -123,7 +134,7 @@ fn stopping_early_leaves_whole_frames_only() {
     let sim = Simulator::new(SimConfig::default()).unwrap();
     let written = sim
         .write_recording(dir.path(), &sim.sweep(5), false, |f| {
-            if f == 1 {
+            if f.truth.frame == 1 {
                 ControlFlow::Break(())
             } else {
                 ControlFlow::Continue(())

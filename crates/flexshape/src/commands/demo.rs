@@ -8,7 +8,7 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use anyhow::Context;
-use flexshape_sim::Simulator;
+use flexshape_sim::{SimFrame, Simulator};
 
 use crate::cli::DemoArgs;
 use crate::interrupt::Interrupt;
@@ -51,15 +51,9 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         "render ms"
     );
     let mut render_ms = Vec::new();
-    for (i, pose) in sim.sweep(args.frames).iter().enumerate() {
-        if stop.requested() {
-            break;
-        }
-        let t = Instant::now();
-        let frame = sim
-            .render(i as u64, pose)
-            .with_context(|| format!("frame {i}"))?;
-        let ms = t.elapsed().as_secs_f64() * 1e3;
+    let mut last = Instant::now();
+    let mut report = |frame: &SimFrame| {
+        let ms = last.elapsed().as_secs_f64() * 1e3;
         render_ms.push(ms);
         let truth = &frame.truth;
         let [kx, kz] = truth.kappa.unwrap_or([0.0, 0.0]);
@@ -72,7 +66,8 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             .collect();
         let [x, y, z] = truth.tip;
         println!(
-            "{i:>5} {:>6.1} {:>7.1} {:>26} {:>8.1} {:>7.2}  {:<w$}  {ms:>9.1}",
+            "{:>5} {:>6.1} {:>7.1} {:>26} {:>8.1} {:>7.2}  {:<w$}  {ms:>9.1}",
+            truth.frame,
             (kx.hypot(kz) * arc).to_degrees(),
             kz.atan2(kx).to_degrees(),
             format!("{x:.1}, {y:.1}, {z:.1}"),
@@ -81,29 +76,46 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             pixels.join("/"),
             w = pixels_header.len(),
         );
-    }
-    if let Some(dir) = &args.out {
-        let poses = sim.sweep(args.frames);
-        let written = sim
-            .write_recording(dir, &poses, false, |_| {
-                if stop.requested() {
-                    ControlFlow::Break(())
-                } else {
-                    ControlFlow::Continue(())
+        last = Instant::now();
+        if stop.requested() {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    };
+    let poses = sim.sweep(args.frames);
+    match &args.out {
+        Some(dir) => {
+            let written = sim
+                .write_recording(dir, &poses, false, &mut report)
+                .with_context(|| format!("cannot write the recording to {}", dir.display()))?;
+            println!("\nwrote {written} frames to {}", dir.display());
+        }
+        None => {
+            for (i, pose) in poses.iter().enumerate() {
+                let frame = sim
+                    .render(i as u64, pose)
+                    .with_context(|| format!("frame {i}"))?;
+                if report(&frame).is_break() {
+                    break;
                 }
-            })
-            .with_context(|| format!("cannot write the recording to {}", dir.display()))?;
-        println!("\nwrote {written} frames to {}", dir.display());
+            }
+        }
     }
     if !render_ms.is_empty() {
         render_ms.sort_by(f64::total_cmp);
         let mean = render_ms.iter().sum::<f64>() / render_ms.len() as f64;
         println!(
-            "\n{} frames: rendering {} cameras takes {mean:.1} ms per frame on average (median {:.1} ms, {:.1} frames/s)",
+            "\n{} frames: simulating {} cameras takes {mean:.1} ms per frame on average (median {:.1} ms, {:.1} frames/s){}",
             render_ms.len(),
             names.len(),
             render_ms[render_ms.len() / 2],
-            1e3 / mean
+            1e3 / mean,
+            if args.out.is_some() {
+                ", including writing PNGs"
+            } else {
+                ""
+            }
         );
     }
     Ok(())

@@ -57,11 +57,14 @@ pub(crate) fn lamp_shading(p: &Vector3<f64>, lamp: &Vector3<f64>, depth: f64) ->
 
 /// Fraction of the lamp (a sphere of radius `lamp_radius`) visible from backdrop point `p`
 /// past an occluder of radius `r` whose axis passes at distance `d` from the segment `p → lamp`,
-/// at fraction `t` of the way from `p`: the light cone there has radius `lamp_radius · t`.
+/// at fraction `t` of the way from `p`. There the light cone has radius `lamp_radius · t`; the
+/// occluder is a strip `[d − r, d + r]` across it, and the covered share of the cone's width is
+/// the share of light blocked. A thin occluder in a wide cone therefore casts only a partial
+/// shadow, as it does in reality.
 pub(crate) fn lamp_visibility(d: f64, r: f64, t: f64, lamp_radius: f64) -> f64 {
-    let half = (lamp_radius * t).max(1e-3);
-    let x = ((d - r + half) / (2.0 * half)).clamp(0.0, 1.0);
-    x * x * (3.0 - 2.0 * x)
+    let half = (lamp_radius * t).max(1e-6);
+    let covered = ((d + r).min(half) - (d - r).max(-half)).max(0.0);
+    1.0 - (covered / (2.0 * half)).min(1.0)
 }
 
 #[cfg(test)]
@@ -81,9 +84,13 @@ mod tests {
     }
 
     #[test]
-    fn visibility_goes_from_dark_to_lit() {
-        assert_eq!(lamp_visibility(0.0, 3.0, 0.5, 20.0), 0.0);
-        assert_eq!(lamp_visibility(30.0, 3.0, 0.5, 20.0), 1.0);
-        assert!((lamp_visibility(3.0, 3.0, 0.5, 20.0) - 0.5).abs() < 1e-12);
+    fn visibility_umbra_penumbra_and_partial_shadows() {
+        // Narrow cone (occluder near the backdrop): a full umbra, lit far away.
+        assert_eq!(lamp_visibility(0.0, 3.0, 0.1, 20.0), 0.0);
+        assert_eq!(lamp_visibility(30.0, 3.0, 0.1, 20.0), 1.0);
+        // The occluder's edge through the cone's axis blocks half the light.
+        assert!((lamp_visibility(3.0, 3.0, 0.05, 20.0) - 0.5).abs() < 1e-12);
+        // Wide cone (occluder near the lamp): even dead centre only 6 of 20 mm are covered.
+        assert!((lamp_visibility(0.0, 3.0, 0.5, 20.0) - 0.7).abs() < 1e-12);
     }
 }

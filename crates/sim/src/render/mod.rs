@@ -58,7 +58,7 @@ impl Default for RenderSettings {
             shadows: false,
             backdrop_depth: 1000.0,
             lamp_offset: [120.0, -160.0, 0.0],
-            lamp_radius: 25.0,
+            lamp_radius: 6.0,
             shadow_strength: 0.45,
             backdrop_albedo: [0.70, 0.88, 0.66],
             seed: 1,
