@@ -1,1 +1,27 @@
-//! Silhouettes: per-camera object and marker masks from a frame and a background model (issue 3; not yet built).
+//! Silhouettes: per camera, the object mask and the marker-band mask of a frame, from a
+//! background model (paper, Section II-A).
+//!
+//! Pipeline ([`Silhouetter::process`]): classify every pixel against the [`BackgroundModel`]
+//! ([`Classifier`]: the paper's green matting, or colour subtraction with shadow rejection) into
+//! bit-packed masks ([`BitMask`]), close small holes, keep the object's connected components
+//! ([`KeepComponents`]), then find the marker tape inside the object ([`MarkerSettings`]).
+//! Masks keep their boundary at half contrast; [`dilated`] derives a margin where one is
+//! wanted. Pixel (0, 0) is the top-left pixel.
+
+mod background;
+mod bitmask;
+mod classify;
+pub mod components;
+mod error;
+mod markers;
+mod silhouetter;
+
+pub use background::{BackgroundModel, DEFAULT_SPREAD};
+pub use bitmask::BitMask;
+pub use classify::Classifier;
+pub use components::KeepComponents;
+pub use error::SilhouetteError;
+pub use markers::MarkerSettings;
+pub use silhouetter::{
+    Silhouette, SilhouetteSettings, SilhouetteStatus, Silhouetter, debug_image, dilated,
+};

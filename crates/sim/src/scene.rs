@@ -7,8 +7,9 @@ use flexshape_curve::Polyline;
 /// Linear RGB reflectance in `[0, 1]`.
 pub type Albedo = [f64; 3];
 
-/// Default catheter body: dark blue-grey plastic.
-pub const BODY_ALBEDO: Albedo = [0.20, 0.25, 0.33];
+/// Default catheter body: dark blue plastic, like many sheaths (a neutral black would be
+/// indistinguishable from a shadow by colour).
+pub const BODY_ALBEDO: Albedo = [0.14, 0.20, 0.40];
 /// Default marker tape: red.
 pub const BAND_ALBEDO: Albedo = [0.78, 0.09, 0.08];
 /// Default occluder: neutral grey.

@@ -1,0 +1,208 @@
+//! The background model: per-pixel mean colour and spread from one or more frames without the
+//! object.
+
+use std::path::{Path, PathBuf};
+
+use image::{ImageBuffer, Luma, RgbImage};
+
+use crate::error::SilhouetteError;
+
+/// Spread assumed when the model comes from a single frame, grey levels.
+pub const DEFAULT_SPREAD: f32 = 2.5;
+
+/// Per-pixel statistics of the empty scene (0–255 scale).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BackgroundModel {
+    width: u32,
+    height: u32,
+    /// Mean RGB per pixel, row-major.
+    mean: Vec<[f32; 3]>,
+    /// Standard deviation per pixel (over frames, pooled over channels), grey levels.
+    spread: Vec<f32>,
+}
+
+impl BackgroundModel {
+    /// From background frames of equal size. One frame gives the mean and a uniform spread of
+    /// [`DEFAULT_SPREAD`]; several give per-pixel spreads (never below 0.5 grey levels).
+    pub fn from_frames(frames: &[RgbImage]) -> Result<Self, SilhouetteError> {
+        let first = frames.first().ok_or(SilhouetteError::NoBackground)?;
+        let (width, height) = first.dimensions();
+        if width == 0 || height == 0 {
+            return Err(SilhouetteError::EmptyFrame);
+        }
+        for f in frames {
+            if f.dimensions() != (width, height) {
+                return Err(SilhouetteError::SizeMismatch {
+                    width: f.width(),
+                    height: f.height(),
+                    expected_width: width,
+                    expected_height: height,
+                });
+            }
+        }
+        let n = (width * height) as usize;
+        let mut sum = vec![[0f64; 3]; n];
+        let mut sum2 = vec![0f64; n];
+        for f in frames {
+            for (i, p) in f.pixels().enumerate() {
+                for c in 0..3 {
+                    let v = p[c] as f64;
+                    sum[i][c] += v;
+                    sum2[i] += v * v;
+                }
+            }
+        }
+        let k = frames.len() as f64;
+        let mean: Vec<[f32; 3]> = sum.iter().map(|s| s.map(|v| (v / k) as f32)).collect();
+        let spread = if frames.len() == 1 {
+            vec![DEFAULT_SPREAD; n]
+        } else {
+            sum2.iter()
+                .zip(&sum)
+                .map(|(&s2, s)| {
+                    let m2: f64 = s.iter().map(|v| (v / k) * (v / k)).sum();
+                    let var = (s2 / k - m2) / 3.0 * k / (k - 1.0);
+                    (var.max(0.0).sqrt() as f32).max(0.5)
+                })
+                .collect()
+        };
+        Ok(BackgroundModel {
+            width,
+            height,
+            mean,
+            spread,
+        })
+    }
+
+    /// Image width.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Image height.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Mean colour of pixel index `i` (row-major).
+    pub fn mean(&self, i: usize) -> [f32; 3] {
+        self.mean[i]
+    }
+
+    /// Spread of pixel index `i`, grey levels.
+    pub fn spread(&self, i: usize) -> f32 {
+        self.spread[i]
+    }
+
+    /// The spread file stored beside a background image `camK.png`: `camK.spread.png`.
+    pub fn spread_path(image: &Path) -> PathBuf {
+        image.with_extension("spread.png")
+    }
+
+    /// Saves the mean as an 8-bit PNG at `path` (the recording's `background/camK.png`) and the
+    /// spread as a 16-bit grey PNG beside it (`camK.spread.png`, value = spread × 256).
+    pub fn save(&self, path: &Path) -> Result<(), SilhouetteError> {
+        let file_err = |p: &Path, e: image::ImageError| SilhouetteError::File {
+            path: p.to_path_buf(),
+            message: e.to_string(),
+        };
+        let mean = RgbImage::from_fn(self.width, self.height, |x, y| {
+            let m = self.mean[(y * self.width + x) as usize];
+            image::Rgb(m.map(|v| v.round().clamp(0.0, 255.0) as u8))
+        });
+        mean.save(path).map_err(|e| file_err(path, e))?;
+        let spread: ImageBuffer<Luma<u16>, Vec<u16>> =
+            ImageBuffer::from_fn(self.width, self.height, |x, y| {
+                Luma([(self.spread[(y * self.width + x) as usize] * 256.0)
+                    .round()
+                    .clamp(0.0, 65535.0) as u16])
+            });
+        let sp = Self::spread_path(path);
+        spread.save(&sp).map_err(|e| file_err(&sp, e))
+    }
+
+    /// Loads a model saved by [`BackgroundModel::save`]; a plain background image without a
+    /// spread file gives a uniform spread of [`DEFAULT_SPREAD`].
+    pub fn load(path: &Path) -> Result<Self, SilhouetteError> {
+        let file_err = |p: &Path, message: String| SilhouetteError::File {
+            path: p.to_path_buf(),
+            message,
+        };
+        let img = image::open(path)
+            .map_err(|e| file_err(path, format!("cannot read background image: {e}")))?
+            .to_rgb8();
+        let mut model = Self::from_frames(std::slice::from_ref(&img))?;
+        let sp = Self::spread_path(path);
+        if sp.is_file() {
+            let spread = image::open(&sp)
+                .map_err(|e| file_err(&sp, format!("cannot read spread image: {e}")))?
+                .to_luma16();
+            if spread.dimensions() != img.dimensions() {
+                return Err(file_err(
+                    &sp,
+                    format!(
+                        "spread image is {}×{} but the background is {}×{}",
+                        spread.width(),
+                        spread.height(),
+                        img.width(),
+                        img.height()
+                    ),
+                ));
+            }
+            model.spread = spread
+                .pixels()
+                .map(|p| (p[0] as f32 / 256.0).max(0.5))
+                .collect();
+        }
+        Ok(model)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mean_and_spread_from_frames() {
+        let a = RgbImage::from_pixel(4, 3, image::Rgb([100, 150, 200]));
+        let b = RgbImage::from_pixel(4, 3, image::Rgb([104, 154, 204]));
+        let m = BackgroundModel::from_frames(&[a.clone(), b]).unwrap();
+        assert_eq!(m.mean(5), [102.0, 152.0, 202.0]);
+        // Sample std of {100, 104} is 2·√2.
+        assert!((m.spread(5) - 8f32.sqrt()).abs() < 1e-4);
+        let single = BackgroundModel::from_frames(&[a]).unwrap();
+        assert_eq!(single.spread(0), DEFAULT_SPREAD);
+        assert!(matches!(
+            BackgroundModel::from_frames(&[]),
+            Err(SilhouetteError::NoBackground)
+        ));
+        let c = RgbImage::new(5, 3);
+        assert!(matches!(
+            BackgroundModel::from_frames(&[RgbImage::new(4, 3), c]),
+            Err(SilhouetteError::SizeMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn save_and_load_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let frames: Vec<RgbImage> = (0..4u8)
+            .map(|k| {
+                RgbImage::from_fn(6, 5, |x, y| {
+                    image::Rgb([x as u8 * 10 + k, y as u8 * 20, 100 + 2 * k])
+                })
+            })
+            .collect();
+        let m = BackgroundModel::from_frames(&frames).unwrap();
+        let path = dir.path().join("cam0.png");
+        m.save(&path).unwrap();
+        assert!(dir.path().join("cam0.spread.png").is_file());
+        let back = BackgroundModel::load(&path).unwrap();
+        for i in 0..30 {
+            for c in 0..3 {
+                assert!((back.mean(i)[c] - m.mean(i)[c]).abs() <= 0.5);
+            }
+            assert!((back.spread(i) - m.spread(i)).abs() < 1.0 / 256.0);
+        }
+    }
+}

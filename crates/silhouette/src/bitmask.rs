@@ -1,0 +1,256 @@
+//! Binary images packed 64 pixels to a word, with square-window morphology done by word shifts.
+
+use image::GrayImage;
+
+/// A binary image; bit `x % 64` of word `x / 64` of row `y` is pixel `(x, y)`. Bits past the
+/// width are always zero.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BitMask {
+    width: usize,
+    height: usize,
+    stride: usize,
+    words: Vec<u64>,
+}
+
+impl BitMask {
+    /// An all-zero mask.
+    pub fn new(width: usize, height: usize) -> Self {
+        let stride = width.div_ceil(64);
+        BitMask {
+            width,
+            height,
+            stride,
+            words: vec![0; stride * height],
+        }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Words per row.
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// Row `y` as words.
+    pub fn row(&self, y: usize) -> &[u64] {
+        &self.words[y * self.stride..(y + 1) * self.stride]
+    }
+
+    /// Row `y` as words, mutable. Callers keep the bits past the width zero.
+    pub fn row_mut(&mut self, y: usize) -> &mut [u64] {
+        &mut self.words[y * self.stride..(y + 1) * self.stride]
+    }
+
+    /// Pixel value.
+    pub fn get(&self, x: usize, y: usize) -> bool {
+        self.words[y * self.stride + x / 64] >> (x % 64) & 1 == 1
+    }
+
+    /// Sets a pixel.
+    pub fn set(&mut self, x: usize, y: usize, v: bool) {
+        let w = &mut self.words[y * self.stride + x / 64];
+        if v {
+            *w |= 1 << (x % 64);
+        } else {
+            *w &= !(1 << (x % 64));
+        }
+    }
+
+    /// Number of set pixels.
+    pub fn count(&self) -> usize {
+        self.words.iter().map(|w| w.count_ones() as usize).sum()
+    }
+
+    /// Mask of the valid bits of a row's last word.
+    fn tail_mask(&self) -> u64 {
+        match self.width % 64 {
+            0 => u64::MAX,
+            r => (1u64 << r) - 1,
+        }
+    }
+
+    /// 255 where set, 0 elsewhere.
+    pub fn to_gray(&self) -> GrayImage {
+        GrayImage::from_fn(self.width as u32, self.height as u32, |x, y| {
+            image::Luma([if self.get(x as usize, y as usize) {
+                255
+            } else {
+                0
+            }])
+        })
+    }
+
+    /// Set where the grey value is at least 128.
+    pub fn from_gray(img: &GrayImage) -> Self {
+        let mut m = BitMask::new(img.width() as usize, img.height() as usize);
+        for (x, y, p) in img.enumerate_pixels() {
+            if p[0] >= 128 {
+                m.set(x as usize, y as usize, true);
+            }
+        }
+        m
+    }
+
+    /// Pixel-wise OR.
+    pub fn or(&self, o: &BitMask) -> BitMask {
+        self.zip(o, |a, b| a | b)
+    }
+
+    /// Pixel-wise AND.
+    pub fn and(&self, o: &BitMask) -> BitMask {
+        self.zip(o, |a, b| a & b)
+    }
+
+    fn zip(&self, o: &BitMask, f: impl Fn(u64, u64) -> u64) -> BitMask {
+        debug_assert_eq!((self.width, self.height), (o.width, o.height));
+        BitMask {
+            words: self
+                .words
+                .iter()
+                .zip(&o.words)
+                .map(|(&a, &b)| f(a, b))
+                .collect(),
+            ..*self
+        }
+    }
+
+    /// Complement (within the image).
+    pub fn not(&self) -> BitMask {
+        let tail = self.tail_mask();
+        let mut m = BitMask {
+            words: self.words.iter().map(|w| !w).collect(),
+            ..*self
+        };
+        for y in 0..m.height {
+            let last = (y + 1) * m.stride - 1;
+            m.words[last] &= tail;
+        }
+        m
+    }
+
+    /// Dilation by the square window of side `2r + 1` (outside the image counts as unset).
+    pub fn dilate(&self, r: usize) -> BitMask {
+        if r == 0 {
+            return self.clone();
+        }
+        let r = r.min(63);
+        let mut horizontal = BitMask::new(self.width, self.height);
+        let tail = self.tail_mask();
+        for y in 0..self.height {
+            let src = self.row(y);
+            let dst = horizontal.row_mut(y);
+            for (i, d) in dst.iter_mut().enumerate() {
+                let prev = if i > 0 { src[i - 1] } else { 0 };
+                let next = src.get(i + 1).copied().unwrap_or(0);
+                let mut acc = src[i];
+                for k in 1..=r as u32 {
+                    // Pixel x takes x + k (shift right) and x − k (shift left).
+                    acc |= (src[i] >> k) | (next << (64 - k));
+                    acc |= (src[i] << k) | (prev >> (64 - k));
+                }
+                *d = acc;
+            }
+            if let Some(last) = dst.last_mut() {
+                *last &= tail;
+            }
+        }
+        let mut out = BitMask::new(self.width, self.height);
+        for y in 0..self.height {
+            let lo = y.saturating_sub(r);
+            let hi = (y + r).min(self.height - 1);
+            for yy in lo..=hi {
+                let src = horizontal.row(yy).to_vec();
+                for (d, s) in out.row_mut(y).iter_mut().zip(src) {
+                    *d |= s;
+                }
+            }
+        }
+        out
+    }
+
+    /// Erosion by the square window of side `2r + 1`; outside the image counts as set, so the
+    /// border does not eat into objects touching it.
+    pub fn erode(&self, r: usize) -> BitMask {
+        self.not().dilate(r).not()
+    }
+
+    /// Closing (dilation then erosion): fills gaps narrower than `2r + 1` without moving
+    /// straight boundaries.
+    pub fn close(&self, r: usize) -> BitMask {
+        self.dilate(r).erode(r)
+    }
+
+    /// Intersection over union with another mask of the same size (1 when both are empty).
+    pub fn iou(&self, o: &BitMask) -> f64 {
+        let inter = self.and(o).count();
+        let union = self.or(o).count();
+        if union == 0 {
+            1.0
+        } else {
+            inter as f64 / union as f64
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn naive_dilate(m: &BitMask, r: usize) -> BitMask {
+        let mut out = BitMask::new(m.width(), m.height());
+        for y in 0..m.height() {
+            for x in 0..m.width() {
+                let mut v = false;
+                for yy in y.saturating_sub(r)..=(y + r).min(m.height() - 1) {
+                    for xx in x.saturating_sub(r)..=(x + r).min(m.width() - 1) {
+                        v |= m.get(xx, yy);
+                    }
+                }
+                out.set(x, y, v);
+            }
+        }
+        out
+    }
+
+    proptest! {
+        #[test]
+        fn dilation_matches_the_definition(w in 1usize..150, h in 1usize..20, r in 0usize..4, seed in any::<u64>()) {
+            let mut m = BitMask::new(w, h);
+            let mut s = seed;
+            for y in 0..h {
+                for x in 0..w {
+                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    m.set(x, y, (s >> 60) == 0);
+                }
+            }
+            prop_assert_eq!(m.dilate(r), naive_dilate(&m, r));
+            // Erosion is the dual with the outside counted as set.
+            let e = m.erode(r);
+            prop_assert_eq!(e.not(), naive_dilate(&m.not(), r));
+        }
+    }
+
+    #[test]
+    fn closing_fills_a_one_pixel_gap_and_keeps_edges() {
+        let mut m = BitMask::new(70, 10);
+        for y in 2..8 {
+            for x in 10..66 {
+                m.set(x, y, x != 40);
+            }
+        }
+        let c = m.close(1);
+        assert!(c.get(40, 5));
+        assert!(!c.get(9, 5) && c.get(10, 5) && c.get(65, 5) && !c.get(66, 5));
+        assert!(!c.get(20, 1) && c.get(20, 2) && c.get(20, 7) && !c.get(20, 8));
+        assert_eq!(c.count(), 56 * 6);
+    }
+}

@@ -1,0 +1,291 @@
+//! Foreground classification against the background model, per pixel, into bit masks.
+//!
+//! Two classifiers, chosen per camera:
+//! - [`Classifier::GreenMatte`], the paper's: foreground where the green channel is darker
+//!   than the background's by more than `max(fraction · bg, min_difference, noise_factor · σ)`.
+//!   With `fraction` ≈ 0.45 the boundary sits at half contrast for a dark object on a bright
+//!   backdrop. Shadows darker than that fraction become foreground.
+//! - [`Classifier::ColourShadow`], after Horprasert et al. and Cheung et al.: with `E` the
+//!   background colour and `I` the pixel, the brightness distortion `α = I·E / E·E` and the
+//!   chromaticity distortion `CD = ‖I − αE‖ / ‖E‖` (≈ the angle between the two RGB vectors).
+//!   A shadow keeps the background's chromaticity (`CD ≈ 0`) at `α < 1`, so only colour or a
+//!   darkness beyond any shadow makes a pixel foreground. Mixed pixels at a dark object's edge
+//!   look like shadows, so the classifier uses hysteresis: pixels passing the strict test are
+//!   foreground; a pixel passing a looser test that touches them is foreground when its
+//!   estimated coverage `c = (I − E)·(S − E) / ‖S − E‖²` is at least ½, with `S` the mean
+//!   colour of its strict neighbours (the pure surface colour). That puts the boundary at half
+//!   contrast whatever the surface colour.
+
+use image::RgbImage;
+use serde::{Deserialize, Serialize};
+
+use crate::background::BackgroundModel;
+use crate::bitmask::BitMask;
+use crate::error::SilhouetteError;
+use crate::markers::for_each_set;
+
+/// How pixels are told from the background.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Classifier {
+    /// Green-channel difference (the paper's colour matting).
+    GreenMatte {
+        /// Share of the background's green a pixel must lose, e.g. 0.45.
+        fraction: f32,
+        /// Smallest difference that counts, grey levels.
+        min_difference: f32,
+        /// Smallest difference in units of the pixel's background spread.
+        noise_factor: f32,
+    },
+    /// Colour subtraction with shadow rejection and hysteresis.
+    ColourShadow {
+        /// Chromaticity distortion that alone makes a pixel foreground (strict test).
+        chroma: f32,
+        /// Chromaticity distortion of the loose test.
+        chroma_weak: f32,
+        /// Brightness ratio below which a pixel is foreground (strict; darker than any
+        /// shadow).
+        dark: f32,
+        /// Brightness ratio of the loose test (≈ half contrast for a dark object).
+        dark_weak: f32,
+        /// Brightness ratio above which a pixel is foreground (brighter than the backdrop).
+        bright: f32,
+        /// The chromaticity thresholds are at least this many noise spreads.
+        noise_factor: f32,
+    },
+}
+
+impl Classifier {
+    /// The paper's green matting with half-contrast defaults.
+    pub fn green_matte() -> Self {
+        Classifier::GreenMatte {
+            fraction: 0.45,
+            min_difference: 20.0,
+            noise_factor: 4.0,
+        }
+    }
+
+    /// Shadow-rejecting colour subtraction with defaults for a dark object on a bright
+    /// backdrop and shadows removing up to half the light.
+    pub fn colour_shadow() -> Self {
+        Classifier::ColourShadow {
+            chroma: 0.25,
+            chroma_weak: 0.08,
+            dark: 0.40,
+            dark_weak: 0.57,
+            bright: 1.40,
+            noise_factor: 4.0,
+        }
+    }
+
+    pub(crate) fn validate(&self) -> Result<(), SilhouetteError> {
+        let check = |field: &'static str, v: f32, lo: f32, hi: f32| {
+            if v.is_finite() && v >= lo && v <= hi {
+                Ok(())
+            } else {
+                Err(SilhouetteError::Setting {
+                    field,
+                    problem: format!("{v} is outside [{lo}, {hi}]"),
+                })
+            }
+        };
+        match *self {
+            Classifier::GreenMatte {
+                fraction,
+                min_difference,
+                noise_factor,
+            } => {
+                check("fraction", fraction, 0.0, 1.0)?;
+                check("min_difference", min_difference, 0.0, 255.0)?;
+                check("noise_factor", noise_factor, 0.0, 100.0)
+            }
+            Classifier::ColourShadow {
+                chroma,
+                chroma_weak,
+                dark,
+                dark_weak,
+                bright,
+                noise_factor,
+            } => {
+                check("chroma", chroma, 0.0, 2.0)?;
+                check("chroma_weak", chroma_weak, 0.0, chroma)?;
+                check("dark", dark, 0.0, 1.0)?;
+                check("dark_weak", dark_weak, dark, 1.0)?;
+                check("bright", bright, 1.0, 100.0)?;
+                check("noise_factor", noise_factor, 0.0, 100.0)
+            }
+        }
+    }
+}
+
+/// A classifier with its per-pixel thresholds precomputed for one background model.
+#[derive(Debug, Clone)]
+pub(crate) enum Prepared {
+    /// Foreground iff the green value is below `limit[i]`.
+    Green { limit: Vec<u8> },
+    /// Per pixel: background colour, `1 / E·E`, and squared chromaticity thresholds.
+    Colour {
+        bg: Vec<[f32; 3]>,
+        inv_e2: Vec<f32>,
+        cd2: Vec<[f32; 2]>,
+        dark: f32,
+        dark_weak: f32,
+        bright: f32,
+    },
+}
+
+impl Prepared {
+    pub fn new(model: &BackgroundModel, classifier: &Classifier) -> Self {
+        let n = (model.width() * model.height()) as usize;
+        match *classifier {
+            Classifier::GreenMatte {
+                fraction,
+                min_difference,
+                noise_factor,
+            } => Prepared::Green {
+                limit: (0..n)
+                    .map(|i| {
+                        let g = model.mean(i)[1];
+                        let margin = (fraction * g)
+                            .max(min_difference)
+                            .max(noise_factor * model.spread(i));
+                        // G < g − margin ⇔ G < ceil(g − margin) for integer G.
+                        (g - margin).ceil().clamp(0.0, 255.0) as u8
+                    })
+                    .collect(),
+            },
+            Classifier::ColourShadow {
+                chroma,
+                chroma_weak,
+                dark,
+                dark_weak,
+                bright,
+                noise_factor,
+            } => {
+                let mut bg = Vec::with_capacity(n);
+                let mut inv_e2 = Vec::with_capacity(n);
+                let mut cd2 = Vec::with_capacity(n);
+                for i in 0..n {
+                    let e = model.mean(i);
+                    let e2 = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).max(1.0);
+                    // Noise of σ per channel moves CD by about σ/‖E‖.
+                    let floor = noise_factor * model.spread(i) / e2.sqrt();
+                    let (s, w) = (chroma.max(floor), chroma_weak.max(floor));
+                    bg.push(e);
+                    inv_e2.push(1.0 / e2);
+                    cd2.push([s * s, w * w]);
+                }
+                Prepared::Colour {
+                    bg,
+                    inv_e2,
+                    cd2,
+                    dark,
+                    dark_weak,
+                    bright,
+                }
+            }
+        }
+    }
+
+    /// Classifies a frame into the foreground mask (before clean-up).
+    pub fn foreground(&self, frame: &RgbImage) -> BitMask {
+        let (strong, weak) = self.classify(frame);
+        let Prepared::Colour { bg, .. } = self else {
+            return strong;
+        };
+        let (w, h) = (strong.width(), strong.height());
+        let ring = weak.and(&strong.dilate(1)).and(&strong.not());
+        let px = frame.as_raw();
+        let colour = |x: usize, y: usize| {
+            let i = (y * w + x) * 3;
+            [px[i] as f32, px[i + 1] as f32, px[i + 2] as f32]
+        };
+        let mut out = strong.clone();
+        for_each_set(&ring, |x, y| {
+            let (mut sum, mut n) = ([0f32; 3], 0f32);
+            for yy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+                for xx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
+                    if strong.get(xx, yy) {
+                        let c = colour(xx, yy);
+                        for k in 0..3 {
+                            sum[k] += c[k];
+                        }
+                        n += 1.0;
+                    }
+                }
+            }
+            let e = bg[y * w + x];
+            let i = colour(x, y);
+            let d: [f32; 3] = std::array::from_fn(|k| sum[k] / n - e[k]);
+            let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let c =
+                ((i[0] - e[0]) * d[0] + (i[1] - e[1]) * d[1] + (i[2] - e[2]) * d[2]) / dd.max(1e-6);
+            if c >= 0.5 {
+                out.set(x, y, true);
+            }
+        });
+        out
+    }
+
+    /// Classifies a frame: the strict foreground and the loose candidates (equal for green
+    /// matting).
+    fn classify(&self, frame: &RgbImage) -> (BitMask, BitMask) {
+        let (w, h) = (frame.width() as usize, frame.height() as usize);
+        let px = frame.as_raw();
+        let mut strong = BitMask::new(w, h);
+        match self {
+            Prepared::Green { limit } => {
+                for y in 0..h {
+                    let row = &px[y * w * 3..(y + 1) * w * 3];
+                    let lim = &limit[y * w..(y + 1) * w];
+                    for (word, (pix, l)) in strong
+                        .row_mut(y)
+                        .iter_mut()
+                        .zip(row.chunks(64 * 3).zip(lim.chunks(64)))
+                    {
+                        let mut bits = 0u64;
+                        for (k, (p, &l)) in pix.chunks_exact(3).zip(l).enumerate() {
+                            bits |= ((p[1] < l) as u64) << k;
+                        }
+                        *word = bits;
+                    }
+                }
+                let weak = strong.clone();
+                (strong, weak)
+            }
+            Prepared::Colour {
+                bg,
+                inv_e2,
+                cd2,
+                dark,
+                dark_weak,
+                bright,
+            } => {
+                let mut weak = BitMask::new(w, h);
+                for y in 0..h {
+                    let row = &px[y * w * 3..(y + 1) * w * 3];
+                    let range = y * w..(y + 1) * w;
+                    let (bg, inv, cd2) = (&bg[range.clone()], &inv_e2[range.clone()], &cd2[range]);
+                    for (c, pix) in row.chunks(64 * 3).enumerate() {
+                        let (mut s_bits, mut w_bits) = (0u64, 0u64);
+                        for (k, p) in pix.chunks_exact(3).enumerate() {
+                            let i = c * 64 + k;
+                            let (r, g, b) = (p[0] as f32, p[1] as f32, p[2] as f32);
+                            let e = bg[i];
+                            let alpha = (r * e[0] + g * e[1] + b * e[2]) * inv[i];
+                            let cd = (r * r + g * g + b * b) * inv[i] - alpha * alpha;
+                            let [s2, w2] = cd2[i];
+                            let strong = cd > s2 || alpha < *dark || alpha > *bright;
+                            let loose = cd > w2 || alpha < *dark_weak || alpha > *bright;
+                            s_bits |= (strong as u64) << k;
+                            w_bits |= (loose as u64) << k;
+                        }
+                        strong.row_mut(y)[c] = s_bits;
+                        weak.row_mut(y)[c] = w_bits;
+                    }
+                }
+                (strong, weak)
+            }
+        }
+    }
+}

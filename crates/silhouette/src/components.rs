@@ -1,0 +1,241 @@
+//! Connected components (8-connected) of a bit mask, computed on horizontal runs.
+
+use serde::{Deserialize, Serialize};
+
+use crate::bitmask::BitMask;
+
+/// Which components of the object mask to keep.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum KeepComponents {
+    /// Only the largest.
+    Largest,
+    /// Every component of at least this many pixels (an occluded catheter can fall apart).
+    MinArea(usize),
+}
+
+/// A horizontal run of set pixels `[x0, x1)` on row `y`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Run {
+    /// Row.
+    pub y: u32,
+    /// First column.
+    pub x0: u32,
+    /// One past the last column.
+    pub x1: u32,
+}
+
+/// All runs of a mask, row by row, left to right.
+pub fn runs(mask: &BitMask) -> Vec<Run> {
+    let mut out = Vec::new();
+    for y in 0..mask.height() {
+        let row = mask.row(y);
+        let mut open: Option<u32> = None;
+        for (i, &w0) in row.iter().enumerate() {
+            let base = (i * 64) as u32;
+            let w = w0;
+            let mut pos = 0u32;
+            // Walk alternating stretches of ones and zeros in this word.
+            while pos < 64 {
+                if open.is_none() {
+                    let skip = (w >> pos).trailing_zeros().min(64 - pos);
+                    pos += skip;
+                    if pos >= 64 {
+                        break;
+                    }
+                    open = Some(base + pos);
+                } else {
+                    let ones = (!(w >> pos)).trailing_zeros().min(64 - pos);
+                    pos += ones;
+                    if pos >= 64 {
+                        break;
+                    }
+                    if let Some(x0) = open.take() {
+                        out.push(Run {
+                            y: y as u32,
+                            x0,
+                            x1: base + pos,
+                        });
+                    }
+                }
+            }
+        }
+        if let Some(x0) = open {
+            out.push(Run {
+                y: y as u32,
+                x0,
+                x1: mask.width() as u32,
+            });
+        }
+    }
+    out
+}
+
+fn find(parent: &mut [usize], mut i: usize) -> usize {
+    while parent[i] != i {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    i
+}
+
+/// Labels of the runs' components (an index per run; equal labels = same component) and each
+/// label's area in pixels.
+pub fn label(runs: &[Run]) -> (Vec<usize>, Vec<usize>) {
+    let mut parent: Vec<usize> = (0..runs.len()).collect();
+    // Runs of consecutive rows touch (8-connected) when their column ranges overlap or meet
+    // diagonally; both rows are sorted, so one sweep finds every pair.
+    let mut start = 0;
+    for i in 0..runs.len() {
+        let r = runs[i];
+        while start < runs.len()
+            && (runs[start].y + 1 < r.y || (runs[start].y + 1 == r.y && runs[start].x1 < r.x0))
+        {
+            start += 1;
+        }
+        let mut j = start;
+        while j < i && runs[j].y + 1 == r.y {
+            let p = runs[j];
+            if p.x0 <= r.x1 && r.x0 <= p.x1 {
+                let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+                if a != b {
+                    parent[a.max(b)] = a.min(b);
+                }
+            }
+            j += 1;
+        }
+    }
+    let mut labels = vec![0; runs.len()];
+    let mut ids = vec![usize::MAX; runs.len()];
+    let mut areas = Vec::new();
+    for i in 0..runs.len() {
+        let root = find(&mut parent, i);
+        if ids[root] == usize::MAX {
+            ids[root] = areas.len();
+            areas.push(0);
+        }
+        labels[i] = ids[root];
+        areas[ids[root]] += (runs[i].x1 - runs[i].x0) as usize;
+    }
+    (labels, areas)
+}
+
+/// The mask restricted to the components chosen by `keep`.
+pub fn keep_components(mask: &BitMask, keep: KeepComponents) -> BitMask {
+    let runs = runs(mask);
+    let (labels, areas) = label(&runs);
+    let wanted: Vec<bool> = match keep {
+        KeepComponents::Largest => {
+            let best = areas
+                .iter()
+                .enumerate()
+                .max_by_key(|(_, a)| **a)
+                .map(|(i, _)| i);
+            (0..areas.len()).map(|i| Some(i) == best).collect()
+        }
+        KeepComponents::MinArea(min) => areas.iter().map(|&a| a >= min).collect(),
+    };
+    let mut out = BitMask::new(mask.width(), mask.height());
+    for (r, l) in runs.iter().zip(labels) {
+        if wanted[l] {
+            fill_run(&mut out, r);
+        }
+    }
+    out
+}
+
+/// Sets the pixels of a run.
+pub(crate) fn fill_run(mask: &mut BitMask, r: &Run) {
+    let row = mask.row_mut(r.y as usize);
+    let (x0, x1) = (r.x0 as usize, r.x1 as usize);
+    let (w0, w1) = (x0 / 64, (x1 - 1) / 64);
+    for (w, word) in row.iter_mut().enumerate().take(w1 + 1).skip(w0) {
+        let lo = if w == w0 { x0 % 64 } else { 0 };
+        let hi = if w == w1 { (x1 - 1) % 64 + 1 } else { 64 };
+        let bits = if hi - lo == 64 {
+            u64::MAX
+        } else {
+            ((1u64 << (hi - lo)) - 1) << lo
+        };
+        *word |= bits;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn flood_areas(m: &BitMask) -> Vec<usize> {
+        let (w, h) = (m.width(), m.height());
+        let mut seen = vec![false; w * h];
+        let mut areas = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                if !m.get(x, y) || seen[y * w + x] {
+                    continue;
+                }
+                let mut stack = vec![(x, y)];
+                seen[y * w + x] = true;
+                let mut area = 0;
+                while let Some((cx, cy)) = stack.pop() {
+                    area += 1;
+                    for dy in -1i64..=1 {
+                        for dx in -1i64..=1 {
+                            let (nx, ny) = (cx as i64 + dx, cy as i64 + dy);
+                            if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                                continue;
+                            }
+                            let (nx, ny) = (nx as usize, ny as usize);
+                            if m.get(nx, ny) && !seen[ny * w + nx] {
+                                seen[ny * w + nx] = true;
+                                stack.push((nx, ny));
+                            }
+                        }
+                    }
+                }
+                areas.push(area);
+            }
+        }
+        areas.sort();
+        areas
+    }
+
+    proptest! {
+        #[test]
+        fn labels_match_a_flood_fill(w in 1usize..140, h in 1usize..25, density in 1u64..8, seed in any::<u64>()) {
+            let mut m = BitMask::new(w, h);
+            let mut s = seed;
+            for y in 0..h {
+                for x in 0..w {
+                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    m.set(x, y, (s >> 61) < density.min(7));
+                }
+            }
+            let rs = runs(&m);
+            let mut rebuilt = BitMask::new(w, h);
+            for r in &rs {
+                fill_run(&mut rebuilt, r);
+            }
+            prop_assert_eq!(&rebuilt, &m);
+            let (_, mut areas) = label(&rs);
+            areas.sort();
+            prop_assert_eq!(areas, flood_areas(&m));
+        }
+    }
+
+    #[test]
+    fn keeps_largest_or_big_enough() {
+        let mut m = BitMask::new(100, 10);
+        for x in 0..30 {
+            m.set(x, 2, true);
+        }
+        for x in 50..60 {
+            m.set(x, 5, true);
+        }
+        m.set(90, 9, true);
+        assert_eq!(keep_components(&m, KeepComponents::Largest).count(), 30);
+        assert_eq!(keep_components(&m, KeepComponents::MinArea(5)).count(), 40);
+        assert_eq!(keep_components(&m, KeepComponents::MinArea(1)).count(), 41);
+    }
+}

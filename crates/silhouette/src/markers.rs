@@ -1,0 +1,110 @@
+//! Marker bands (coloured tape) inside the object mask.
+//!
+//! At the object's edge a pixel mixes tape (or body) with the backdrop, and its colour says
+//! little; inside, it is pure surface colour. So interior pixels (the object eroded by one
+//! pixel) are tested by colour — the angle between their RGB vector and the tape's — and each
+//! edge pixel takes the majority label of the interior pixels around it.
+
+use image::RgbImage;
+use serde::{Deserialize, Serialize};
+
+use crate::bitmask::BitMask;
+use crate::error::SilhouetteError;
+
+/// What the tape looks like.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MarkerSettings {
+    /// Tape colour as RGB proportions (only the direction counts); default red.
+    pub colour: [f32; 3],
+    /// Largest angle between a pixel's RGB vector and `colour`, degrees.
+    pub max_angle_deg: f32,
+    /// Darkest tape pixel that is tested (sum of R, G, B), so noise in black is ignored.
+    pub min_level: f32,
+}
+
+impl Default for MarkerSettings {
+    fn default() -> Self {
+        MarkerSettings {
+            colour: [0.78, 0.09, 0.08],
+            max_angle_deg: 25.0,
+            min_level: 40.0,
+        }
+    }
+}
+
+impl MarkerSettings {
+    pub(crate) fn validate(&self) -> Result<(), SilhouetteError> {
+        let norm = self.colour.iter().map(|c| c * c).sum::<f32>().sqrt();
+        if !(norm.is_finite() && norm > 0.0) || self.colour.iter().any(|c| *c < 0.0) {
+            return Err(SilhouetteError::Setting {
+                field: "markers.colour",
+                problem: "must be three non-negative numbers, not all zero".into(),
+            });
+        }
+        if !(self.max_angle_deg > 0.0 && self.max_angle_deg < 90.0) {
+            return Err(SilhouetteError::Setting {
+                field: "markers.max_angle_deg",
+                problem: "must lie in (0, 90)".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Calls `f(x, y)` for every set pixel.
+pub(crate) fn for_each_set(mask: &BitMask, mut f: impl FnMut(usize, usize)) {
+    for y in 0..mask.height() {
+        for (i, &w) in mask.row(y).iter().enumerate() {
+            let mut w = w;
+            while w != 0 {
+                let b = w.trailing_zeros() as usize;
+                f(i * 64 + b, y);
+                w &= w - 1;
+            }
+        }
+    }
+}
+
+/// The marker mask of `frame` within `object`.
+pub(crate) fn find_markers(frame: &RgbImage, object: &BitMask, s: &MarkerSettings) -> BitMask {
+    let (w, h) = (object.width(), object.height());
+    let norm = s.colour.iter().map(|c| c * c).sum::<f32>().sqrt();
+    let t = s.colour.map(|c| c / norm);
+    let cos_min = s.max_angle_deg.to_radians().cos();
+    let px = frame.as_raw();
+    let is_tape = |x: usize, y: usize| {
+        let i = (y * w + x) * 3;
+        let (r, g, b) = (px[i] as f32, px[i + 1] as f32, px[i + 2] as f32);
+        let len = (r * r + g * g + b * b).sqrt();
+        r + g + b >= s.min_level && (r * t[0] + g * t[1] + b * t[2]) >= cos_min * len
+    };
+    let interior = object.erode(1).and(object);
+    let mut tape = BitMask::new(w, h);
+    for_each_set(&interior, |x, y| {
+        if is_tape(x, y) {
+            tape.set(x, y, true);
+        }
+    });
+    let mut out = tape.clone();
+    let edge = object.and(&interior.not());
+    for_each_set(&edge, |x, y| {
+        // Majority of interior neighbours within 1, else within 2 pixels.
+        for r in 1..=2usize {
+            let (mut yes, mut no) = (0, 0);
+            for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+                for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                    if interior.get(xx, yy) {
+                        if tape.get(xx, yy) { yes += 1 } else { no += 1 }
+                    }
+                }
+            }
+            if yes + no > 0 {
+                if yes > no {
+                    out.set(x, y, true);
+                }
+                break;
+            }
+        }
+    });
+    out
+}

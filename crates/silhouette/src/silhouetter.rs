@@ -1,0 +1,174 @@
+//! The per-camera silhouette pipeline: classify, hysteresis, closing, components, markers.
+
+use image::{DynamicImage, RgbImage};
+use serde::{Deserialize, Serialize};
+
+use crate::background::BackgroundModel;
+use crate::bitmask::BitMask;
+use crate::classify::{Classifier, Prepared};
+use crate::components::{KeepComponents, keep_components};
+use crate::error::SilhouetteError;
+use crate::markers::{MarkerSettings, find_markers};
+
+/// Settings of one camera's silhouettes (the rig's `[processing.silhouette]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SilhouetteSettings {
+    /// Foreground test.
+    pub classifier: Classifier,
+    /// Radius of the closing that fills holes (square window `2r + 1`); it does not move
+    /// straight boundaries, so the mask stays at half contrast.
+    pub close_radius: usize,
+    /// Which connected components are the object.
+    pub keep: KeepComponents,
+    /// Marker tape.
+    pub markers: MarkerSettings,
+}
+
+impl Default for SilhouetteSettings {
+    fn default() -> Self {
+        SilhouetteSettings {
+            classifier: Classifier::colour_shadow(),
+            close_radius: 1,
+            keep: KeepComponents::MinArea(40),
+            markers: MarkerSettings::default(),
+        }
+    }
+}
+
+/// What a frame's silhouette found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SilhouetteStatus {
+    /// An object with marker pixels.
+    Ok,
+    /// No object pixels survived (nothing in view, or only specks).
+    NoObject,
+    /// An object but no marker pixels.
+    NoMarkers,
+}
+
+/// One camera's silhouette of one frame.
+#[derive(Debug, Clone)]
+pub struct Silhouette {
+    /// Object pixels (boundary at half contrast).
+    pub object: BitMask,
+    /// Marker-band pixels, a subset of `object`.
+    pub markers: BitMask,
+    /// Number of object components kept.
+    pub components: usize,
+    /// Summary.
+    pub status: SilhouetteStatus,
+}
+
+/// Computes silhouettes for one camera against its background model.
+#[derive(Debug, Clone)]
+pub struct Silhouetter {
+    prepared: Prepared,
+    settings: SilhouetteSettings,
+    width: u32,
+    height: u32,
+}
+
+impl Silhouetter {
+    /// Prepares the per-pixel thresholds of `settings` for `background`.
+    pub fn new(
+        background: &BackgroundModel,
+        settings: SilhouetteSettings,
+    ) -> Result<Self, SilhouetteError> {
+        settings.classifier.validate()?;
+        settings.markers.validate()?;
+        if settings.close_radius > 16 {
+            return Err(SilhouetteError::Setting {
+                field: "close_radius",
+                problem: "must be at most 16 pixels".into(),
+            });
+        }
+        Ok(Silhouetter {
+            prepared: Prepared::new(background, &settings.classifier),
+            settings,
+            width: background.width(),
+            height: background.height(),
+        })
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &SilhouetteSettings {
+        &self.settings
+    }
+
+    /// Silhouette of an 8-bit RGB frame.
+    pub fn process(&self, frame: &RgbImage) -> Result<Silhouette, SilhouetteError> {
+        let (w, h) = frame.dimensions();
+        if w == 0 || h == 0 {
+            return Err(SilhouetteError::EmptyFrame);
+        }
+        if (w, h) != (self.width, self.height) {
+            return Err(SilhouetteError::SizeMismatch {
+                width: w,
+                height: h,
+                expected_width: self.width,
+                expected_height: self.height,
+            });
+        }
+        let closed = self
+            .prepared
+            .foreground(frame)
+            .close(self.settings.close_radius);
+        let object = keep_components(&closed, self.settings.keep);
+        let components = crate::components::label(&crate::components::runs(&object))
+            .1
+            .len();
+        let markers = find_markers(frame, &object, &self.settings.markers);
+        let status = if object.count() == 0 {
+            SilhouetteStatus::NoObject
+        } else if markers.count() == 0 {
+            SilhouetteStatus::NoMarkers
+        } else {
+            SilhouetteStatus::Ok
+        };
+        Ok(Silhouette {
+            object,
+            markers,
+            components,
+            status,
+        })
+    }
+
+    /// Silhouette of a decoded image, which must be 8-bit RGB (RGBA is accepted, its alpha
+    /// ignored).
+    pub fn process_image(&self, image: &DynamicImage) -> Result<Silhouette, SilhouetteError> {
+        match image {
+            DynamicImage::ImageRgb8(rgb) => self.process(rgb),
+            DynamicImage::ImageRgba8(_) => self.process(&image.to_rgb8()),
+            other => Err(SilhouetteError::ChannelCount {
+                channels: other.color().channel_count(),
+                bits: other.color().bits_per_pixel() / other.color().channel_count() as u16,
+            }),
+        }
+    }
+}
+
+/// The frame with the silhouette drawn on it: background dimmed, object tinted cyan, markers
+/// magenta.
+pub fn debug_image(frame: &RgbImage, s: &Silhouette) -> RgbImage {
+    let mut out = frame.clone();
+    for (x, y, p) in out.enumerate_pixels_mut() {
+        let (x, y) = (x as usize, y as usize);
+        let [r, g, b] = p.0;
+        p.0 = if s.markers.get(x, y) {
+            [255, 0, 255]
+        } else if s.object.get(x, y) {
+            [r / 3, 200, 255]
+        } else {
+            [r / 2, g / 2, b / 2]
+        };
+    }
+    out
+}
+
+/// A dilated copy of an object mask for consumers that want a margin (e.g. carving against
+/// calibration error), leaving the measured silhouette itself at half contrast.
+pub fn dilated(mask: &BitMask, radius: usize) -> BitMask {
+    mask.dilate(radius)
+}

@@ -1,0 +1,100 @@
+//! Silhouettes against the simulator's exact masks (default scene, noise σ = 2).
+
+use flexshape_silhouette::{BackgroundModel, BitMask, Classifier, SilhouetteSettings, Silhouetter};
+use flexshape_sim::{SimConfig, Simulator};
+
+/// Per camera and frame: object IoU, and marker (true positives, found, truth) counts.
+struct Score {
+    iou: Vec<f64>,
+    marker_tp: usize,
+    marker_found: usize,
+    marker_truth: usize,
+}
+
+fn score(shadows: bool, classifier: Classifier, frames: usize) -> Score {
+    let mut config = SimConfig::default();
+    config.render.shadows = shadows;
+    let sim = Simulator::new(config).unwrap();
+    let backgrounds = sim.backgrounds();
+    let silhouetters: Vec<Silhouetter> = backgrounds
+        .iter()
+        .map(|bg| {
+            let model = BackgroundModel::from_frames(std::slice::from_ref(bg)).unwrap();
+            Silhouetter::new(
+                &model,
+                SilhouetteSettings {
+                    classifier: classifier.clone(),
+                    ..SilhouetteSettings::default()
+                },
+            )
+            .unwrap()
+        })
+        .collect();
+    let mut s = Score {
+        iou: Vec::new(),
+        marker_tp: 0,
+        marker_found: 0,
+        marker_truth: 0,
+    };
+    for (i, pose) in sim.sweep(frames).iter().enumerate() {
+        let f = sim.render(i as u64, pose).unwrap();
+        for (view, sil) in f.views.iter().zip(&silhouetters) {
+            let out = sil.process(&view.image).unwrap();
+            let truth = BitMask::from_gray(&view.mask);
+            s.iou.push(out.object.iou(&truth));
+            let truth_markers = BitMask::from_gray(&view.markers);
+            s.marker_tp += out.markers.and(&truth_markers).count();
+            s.marker_found += out.markers.count();
+            s.marker_truth += truth_markers.count();
+        }
+    }
+    s
+}
+
+fn report(name: &str, s: &Score) -> (f64, f64, f64, f64) {
+    let min = s.iou.iter().copied().fold(1.0, f64::min);
+    let mean = s.iou.iter().sum::<f64>() / s.iou.len() as f64;
+    let recall = s.marker_tp as f64 / s.marker_truth as f64;
+    let precision = s.marker_tp as f64 / s.marker_found as f64;
+    println!(
+        "{name}: object IoU min {min:.4} mean {mean:.4}; markers recall {recall:.3} precision {precision:.3} ({} truth px)",
+        s.marker_truth
+    );
+    (min, mean, recall, precision)
+}
+
+#[test]
+fn default_scene_both_classifiers() {
+    for (name, c) in [
+        ("colour+shadow", Classifier::colour_shadow()),
+        ("green matte", Classifier::green_matte()),
+    ] {
+        let s = score(false, c, 12);
+        let (min, _, recall, precision) = report(name, &s);
+        assert!(min >= 0.95, "{name}: object IoU {min:.4} < 0.95");
+        assert!(
+            recall >= 0.9 && precision >= 0.95,
+            "{name}: markers recall {recall:.3}, precision {precision:.3}"
+        );
+    }
+}
+
+#[test]
+fn shadows_are_rejected_by_colour_but_not_by_green_matting() {
+    let colour = score(true, Classifier::colour_shadow(), 12);
+    let (min, _, recall, precision) = report("shadows, colour+shadow", &colour);
+    assert!(
+        min >= 0.93,
+        "shadow-rejecting classifier: IoU {min:.4} < 0.93"
+    );
+    assert!(
+        recall >= 0.9 && precision >= 0.95,
+        "markers recall {recall:.3}, precision {precision:.3}"
+    );
+    let green = score(true, Classifier::green_matte(), 12);
+    let (gmin, gmean, _, _) = report("shadows, green matte", &green);
+    assert!(
+        gmin < 0.93 && gmean < min,
+        "green matting should fail on shadows (min {gmin:.4}, mean {gmean:.4})"
+    );
+}
