@@ -138,42 +138,46 @@ impl BitMask {
 
     /// Dilation by the square window of side `2r + 1` (outside the image counts as unset).
     pub fn dilate(&self, r: usize) -> BitMask {
-        if r == 0 {
+        if r == 0 || self.words.is_empty() {
             return self.clone();
         }
-        let r = r.min(63);
-        let mut horizontal = BitMask::new(self.width, self.height);
+        let r = r.min(63) as u32;
+        let stride = self.stride;
         let tail = self.tail_mask();
-        for y in 0..self.height {
-            let src = self.row(y);
-            let dst = horizontal.row_mut(y);
-            for (i, d) in dst.iter_mut().enumerate() {
+        // Horizontal pass: pixel x takes x ± k for k ≤ r, with bits carried across words.
+        let mut horizontal = vec![0u64; self.words.len()];
+        for (src, dst) in self
+            .words
+            .chunks_exact(stride)
+            .zip(horizontal.chunks_exact_mut(stride))
+        {
+            for i in 0..stride {
+                let cur = src[i];
                 let prev = if i > 0 { src[i - 1] } else { 0 };
-                let next = src.get(i + 1).copied().unwrap_or(0);
-                let mut acc = src[i];
-                for k in 1..=r as u32 {
-                    // Pixel x takes x + k (shift right) and x − k (shift left).
-                    acc |= (src[i] >> k) | (next << (64 - k));
-                    acc |= (src[i] << k) | (prev >> (64 - k));
-                }
-                *d = acc;
+                let next = if i + 1 < stride { src[i + 1] } else { 0 };
+                dst[i] = if r == 1 {
+                    cur | (cur >> 1) | (next << 63) | (cur << 1) | (prev >> 63)
+                } else {
+                    (1..=r).fold(cur, |acc, k| {
+                        acc | (cur >> k) | (next << (64 - k)) | (cur << k) | (prev >> (64 - k))
+                    })
+                };
             }
-            if let Some(last) = dst.last_mut() {
-                *last &= tail;
-            }
+            dst[stride - 1] &= tail;
         }
-        let mut out = BitMask::new(self.width, self.height);
+        // Vertical pass: OR of the rows within r.
+        let r = r as usize;
+        let mut words = vec![0u64; self.words.len()];
         for y in 0..self.height {
-            let lo = y.saturating_sub(r);
-            let hi = (y + r).min(self.height - 1);
-            for yy in lo..=hi {
-                let src = horizontal.row(yy).to_vec();
-                for (d, s) in out.row_mut(y).iter_mut().zip(src) {
+            let dst = &mut words[y * stride..(y + 1) * stride];
+            for yy in y.saturating_sub(r)..=(y + r).min(self.height - 1) {
+                let src = &horizontal[yy * stride..(yy + 1) * stride];
+                for (d, s) in dst.iter_mut().zip(src) {
                     *d |= s;
                 }
             }
         }
-        out
+        BitMask { words, ..*self }
     }
 
     /// Erosion by the square window of side `2r + 1`; outside the image counts as set, so the

@@ -118,9 +118,25 @@ impl Classifier {
     }
 }
 
-/// A classifier with its per-pixel thresholds precomputed for one background model.
+/// A classifier with its per-pixel thresholds precomputed for one background model, plus what
+/// lets it skip plain backdrop quickly: the background mean as interleaved bytes and, per
+/// block of [`BLOCK`] pixels of a row, the largest per-channel deviation from it that cannot
+/// change any pixel's class (0 = never skip).
+/// Pixels per skip test (a quarter of a mask word).
+const BLOCK: usize = 16;
+
 #[derive(Debug, Clone)]
-pub(crate) enum Prepared {
+pub(crate) struct Prepared {
+    kind: Kind,
+    bg_bytes: Vec<u8>,
+    /// Per block of `BLOCK` pixels.
+    chunk_tolerance: Vec<u8>,
+    /// Per 64-pixel word: the smallest tolerance of its blocks.
+    word_tolerance: Vec<u8>,
+}
+
+#[derive(Debug, Clone)]
+enum Kind {
     /// Foreground iff the green value is below `limit[i]`.
     Green { limit: Vec<u8> },
     /// Per pixel: background colour, `1 / E·E`, and squared chromaticity thresholds.
@@ -136,19 +152,24 @@ pub(crate) enum Prepared {
 
 impl Prepared {
     pub fn new(model: &BackgroundModel, classifier: &Classifier) -> Self {
-        let n = (model.width() * model.height()) as usize;
-        match *classifier {
+        let (w, h) = (model.width() as usize, model.height() as usize);
+        let n = w * h;
+        // Per pixel, the largest |I − round(E)| (every channel) that keeps it background.
+        let mut tolerance = vec![0f32; n];
+        let kind = match *classifier {
             Classifier::GreenMatte {
                 fraction,
                 min_difference,
                 noise_factor,
-            } => Prepared::Green {
+            } => Kind::Green {
                 limit: (0..n)
                     .map(|i| {
                         let g = model.mean(i)[1];
                         let margin = (fraction * g)
                             .max(min_difference)
                             .max(noise_factor * model.spread(i));
+                        // G ≥ round(g) − t ≥ g − ½ − t stays ≥ ceil(g − margin) if t ≤ margin − 1.5.
+                        tolerance[i] = margin - 1.5;
                         // G < g − margin ⇔ G < ceil(g − margin) for integer G.
                         (g - margin).ceil().clamp(0.0, 255.0) as u8
                     })
@@ -165,17 +186,21 @@ impl Prepared {
                 let mut bg = Vec::with_capacity(n);
                 let mut inv_e2 = Vec::with_capacity(n);
                 let mut cd2 = Vec::with_capacity(n);
-                for i in 0..n {
+                for (i, tol) in tolerance.iter_mut().enumerate() {
                     let e = model.mean(i);
                     let e2 = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).max(1.0);
                     // Noise of σ per channel moves CD by about σ/‖E‖.
                     let floor = noise_factor * model.spread(i) / e2.sqrt();
                     let (s, w) = (chroma.max(floor), chroma_weak.max(floor));
+                    // A deviation of at most t per channel (plus ½ of rounding) moves CD and α
+                    // by at most √3·(t + ½)/‖E‖: keep both inside the loose test.
+                    let room = w.min(1.0 - dark_weak).min(bright - 1.0) * e2.sqrt() / 3f32.sqrt();
+                    *tol = room - 0.5 - 1e-3;
                     bg.push(e);
                     inv_e2.push(1.0 / e2);
                     cd2.push([s * s, w * w]);
                 }
-                Prepared::Colour {
+                Kind::Colour {
                     bg,
                     inv_e2,
                     cd2,
@@ -184,13 +209,84 @@ impl Prepared {
                     bright,
                 }
             }
+        };
+        let bg_bytes = (0..n)
+            .flat_map(|i| model.mean(i).map(|v| v.round().clamp(0.0, 255.0) as u8))
+            .collect();
+        let blocks = w.div_ceil(BLOCK);
+        let mut chunk_tolerance = Vec::with_capacity(blocks * h);
+        for row in tolerance.chunks_exact(w) {
+            for block in row.chunks(BLOCK) {
+                let t = block.iter().copied().fold(f32::INFINITY, f32::min);
+                chunk_tolerance.push(t.floor().clamp(0.0, 255.0) as u8);
+            }
         }
+        let per_word = 64 / BLOCK;
+        let word_tolerance = chunk_tolerance
+            .chunks_exact(blocks)
+            .flat_map(|row| {
+                row.chunks(per_word)
+                    .map(|c| c.iter().copied().min().unwrap_or(0))
+            })
+            .collect();
+        Prepared {
+            kind,
+            bg_bytes,
+            chunk_tolerance,
+            word_tolerance,
+        }
+    }
+
+    /// The blocks of row `y` that need classifying: for each 64-pixel word whose bytes all
+    /// stay within its tolerance nothing, otherwise each of its blocks that does not.
+    fn busy_blocks(
+        &self,
+        row: &[u8],
+        bg_row: &[u8],
+        y: usize,
+        w: usize,
+        mut f: impl FnMut(usize, usize),
+    ) {
+        let blocks = w.div_ceil(BLOCK);
+        let words = w.div_ceil(64);
+        for c in 0..words {
+            let (x0, x1) = (c * 64, (c * 64 + 64).min(w));
+            if Self::plain_backdrop(
+                &row[x0 * 3..x1 * 3],
+                &bg_row[x0 * 3..x1 * 3],
+                self.word_tolerance[y * words + c],
+            ) {
+                continue;
+            }
+            for b in x0 / BLOCK..x1.div_ceil(BLOCK) {
+                let (b0, b1) = (b * BLOCK, ((b + 1) * BLOCK).min(w));
+                if !Self::plain_backdrop(
+                    &row[b0 * 3..b1 * 3],
+                    &bg_row[b0 * 3..b1 * 3],
+                    self.chunk_tolerance[y * blocks + b],
+                ) {
+                    f(b0, b1);
+                }
+            }
+        }
+    }
+
+    /// True when no byte of the chunk deviates from the background by more than `t > 0`: then
+    /// every pixel in it is background under either classifier.
+    #[inline]
+    fn plain_backdrop(frame: &[u8], bg: &[u8], t: u8) -> bool {
+        t > 0
+            && frame
+                .iter()
+                .zip(bg)
+                .fold(0u8, |m, (a, b)| m.max(a.abs_diff(*b)))
+                <= t
     }
 
     /// Classifies a frame into the foreground mask (before clean-up).
     pub fn foreground(&self, frame: &RgbImage) -> BitMask {
         let (strong, weak) = self.classify(frame);
-        let Prepared::Colour { bg, .. } = self else {
+        let Kind::Colour { bg, .. } = &self.kind else {
             return strong;
         };
         let (w, h) = (strong.width(), strong.height());
@@ -233,27 +329,25 @@ impl Prepared {
         let (w, h) = (frame.width() as usize, frame.height() as usize);
         let px = frame.as_raw();
         let mut strong = BitMask::new(w, h);
-        match self {
-            Prepared::Green { limit } => {
+        match &self.kind {
+            Kind::Green { limit } => {
                 for y in 0..h {
                     let row = &px[y * w * 3..(y + 1) * w * 3];
+                    let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
                     let lim = &limit[y * w..(y + 1) * w];
-                    for (word, (pix, l)) in strong
-                        .row_mut(y)
-                        .iter_mut()
-                        .zip(row.chunks(64 * 3).zip(lim.chunks(64)))
-                    {
+                    let words = strong.row_mut(y);
+                    self.busy_blocks(row, bg_row, y, w, |x0, x1| {
                         let mut bits = 0u64;
-                        for (k, (p, &l)) in pix.chunks_exact(3).zip(l).enumerate() {
-                            bits |= ((p[1] < l) as u64) << k;
+                        for x in x0..x1 {
+                            bits |= ((row[x * 3 + 1] < lim[x]) as u64) << (x - x0);
                         }
-                        *word = bits;
-                    }
+                        words[x0 / 64] |= bits << (x0 % 64);
+                    });
                 }
                 let weak = strong.clone();
                 (strong, weak)
             }
-            Prepared::Colour {
+            Kind::Colour {
                 bg,
                 inv_e2,
                 cd2,
@@ -264,28 +358,67 @@ impl Prepared {
                 let mut weak = BitMask::new(w, h);
                 for y in 0..h {
                     let row = &px[y * w * 3..(y + 1) * w * 3];
-                    let range = y * w..(y + 1) * w;
-                    let (bg, inv, cd2) = (&bg[range.clone()], &inv_e2[range.clone()], &cd2[range]);
-                    for (c, pix) in row.chunks(64 * 3).enumerate() {
+                    let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
+                    let (s_row, w_row) = (strong.row_mut(y), weak.row_mut(y));
+                    self.busy_blocks(row, bg_row, y, w, |x0, x1| {
                         let (mut s_bits, mut w_bits) = (0u64, 0u64);
-                        for (k, p) in pix.chunks_exact(3).enumerate() {
-                            let i = c * 64 + k;
+                        for x in x0..x1 {
+                            let i = y * w + x;
+                            let p = &row[x * 3..x * 3 + 3];
                             let (r, g, b) = (p[0] as f32, p[1] as f32, p[2] as f32);
                             let e = bg[i];
-                            let alpha = (r * e[0] + g * e[1] + b * e[2]) * inv[i];
-                            let cd = (r * r + g * g + b * b) * inv[i] - alpha * alpha;
+                            let alpha = (r * e[0] + g * e[1] + b * e[2]) * inv_e2[i];
+                            let cd = (r * r + g * g + b * b) * inv_e2[i] - alpha * alpha;
                             let [s2, w2] = cd2[i];
-                            let strong = cd > s2 || alpha < *dark || alpha > *bright;
+                            let strict = cd > s2 || alpha < *dark || alpha > *bright;
                             let loose = cd > w2 || alpha < *dark_weak || alpha > *bright;
-                            s_bits |= (strong as u64) << k;
-                            w_bits |= (loose as u64) << k;
+                            s_bits |= (strict as u64) << (x - x0);
+                            w_bits |= (loose as u64) << (x - x0);
                         }
-                        strong.row_mut(y)[c] = s_bits;
-                        weak.row_mut(y)[c] = w_bits;
-                    }
+                        s_row[x0 / 64] |= s_bits << (x0 % 64);
+                        w_row[x0 / 64] |= w_bits << (x0 % 64);
+                    });
                 }
                 (strong, weak)
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flexshape_sim::{SimConfig, Simulator};
+
+    #[test]
+    fn skipping_plain_backdrop_changes_no_pixel() {
+        let mut config = SimConfig::default();
+        config.render.shadows = true;
+        let sim = Simulator::new(config).unwrap();
+        let backgrounds = sim.backgrounds();
+        for classifier in [Classifier::colour_shadow(), Classifier::green_matte()] {
+            let models: Vec<BackgroundModel> = backgrounds
+                .iter()
+                .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
+                .collect();
+            let mut skipped = 0;
+            for (i, pose) in sim.sweep(3).iter().enumerate() {
+                let f = sim.render(i as u64, pose).unwrap();
+                for (view, model) in f.views.iter().zip(&models) {
+                    let fast = Prepared::new(model, &classifier);
+                    skipped += fast.chunk_tolerance.iter().filter(|&&t| t > 0).count();
+                    let exhaustive = Prepared {
+                        chunk_tolerance: vec![0; fast.chunk_tolerance.len()],
+                        word_tolerance: vec![0; fast.word_tolerance.len()],
+                        ..fast.clone()
+                    };
+                    assert_eq!(fast.classify(&view.image), exhaustive.classify(&view.image));
+                }
+            }
+            assert!(
+                skipped > 10_000,
+                "the skip test never applied ({skipped} chunks)"
+            );
         }
     }
 }
