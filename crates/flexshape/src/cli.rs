@@ -18,6 +18,11 @@ pub enum Command {
     Demo(DemoArgs),
     /// Write a simulated recording (calibration, backgrounds, frames, ground truth).
     Simulate(SimulateArgs),
+    /// Build a background model (per-pixel mean and spread) from frames of the empty scene.
+    Background(BackgroundArgs),
+    /// Compute one recorded frame's silhouettes with the rig's settings, report them (against
+    /// ground truth when the recording has it) and optionally write debug images.
+    Silhouettes(SilhouettesArgs),
     /// Inspect rig files.
     Rig {
         #[command(subcommand)]
@@ -77,6 +82,29 @@ pub struct SimulateArgs {
     pub overwrite: bool,
     #[command(flatten)]
     pub sim: SimArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct BackgroundArgs {
+    /// Folder of background frames of one camera (PNG or JPEG, all the same size).
+    #[arg(long)]
+    pub images: PathBuf,
+    /// Output image (e.g. REC/background/cam0.png); the spread goes beside it as
+    /// cam0.spread.png.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct SilhouettesArgs {
+    /// Recording folder.
+    pub recording: PathBuf,
+    /// Frame number.
+    #[arg(long, default_value_t = 0)]
+    pub frame: u64,
+    /// Write masks and debug overlays (camK_object.png, camK_markers.png, camK_debug.png) here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

@@ -112,6 +112,10 @@ fn demo_runs_and_reports() {
     assert!(o.status.success(), "{}", text(&o));
     let t = text(&o);
     assert!(t.contains("2 frames: simulating 3 cameras"), "{t}");
+    assert!(
+        t.contains("silhouettes: worst IoU against the exact masks 0.9"),
+        "{t}"
+    );
     assert_eq!(
         t.lines()
             .filter(|l| l.trim_start().starts_with(['0', '1']))
@@ -129,4 +133,69 @@ fn bad_arguments_are_clear() {
     let o = flexshape(&["demo", "--frames", "1", "--cams", "0"]);
     assert!(!o.status.success());
     assert!(text(&o).contains("cameras"), "{}", text(&o));
+}
+
+#[test]
+fn background_and_silhouettes_commands() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let o = flexshape(&[
+        "simulate",
+        "--out",
+        rec.to_str().unwrap(),
+        "--frames",
+        "2",
+        "--shadows",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    // Diagnostics of a recorded frame against its truth, with debug images.
+    let dbg = dir.path().join("dbg");
+    let o = flexshape(&[
+        "silhouettes",
+        rec.to_str().unwrap(),
+        "--frame",
+        "1",
+        "--out",
+        dbg.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    assert_eq!(t.matches("IoU vs truth 0.9").count(), 3, "{t}");
+    for f in ["cam0_object.png", "cam1_markers.png", "cam2_debug.png"] {
+        assert!(dbg.join(f).is_file(), "{f} missing");
+    }
+    let o = flexshape(&["silhouettes", rec.to_str().unwrap(), "--frame", "7"]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("no frame 000007"), "{}", text(&o));
+    // A background model from several frames of the empty scene.
+    let frames = dir.path().join("bg");
+    std::fs::create_dir(&frames).unwrap();
+    for k in 0..3u8 {
+        let img = image::RgbImage::from_fn(32, 24, |x, y| {
+            image::Rgb([100 + k, (x * 3) as u8, (y * 5) as u8])
+        });
+        img.save(frames.join(format!("{k}.png"))).unwrap();
+    }
+    let model = dir.path().join("model/cam0.png");
+    let o = flexshape(&[
+        "background",
+        "--images",
+        frames.to_str().unwrap(),
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("from 3 frame(s)"), "{}", text(&o));
+    assert!(model.is_file() && dir.path().join("model/cam0.spread.png").is_file());
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let o = flexshape(&[
+        "background",
+        "--images",
+        empty.to_str().unwrap(),
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("no PNG or JPEG images"), "{}", text(&o));
 }

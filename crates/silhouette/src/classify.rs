@@ -24,51 +24,51 @@ use crate::bitmask::BitMask;
 use crate::error::SilhouetteError;
 use crate::markers::for_each_set;
 
-/// How pixels are told from the background.
+/// Parameters of green matting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum Classifier {
-    /// Green-channel difference (the paper's colour matting).
-    GreenMatte {
-        /// Share of the background's green a pixel must lose, e.g. 0.45.
-        fraction: f32,
-        /// Smallest difference that counts, grey levels.
-        min_difference: f32,
-        /// Smallest difference in units of the pixel's background spread.
-        noise_factor: f32,
-    },
-    /// Colour subtraction with shadow rejection and hysteresis.
-    ColourShadow {
-        /// Chromaticity distortion that alone makes a pixel foreground (strict test).
-        chroma: f32,
-        /// Chromaticity distortion of the loose test.
-        chroma_weak: f32,
-        /// Brightness ratio below which a pixel is foreground (strict; darker than any
-        /// shadow).
-        dark: f32,
-        /// Brightness ratio of the loose test (≈ half contrast for a dark object).
-        dark_weak: f32,
-        /// Brightness ratio above which a pixel is foreground (brighter than the backdrop).
-        bright: f32,
-        /// The chromaticity thresholds are at least this many noise spreads.
-        noise_factor: f32,
-    },
+#[serde(default, deny_unknown_fields)]
+pub struct GreenMatte {
+    /// Share of the background's green a pixel must lose (0.45: half contrast for a dark
+    /// object).
+    pub fraction: f32,
+    /// Smallest difference that counts, grey levels.
+    pub min_difference: f32,
+    /// Smallest difference in units of the pixel's background spread.
+    pub noise_factor: f32,
 }
 
-impl Classifier {
-    /// The paper's green matting with half-contrast defaults.
-    pub fn green_matte() -> Self {
-        Classifier::GreenMatte {
+impl Default for GreenMatte {
+    fn default() -> Self {
+        GreenMatte {
             fraction: 0.45,
             min_difference: 20.0,
             noise_factor: 4.0,
         }
     }
+}
 
-    /// Shadow-rejecting colour subtraction with defaults for a dark object on a bright
-    /// backdrop and shadows removing up to half the light.
-    pub fn colour_shadow() -> Self {
-        Classifier::ColourShadow {
+/// Parameters of colour subtraction with shadow rejection.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ColourShadow {
+    /// Chromaticity distortion that alone makes a pixel foreground (strict test).
+    pub chroma: f32,
+    /// Chromaticity distortion of the loose test.
+    pub chroma_weak: f32,
+    /// Brightness ratio below which a pixel is foreground (strict; darker than any shadow).
+    pub dark: f32,
+    /// Brightness ratio of the loose test (≈ half contrast for a dark object).
+    pub dark_weak: f32,
+    /// Brightness ratio above which a pixel is foreground (brighter than the backdrop).
+    pub bright: f32,
+    /// The chromaticity thresholds are at least this many noise spreads.
+    pub noise_factor: f32,
+}
+
+impl Default for ColourShadow {
+    /// For a dark object on a bright backdrop, with shadows removing up to half the light.
+    fn default() -> Self {
+        ColourShadow {
             chroma: 0.25,
             chroma_weak: 0.08,
             dark: 0.40,
@@ -76,6 +76,29 @@ impl Classifier {
             bright: 1.40,
             noise_factor: 4.0,
         }
+    }
+}
+
+/// How pixels are told from the background (`kind = "green_matte"` or `"colour_shadow"` in
+/// the rig file, with any parameters beside it).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Classifier {
+    /// Green-channel difference (the paper's colour matting).
+    GreenMatte(GreenMatte),
+    /// Colour subtraction with shadow rejection and hysteresis.
+    ColourShadow(ColourShadow),
+}
+
+impl Classifier {
+    /// The paper's green matting with half-contrast defaults.
+    pub fn green_matte() -> Self {
+        Classifier::GreenMatte(GreenMatte::default())
+    }
+
+    /// Shadow-rejecting colour subtraction with its defaults.
+    pub fn colour_shadow() -> Self {
+        Classifier::ColourShadow(ColourShadow::default())
     }
 
     pub(crate) fn validate(&self) -> Result<(), SilhouetteError> {
@@ -89,39 +112,24 @@ impl Classifier {
                 })
             }
         };
-        match *self {
-            Classifier::GreenMatte {
-                fraction,
-                min_difference,
-                noise_factor,
-            } => {
-                check("fraction", fraction, 0.0, 1.0)?;
-                check("min_difference", min_difference, 0.0, 255.0)?;
-                check("noise_factor", noise_factor, 0.0, 100.0)
+        match self {
+            Classifier::GreenMatte(g) => {
+                check("fraction", g.fraction, 0.0, 1.0)?;
+                check("min_difference", g.min_difference, 0.0, 255.0)?;
+                check("noise_factor", g.noise_factor, 0.0, 100.0)
             }
-            Classifier::ColourShadow {
-                chroma,
-                chroma_weak,
-                dark,
-                dark_weak,
-                bright,
-                noise_factor,
-            } => {
-                check("chroma", chroma, 0.0, 2.0)?;
-                check("chroma_weak", chroma_weak, 0.0, chroma)?;
-                check("dark", dark, 0.0, 1.0)?;
-                check("dark_weak", dark_weak, dark, 1.0)?;
-                check("bright", bright, 1.0, 100.0)?;
-                check("noise_factor", noise_factor, 0.0, 100.0)
+            Classifier::ColourShadow(c) => {
+                check("chroma", c.chroma, 0.0, 2.0)?;
+                check("chroma_weak", c.chroma_weak, 0.0, c.chroma)?;
+                check("dark", c.dark, 0.0, 1.0)?;
+                check("dark_weak", c.dark_weak, c.dark, 1.0)?;
+                check("bright", c.bright, 1.0, 100.0)?;
+                check("noise_factor", c.noise_factor, 0.0, 100.0)
             }
         }
     }
 }
 
-/// A classifier with its per-pixel thresholds precomputed for one background model, plus what
-/// lets it skip plain backdrop quickly: the background mean as interleaved bytes and, per
-/// block of [`BLOCK`] pixels of a row, the largest per-channel deviation from it that cannot
-/// change any pixel's class (0 = never skip).
 /// Pixels per skip test (a quarter of a mask word).
 const BLOCK: usize = 16;
 
@@ -157,11 +165,11 @@ impl Prepared {
         // Per pixel, the largest |I − round(E)| (every channel) that keeps it background.
         let mut tolerance = vec![0f32; n];
         let kind = match *classifier {
-            Classifier::GreenMatte {
+            Classifier::GreenMatte(GreenMatte {
                 fraction,
                 min_difference,
                 noise_factor,
-            } => Kind::Green {
+            }) => Kind::Green {
                 limit: (0..n)
                     .map(|i| {
                         let g = model.mean(i)[1];
@@ -175,14 +183,14 @@ impl Prepared {
                     })
                     .collect(),
             },
-            Classifier::ColourShadow {
+            Classifier::ColourShadow(ColourShadow {
                 chroma,
                 chroma_weak,
                 dark,
                 dark_weak,
                 bright,
                 noise_factor,
-            } => {
+            }) => {
                 let mut bg = Vec::with_capacity(n);
                 let mut inv_e2 = Vec::with_capacity(n);
                 let mut cd2 = Vec::with_capacity(n);

@@ -13,6 +13,7 @@ use crate::error::SilhouetteError;
 
 /// What the tape looks like.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct MarkerSettings {
     /// Tape colour as RGB proportions (only the direction counts); default red.
     pub colour: [f32; 3],

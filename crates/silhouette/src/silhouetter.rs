@@ -10,9 +10,10 @@ use crate::components::{KeepComponents, keep_components};
 use crate::error::SilhouetteError;
 use crate::markers::{MarkerSettings, find_markers};
 
-/// Settings of one camera's silhouettes (the rig's `[processing.silhouette]`).
+/// Settings of one camera's silhouettes (the rig's `[processing.silhouette]`, see
+/// [`SilhouetteSettings::from_processing`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SilhouetteSettings {
     /// Foreground test.
     pub classifier: Classifier,
@@ -33,6 +34,56 @@ impl Default for SilhouetteSettings {
             keep: KeepComponents::MinArea(40),
             markers: MarkerSettings::default(),
         }
+    }
+}
+
+impl SilhouetteSettings {
+    /// Settings of camera `camera` from a rig's `[processing]` table: the defaults, overridden
+    /// by `[processing.silhouette]`, overridden by `[processing.silhouette.per_camera.<camera>]`.
+    ///
+    /// ```toml
+    /// [processing.silhouette]
+    /// classifier = { kind = "colour_shadow", dark_weak = 0.55 }
+    /// close_radius = 1
+    /// keep = { min_area = 40 }          # or keep = "largest"
+    /// [processing.silhouette.per_camera.cam2]
+    /// classifier = { kind = "green_matte" }
+    /// ```
+    pub fn from_processing(
+        processing: &toml::Table,
+        camera: &str,
+    ) -> Result<Self, SilhouetteError> {
+        let setting = |problem: String| SilhouetteError::Setting {
+            field: "processing.silhouette",
+            problem,
+        };
+        let Some(section) = processing.get("silhouette") else {
+            return Ok(Self::default());
+        };
+        let toml::Value::Table(base) = section else {
+            return Err(setting("must be a table".into()));
+        };
+        let mut merged = base.clone();
+        match merged.remove("per_camera") {
+            None => {}
+            Some(toml::Value::Table(cams)) => {
+                if let Some(over) = cams.get(camera) {
+                    let toml::Value::Table(over) = over else {
+                        return Err(setting(format!("per_camera.{camera} must be a table")));
+                    };
+                    for (k, v) in over {
+                        merged.insert(k.clone(), v.clone());
+                    }
+                }
+            }
+            Some(_) => return Err(setting("per_camera must be a table of camera names".into())),
+        }
+        let settings: SilhouetteSettings = toml::Value::Table(merged)
+            .try_into()
+            .map_err(|e: toml::de::Error| setting(format!("{} (camera {camera})", e.message())))?;
+        settings.classifier.validate()?;
+        settings.markers.validate()?;
+        Ok(settings)
     }
 }
 

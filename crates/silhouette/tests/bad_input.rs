@@ -109,13 +109,59 @@ fn bad_settings_are_rejected() {
     let bg = RgbImage::from_pixel(8, 8, Rgb([200, 200, 200]));
     let model = BackgroundModel::from_frames(&[bg]).unwrap();
     let bad = SilhouetteSettings {
-        classifier: Classifier::GreenMatte {
+        classifier: Classifier::GreenMatte(flexshape_silhouette::GreenMatte {
             fraction: 1.5,
-            min_difference: 10.0,
-            noise_factor: 3.0,
-        },
+            ..Default::default()
+        }),
         ..Default::default()
     };
     let err = Silhouetter::new(&model, bad).unwrap_err();
     assert!(err.to_string().contains("fraction"), "{err}");
+}
+
+#[test]
+fn settings_come_from_the_rig_with_per_camera_overrides() {
+    let table: toml::Table = toml::from_str(
+        r#"
+        [silhouette]
+        classifier = { kind = "colour_shadow", dark_weak = 0.55 }
+        keep = "largest"
+        [silhouette.per_camera.cam2]
+        classifier = { kind = "green_matte", fraction = 0.4 }
+        close_radius = 2
+        "#,
+    )
+    .unwrap();
+    let cam0 = SilhouetteSettings::from_processing(&table, "cam0").unwrap();
+    let Classifier::ColourShadow(c) = &cam0.classifier else {
+        panic!("cam0 keeps colour_shadow")
+    };
+    assert_eq!((c.dark_weak, c.dark), (0.55, 0.40));
+    assert_eq!(cam0.keep, flexshape_silhouette::KeepComponents::Largest);
+    let cam2 = SilhouetteSettings::from_processing(&table, "cam2").unwrap();
+    assert_eq!(cam2.close_radius, 2);
+    assert!(
+        matches!(&cam2.classifier, Classifier::GreenMatte(g) if g.fraction == 0.4 && g.min_difference == 20.0)
+    );
+    assert_eq!(
+        SilhouetteSettings::from_processing(&toml::Table::new(), "cam0").unwrap(),
+        SilhouetteSettings::default()
+    );
+    let typo: toml::Table = toml::from_str("[silhouette]\nclose_radiu = 2\n").unwrap();
+    let err = SilhouetteSettings::from_processing(&typo, "cam0")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("close_radiu") && err.contains("processing.silhouette"),
+        "{err}"
+    );
+    let bad: toml::Table =
+        toml::from_str("[silhouette]\nclassifier = { kind = \"green_matte\", fraction = 3.0 }\n")
+            .unwrap();
+    assert!(
+        SilhouetteSettings::from_processing(&bad, "cam0")
+            .unwrap_err()
+            .to_string()
+            .contains("fraction")
+    );
 }

@@ -1,7 +1,9 @@
 //! One module per command.
 
+mod background;
 mod demo;
 mod rig_check;
+mod silhouettes;
 mod simulate;
 
 use flexshape_sim::{Catheter, RenderSettings, SimConfig, SimRigConfig};
@@ -13,6 +15,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Demo(args) => demo::run(&args),
         Command::Simulate(args) => simulate::run(&args),
+        Command::Background(args) => background::run(&args),
+        Command::Silhouettes(args) => silhouettes::run(&args),
         Command::Rig {
             command: RigCommand::Check { path },
         } => rig_check::run(&path),
