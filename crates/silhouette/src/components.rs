@@ -120,8 +120,8 @@ pub fn label(runs: &[Run]) -> (Vec<usize>, Vec<usize>) {
     (labels, areas)
 }
 
-/// The mask restricted to the components chosen by `keep`.
-pub fn keep_components(mask: &BitMask, keep: KeepComponents) -> BitMask {
+/// The mask restricted to the components chosen by `keep`, and how many were kept.
+pub fn keep_components(mask: &BitMask, keep: KeepComponents) -> (BitMask, usize) {
     let runs = runs(mask);
     let (labels, areas) = label(&runs);
     let wanted: Vec<bool> = match keep {
@@ -141,7 +141,7 @@ pub fn keep_components(mask: &BitMask, keep: KeepComponents) -> BitMask {
             fill_run(&mut out, r);
         }
     }
-    out
+    (out, wanted.iter().filter(|&&w| w).count())
 }
 
 /// Sets the pixels of a run.
@@ -234,8 +234,12 @@ mod tests {
             m.set(x, 5, true);
         }
         m.set(90, 9, true);
-        assert_eq!(keep_components(&m, KeepComponents::Largest).count(), 30);
-        assert_eq!(keep_components(&m, KeepComponents::MinArea(5)).count(), 40);
-        assert_eq!(keep_components(&m, KeepComponents::MinArea(1)).count(), 41);
+        let count = |k| {
+            let (mask, n) = keep_components(&m, k);
+            (mask.count(), n)
+        };
+        assert_eq!(count(KeepComponents::Largest), (30, 1));
+        assert_eq!(count(KeepComponents::MinArea(5)), (40, 2));
+        assert_eq!(count(KeepComponents::MinArea(1)), (41, 3));
     }
 }

@@ -166,10 +166,7 @@ impl Silhouetter {
             .prepared
             .foreground(frame)
             .close(self.settings.close_radius);
-        let object = keep_components(&closed, self.settings.keep);
-        let components = crate::components::label(&crate::components::runs(&object))
-            .1
-            .len();
+        let (object, components) = keep_components(&closed, self.settings.keep);
         let markers = find_markers(frame, &object, &self.settings.markers);
         let status = if object.count() == 0 {
             SilhouetteStatus::NoObject
