@@ -81,12 +81,7 @@ impl RecordingWriter {
 
     /// Writes `background/<cam>.png`.
     pub fn write_background(&self, cam: &str, image: &RgbImage) -> Result<(), RecordingError> {
-        write_png(
-            &self.layout.background(cam),
-            image.as_raw(),
-            image.dimensions(),
-            ExtendedColorType::Rgb8,
-        )
+        write_rgb(&self.layout.background(cam), image)
     }
 
     /// Writes `frames/<cam>/<frame:06>.png`.
@@ -96,12 +91,7 @@ impl RecordingWriter {
         frame: u64,
         image: &RgbImage,
     ) -> Result<(), RecordingError> {
-        write_png(
-            &self.layout.frame(cam, frame),
-            image.as_raw(),
-            image.dimensions(),
-            ExtendedColorType::Rgb8,
-        )
+        write_rgb(&self.layout.frame(cam, frame), image)
     }
 
     /// Writes `truth/<frame:06>.json`.
@@ -121,12 +111,7 @@ impl RecordingWriter {
         frame: u64,
         mask: &GrayImage,
     ) -> Result<(), RecordingError> {
-        write_png(
-            &self.layout.truth_mask(cam, frame),
-            mask.as_raw(),
-            mask.dimensions(),
-            ExtendedColorType::L8,
-        )
+        write_gray(&self.layout.truth_mask(cam, frame), mask)
     }
 
     /// Writes `truth/markers/<cam>/<frame:06>.png` (0 = not a band, 255 = band).
@@ -136,13 +121,26 @@ impl RecordingWriter {
         frame: u64,
         mask: &GrayImage,
     ) -> Result<(), RecordingError> {
-        write_png(
-            &self.layout.truth_markers(cam, frame),
-            mask.as_raw(),
-            mask.dimensions(),
-            ExtendedColorType::L8,
-        )
+        write_gray(&self.layout.truth_markers(cam, frame), mask)
     }
+}
+
+fn write_rgb(path: &Path, image: &RgbImage) -> Result<(), RecordingError> {
+    write_png(
+        path,
+        image.as_raw(),
+        image.dimensions(),
+        ExtendedColorType::Rgb8,
+    )
+}
+
+fn write_gray(path: &Path, mask: &GrayImage) -> Result<(), RecordingError> {
+    write_png(
+        path,
+        mask.as_raw(),
+        mask.dimensions(),
+        ExtendedColorType::L8,
+    )
 }
 
 fn write_png(

@@ -204,6 +204,22 @@ impl BitMask {
     }
 }
 
+/// A reproducible random mask for tests: each pixel set with probability `density / 16`.
+#[cfg(test)]
+pub(crate) fn random_mask(w: usize, h: usize, density: u64, seed: u64) -> BitMask {
+    let mut m = BitMask::new(w, h);
+    let mut s = seed;
+    for y in 0..h {
+        for x in 0..w {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            m.set(x, y, (s >> 60) < density);
+        }
+    }
+    m
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -228,14 +244,7 @@ mod tests {
     proptest! {
         #[test]
         fn dilation_matches_the_definition(w in 1usize..150, h in 1usize..20, r in 0usize..4, seed in any::<u64>()) {
-            let mut m = BitMask::new(w, h);
-            let mut s = seed;
-            for y in 0..h {
-                for x in 0..w {
-                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                    m.set(x, y, (s >> 60) == 0);
-                }
-            }
+            let m = random_mask(w, h, 1, seed);
             prop_assert_eq!(m.dilate(r), naive_dilate(&m, r));
             // Erosion is the dual with the outside counted as set.
             let e = m.erode(r);

@@ -204,14 +204,7 @@ mod tests {
     proptest! {
         #[test]
         fn labels_match_a_flood_fill(w in 1usize..140, h in 1usize..25, density in 1u64..8, seed in any::<u64>()) {
-            let mut m = BitMask::new(w, h);
-            let mut s = seed;
-            for y in 0..h {
-                for x in 0..w {
-                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                    m.set(x, y, (s >> 61) < density.min(7));
-                }
-            }
+            let m = crate::bitmask::random_mask(w, h, 2 * density, seed);
             let rs = runs(&m);
             let mut rebuilt = BitMask::new(w, h);
             for r in &rs {
