@@ -1,1 +1,18 @@
-//! Voxel carving: lookup-table and hierarchical shape-from-silhouette over a working volume (issue 4; not yet built).
+//! Voxel carving (paper, Section II-B): the voxels of a working volume whose centres project
+//! inside every camera's silhouette — the visual hull — as a point cloud.
+//!
+//! - [`LookupTable`] and [`LookupTable::carve`]: the paper's Algorithms 1 and 2, every voxel's
+//!   pixel in every camera precomputed once per rig (with lens distortion), then a per-frame
+//!   scan with early exit. The correctness oracle and the baseline.
+//! - [`OutsideImage`]: what a camera that does not see a voxel says about it.
+//! - [`Occupancy`] and [`PointCloud`]: the result, with PLY export.
+//!
+//! World frame and millimetres throughout; voxel `(i, j, k)` has index `i + nx·(j + ny·k)`.
+
+mod cloud;
+mod error;
+mod lookup;
+
+pub use cloud::{Occupancy, PointCloud};
+pub use error::CarveError;
+pub use lookup::{LookupTable, OutsideImage};

@@ -39,6 +39,17 @@ impl BitMask {
         self.stride
     }
 
+    /// All words, row after row (`stride` words a row). Pixel `(x, y)` is bit `a % 64` of
+    /// word `a / 64` with the bit address `a = 64·stride·y + x`.
+    pub fn words(&self) -> &[u64] {
+        &self.words
+    }
+
+    /// Bit address of pixel `(x, y)` (see [`BitMask::words`]).
+    pub fn bit_address(&self, x: usize, y: usize) -> usize {
+        64 * self.stride * y + x
+    }
+
     /// Row `y` as words.
     pub fn row(&self, y: usize) -> &[u64] {
         &self.words[y * self.stride..(y + 1) * self.stride]

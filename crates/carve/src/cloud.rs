@@ -1,0 +1,101 @@
+//! Carving results: occupied voxels and the point cloud of their centres.
+
+use std::io::Write;
+use std::path::Path;
+
+use flexshape_camera::nalgebra::Point3;
+use flexshape_rig::Volume;
+
+use crate::error::CarveError;
+
+/// The occupied voxels of a volume, as ascending voxel indices `i + nx·(j + ny·k)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Occupancy {
+    /// The carved volume.
+    pub volume: Volume,
+    /// Occupied voxel indices, ascending.
+    pub voxels: Vec<u32>,
+}
+
+impl Occupancy {
+    /// Number of occupied voxels.
+    pub fn len(&self) -> usize {
+        self.voxels.len()
+    }
+
+    /// True when nothing is occupied.
+    pub fn is_empty(&self) -> bool {
+        self.voxels.is_empty()
+    }
+
+    /// `(i, j, k)` of a voxel index.
+    pub fn ijk(&self, index: u32) -> [u32; 3] {
+        let [nx, ny, _] = self.volume.dims;
+        [index % nx, (index / nx) % ny, index / (nx * ny)]
+    }
+
+    /// Index of the voxel containing world point `p` (mm), if inside the volume.
+    pub fn index_of(&self, p: &Point3<f64>) -> Option<u32> {
+        if !self.volume.contains(p) {
+            return None;
+        }
+        let v = &self.volume;
+        let ijk: [u32; 3] = std::array::from_fn(|a| {
+            (((p[a] - v.origin[a]) / v.voxel_size[a]).floor() as u32).min(v.dims[a] - 1)
+        });
+        Some(ijk[0] + v.dims[0] * (ijk[1] + v.dims[1] * ijk[2]))
+    }
+
+    /// True when the voxel containing `p` is occupied.
+    pub fn contains_point(&self, p: &Point3<f64>) -> bool {
+        self.index_of(p)
+            .is_some_and(|i| self.voxels.binary_search(&i).is_ok())
+    }
+
+    /// Occupied volume, mm³.
+    pub fn volume_mm3(&self) -> f64 {
+        self.len() as f64 * self.volume.voxel_size.iter().product::<f64>()
+    }
+
+    /// The voxel centres as a point cloud.
+    pub fn to_cloud(&self) -> PointCloud {
+        let voxels: Vec<[u32; 3]> = self.voxels.iter().map(|&i| self.ijk(i)).collect();
+        let points = voxels
+            .iter()
+            .map(|&[i, j, k]| {
+                let c = self.volume.voxel_centre(i, j, k);
+                [c.x as f32, c.y as f32, c.z as f32]
+            })
+            .collect();
+        PointCloud { points, voxels }
+    }
+}
+
+/// Occupied voxel centres (world mm) and their `(i, j, k)`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PointCloud {
+    /// Voxel centres, world mm.
+    pub points: Vec<[f32; 3]>,
+    /// Voxel coordinates.
+    pub voxels: Vec<[u32; 3]>,
+}
+
+impl PointCloud {
+    /// Writes an ASCII PLY file of the points (for MeshLab, CloudCompare, Open3D).
+    pub fn write_ply(&self, path: &Path) -> Result<(), CarveError> {
+        let err = |source| CarveError::Write {
+            path: path.display().to_string(),
+            source,
+        };
+        let mut out = std::io::BufWriter::new(std::fs::File::create(path).map_err(err)?);
+        let mut text = format!(
+            "ply\nformat ascii 1.0\ncomment flexshape carved voxel centres, world frame, mm\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+            self.points.len()
+        );
+        for p in &self.points {
+            text.push_str(&format!("{} {} {}\n", p[0], p[1], p[2]));
+        }
+        out.write_all(text.as_bytes()).map_err(err)?;
+        out.flush().map_err(err)
+    }
+}
