@@ -4,7 +4,8 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use flexshape_carve::{LookupTable, OutsideImage};
+use flexshape_carve::{HierarchicalCarver, LookupTable, OutsideImage};
+use flexshape_rig::Volume;
 use flexshape_silhouette::BitMask;
 use flexshape_sim::{SimConfig, Simulator};
 
@@ -27,6 +28,15 @@ fn bench(c: &mut Criterion) {
     let table = LookupTable::new(&cameras, &volume).unwrap();
     group.bench_function("exact_carve_256_3cam", |b| {
         b.iter(|| black_box(table.carve(&refs, OutsideImage::Carve).unwrap()))
+    });
+    let fast = HierarchicalCarver::new(&cameras, &volume).unwrap();
+    group.bench_function("hierarchical_carve_256_1mm_3cam", |b| {
+        b.iter(|| black_box(fast.carve(&refs, OutsideImage::Carve).unwrap()))
+    });
+    let fine = Volume::new(volume.origin, [0.5; 3], [512; 3]).unwrap();
+    let fast_fine = HierarchicalCarver::new(&cameras, &fine).unwrap();
+    group.bench_function("hierarchical_carve_512_0.5mm_3cam", |b| {
+        b.iter(|| black_box(fast_fine.carve(&refs, OutsideImage::Carve).unwrap()))
     });
     group.finish();
 }

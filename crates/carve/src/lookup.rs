@@ -185,3 +185,49 @@ impl LookupTable {
         })
     }
 }
+
+/// Bit address ([`BitMask::bit_address`]) of the pixel holding the projection of `centre`, or
+/// `None` when the camera does not see it (behind, beyond the lens fold, or off the image).
+/// The one test both carvers apply to single voxels.
+pub(crate) fn voxel_pixel(
+    cam: &Camera,
+    centre: &flexshape_camera::nalgebra::Point3<f64>,
+    stride: usize,
+) -> Option<u32> {
+    let p = cam.project(centre).ok()?;
+    let (x, y) = cam.intrinsics.pixel_index(p.pixel)?;
+    Some((64 * stride * y as usize + x as usize) as u32)
+}
+
+/// Checks that there is one mask per camera, of that camera's image size.
+pub(crate) fn check_masks(masks: &[&BitMask], sizes: &[(u32, u32)]) -> Result<(), CarveError> {
+    if masks.len() != sizes.len() {
+        return Err(CarveError::MaskCount {
+            masks: masks.len(),
+            cameras: sizes.len(),
+        });
+    }
+    for (c, (m, &(w, h))) in masks.iter().zip(sizes).enumerate() {
+        if (m.width(), m.height()) != (w as usize, h as usize) {
+            return Err(CarveError::MaskSize {
+                camera: c,
+                width: m.width(),
+                height: m.height(),
+                expected_width: w,
+                expected_height: h,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Cameras that must see a voxel under `rule`.
+pub(crate) fn min_views(rule: OutsideImage, cameras: usize) -> Result<usize, CarveError> {
+    match rule {
+        OutsideImage::Carve => Ok(cameras),
+        OutsideImage::Ignore { min_views } if min_views == 0 || min_views > cameras => {
+            Err(CarveError::MinViews { min_views, cameras })
+        }
+        OutsideImage::Ignore { min_views } => Ok(min_views),
+    }
+}
