@@ -8,16 +8,20 @@
 //!   camera (interval arithmetic through the lens model) and tested on the bit-packed masks;
 //!   identical results to the lookup table at a cost that follows the object's surface.
 //! - [`OutsideImage`]: what a camera that does not see a voxel says about it.
+//! - [`find_bands`]: marker-band voxels (marker pixels in enough cameras) grouped into bands
+//!   with their centroids.
 //! - [`Occupancy`] and [`PointCloud`]: the result, with PLY export.
 //!
 //! World frame and millimetres throughout; voxel `(i, j, k)` has index `i + nx·(j + ny·k)`.
 
+mod bands;
 mod cloud;
 mod error;
 mod hierarchical;
 mod interval;
 mod lookup;
 
+pub use bands::{Band, BandRule, find_bands};
 pub use cloud::{Occupancy, PointCloud};
 pub use error::CarveError;
 pub use hierarchical::HierarchicalCarver;

@@ -32,9 +32,11 @@ pub struct Tube {
 }
 
 impl Tube {
-    /// True when arc length `s` lies on a band.
+    /// True when the surface point whose nearest centerline point is at arc length `s` lies on
+    /// a band. Tape wraps the tube's side: the end caps (nearest point at either end of the
+    /// centerline) keep the body colour.
     pub fn is_band(&self, s: f64) -> bool {
-        self.bands.iter().any(|&[a, b]| s >= a && s <= b)
+        s > 0.0 && s < self.centerline.length() && self.bands.iter().any(|&[a, b]| s >= a && s <= b)
     }
 }
 
