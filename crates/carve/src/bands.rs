@@ -93,7 +93,7 @@ pub fn find_bands(
             }
         })
         .collect();
-    bands.sort_by(|a, b| b.voxels.len().cmp(&a.voxels.len()));
+    bands.sort_by_key(|b| std::cmp::Reverse(b.voxels.len()));
     Ok(bands)
 }
 

@@ -33,10 +33,9 @@ pub struct Tube {
 
 impl Tube {
     /// True when the surface point whose nearest centerline point is at arc length `s` lies on
-    /// a band. Tape wraps the tube's side: the end caps (nearest point at either end of the
-    /// centerline) keep the body colour.
+    /// a band. A band reaching the tube's end also colours its end cap (a marked tip).
     pub fn is_band(&self, s: f64) -> bool {
-        s > 0.0 && s < self.centerline.length() && self.bands.iter().any(|&[a, b]| s >= a && s <= b)
+        self.bands.iter().any(|&[a, b]| s >= a && s <= b)
     }
 }
 
