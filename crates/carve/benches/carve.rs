@@ -11,7 +11,7 @@ use flexshape_sim::{SimConfig, Simulator};
 
 fn bench(c: &mut Criterion) {
     let sim = Simulator::new(SimConfig::default()).unwrap();
-    let cameras: Vec<_> = sim.rig().cameras.iter().map(|c| c.camera.clone()).collect();
+    let cameras = sim.cameras();
     let volume = sim.rig().volume;
     let frame = sim.render(0, &sim.sweep(1)[0]).unwrap();
     let masks: Vec<BitMask> = frame

@@ -109,45 +109,12 @@ impl LookupTable {
         self.table.len() * 4
     }
 
-    /// Checks that there is one mask per camera, of that camera's image size.
-    pub(crate) fn check_masks(&self, masks: &[&BitMask]) -> Result<(), CarveError> {
-        if masks.len() != self.cameras {
-            return Err(CarveError::MaskCount {
-                masks: masks.len(),
-                cameras: self.cameras,
-            });
-        }
-        for (c, (m, &(w, h))) in masks.iter().zip(&self.sizes).enumerate() {
-            if (m.width(), m.height()) != (w as usize, h as usize) {
-                return Err(CarveError::MaskSize {
-                    camera: c,
-                    width: m.width(),
-                    height: m.height(),
-                    expected_width: w,
-                    expected_height: h,
-                });
-            }
-        }
-        Ok(())
-    }
-
     /// The voxels whose centres every camera sees inside its mask (Algorithm 2), under `rule`
     /// for cameras that do not see a voxel.
     pub fn carve(&self, masks: &[&BitMask], rule: OutsideImage) -> Result<Occupancy, CarveError> {
-        self.check_masks(masks)?;
+        check_masks(masks, &self.sizes)?;
         let nc = self.cameras;
-        let min_views = match rule {
-            OutsideImage::Carve => nc,
-            OutsideImage::Ignore { min_views } => {
-                if min_views == 0 || min_views > nc {
-                    return Err(CarveError::MinViews {
-                        min_views,
-                        cameras: nc,
-                    });
-                }
-                min_views
-            }
-        };
+        let min_views = min_views(rule, nc)?;
         let carve_unseen = rule == OutsideImage::Carve;
         let words: Vec<&[u64]> = masks.iter().map(|m| m.words()).collect();
         let [nx, ny, _] = self.volume.dims.map(|d| d as usize);

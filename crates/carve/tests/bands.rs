@@ -8,7 +8,7 @@ use flexshape_sim::{SimConfig, Simulator};
 #[test]
 fn band_centroids_are_within_a_millimetre_of_the_true_band_centres() {
     let sim = Simulator::new(SimConfig::default()).unwrap();
-    let cameras: Vec<_> = sim.rig().cameras.iter().map(|c| c.camera.clone()).collect();
+    let cameras = sim.cameras();
     let carver = HierarchicalCarver::new(&cameras, &sim.rig().volume).unwrap();
     let silhouetters: Vec<Silhouetter> = sim
         .backgrounds()

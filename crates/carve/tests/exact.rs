@@ -8,15 +8,11 @@ use flexshape_rig::Volume;
 use flexshape_silhouette::{BackgroundModel, BitMask, SilhouetteSettings, Silhouetter};
 use flexshape_sim::{SimConfig, Simulator};
 
-fn cameras(sim: &Simulator) -> Vec<flexshape_camera::Camera> {
-    sim.rig().cameras.iter().map(|c| c.camera.clone()).collect()
-}
-
 #[test]
 fn the_hull_contains_the_catheter_and_stays_close_to_its_volume() {
     let sim = Simulator::new(SimConfig::default()).unwrap();
     let volume = sim.rig().volume;
-    let table = LookupTable::new(&cameras(&sim), &volume).unwrap();
+    let table = LookupTable::new(&sim.cameras(), &volume).unwrap();
     assert_eq!(table.memory_bytes(), 256 * 256 * 256 * 3 * 4);
     let silhouetters: Vec<Silhouetter> = sim
         .backgrounds()
@@ -82,7 +78,7 @@ fn the_hull_contains_the_catheter_and_stays_close_to_its_volume() {
 #[test]
 fn bad_input_and_empty_masks() {
     let sim = Simulator::new(SimConfig::default()).unwrap();
-    let cams = cameras(&sim);
+    let cams = sim.cameras();
     let small = Volume::new([-40.0; 3], [2.0; 3], [40, 40, 40]).unwrap();
     assert!(matches!(
         LookupTable::new(&cams[..1], &small),
@@ -147,7 +143,7 @@ fn voxels_outside_some_images_follow_the_rule() {
     // Reaches 400 mm along +x: beyond cam1's and cam2's fields of view, and behind cam0
     // (about 600 mm out on +x) only past 600 mm, so cam0 sees it all.
     let wide = Volume::new([-100.0, -50.0, -50.0], [10.0; 3], [50, 10, 10]).unwrap();
-    let table = LookupTable::new(&cameras(&sim), &wide).unwrap();
+    let table = LookupTable::new(&sim.cameras(), &wide).unwrap();
     let full = BitMask::new(640, 480).not();
     let masks = [&full, &full, &full];
     let all_seen = table.carve(&masks, OutsideImage::Carve).unwrap();

@@ -9,7 +9,7 @@ use proptest::prelude::*;
 #[test]
 fn identical_to_exact_on_the_default_scene() {
     let sim = Simulator::new(SimConfig::default()).unwrap();
-    let cameras: Vec<_> = sim.rig().cameras.iter().map(|c| c.camera.clone()).collect();
+    let cameras = sim.cameras();
     let volume = sim.rig().volume;
     let table = LookupTable::new(&cameras, &volume).unwrap();
     let fast = HierarchicalCarver::new(&cameras, &volume).unwrap();

@@ -78,6 +78,11 @@ impl Simulator {
         &self.rig
     }
 
+    /// The rig's cameras, in rig order.
+    pub fn cameras(&self) -> Vec<Camera> {
+        self.rig.cameras.iter().map(|c| c.camera.clone()).collect()
+    }
+
     /// The default seeded sweep of `frames` poses.
     pub fn sweep(&self, frames: usize) -> Vec<CatheterPose> {
         sequence::sweep(&self.config.catheter, self.config.seed, frames)
