@@ -111,11 +111,12 @@ fn demo_runs_and_reports() {
     let o = flexshape(&["demo", "--frames", "2"]);
     assert!(o.status.success(), "{}", text(&o));
     let t = text(&o);
-    assert!(t.contains("2 frames: simulating 3 cameras"), "{t}");
+    assert!(t.contains("2 frames: silhouette IoU ≥ 0.9"), "{t}");
     assert!(
-        t.contains("silhouettes: worst IoU against the exact masks 0.9"),
+        t.contains("the carved hull holds 100.0 % of the true centerline at worst"),
         "{t}"
     );
+    assert!(t.contains("simulating 3 cameras takes"), "{t}");
     assert_eq!(
         t.lines()
             .filter(|l| l.trim_start().starts_with(['0', '1']))
