@@ -123,17 +123,7 @@ impl Simulator {
             tubes: Vec::new(),
             occluders: self.occluders.clone(),
         };
-        if scene.occluders.is_empty() {
-            return (0..self.renderer.camera_count())
-                .map(|c| self.renderer.render_background(c, 0.25))
-                .collect();
-        }
-        // Occluders need the full renderer; use a distinct frame number for their noise.
-        self.renderer
-            .render(&scene, u64::MAX - 1)
-            .into_iter()
-            .map(|v| v.image)
-            .collect()
+        self.renderer.render_backgrounds(&scene, 0.25)
     }
 
     /// Writes a recording of `poses` to `dir` (see `flexshape_recording`), handing each frame

@@ -166,12 +166,15 @@ impl Renderer {
             .collect()
     }
 
-    /// The empty backdrop of camera `cam` with noise reduced by `noise_scale` (e.g. ¼, as if 16
-    /// frames had been averaged), for background images.
-    pub fn render_background(&self, cam: usize, noise_scale: f64) -> RgbImage {
+    /// Every camera's view of `scene` (e.g. the set without the catheter) with noise reduced
+    /// by `noise_scale` (¼: as if 16 frames had been averaged), for background images.
+    pub fn render_backgrounds(&self, scene: &Scene, noise_scale: f64) -> Vec<RgbImage> {
         let sigma = self.settings.noise_sigma * noise_scale;
-        self.render_view(&self.views[cam], cam, &Scene::default(), u64::MAX, sigma)
-            .image
+        self.views
+            .par_iter()
+            .enumerate()
+            .map(|(i, v)| self.render_view(v, i, scene, u64::MAX, sigma).image)
+            .collect()
     }
 
     fn prepare<'a>(&self, view: &CameraView, scene: &'a Scene) -> Prepared<'a> {
