@@ -1,8 +1,9 @@
 //! Marker bands found in the carved volume against the simulator's band centres.
 
+mod common;
+
 use flexshape_camera::nalgebra::Point3;
 use flexshape_carve::{BandRule, HierarchicalCarver, OutsideImage, find_bands};
-use flexshape_silhouette::{BackgroundModel, SilhouetteSettings, Silhouetter};
 use flexshape_sim::{SimConfig, Simulator};
 
 #[test]
@@ -10,17 +11,7 @@ fn band_centroids_are_within_a_millimetre_of_the_true_band_centres() {
     let sim = Simulator::new(SimConfig::default()).unwrap();
     let cameras = sim.cameras();
     let carver = HierarchicalCarver::new(&cameras, &sim.rig().volume).unwrap();
-    let silhouetters: Vec<Silhouetter> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| {
-            Silhouetter::new(
-                &BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap(),
-                SilhouetteSettings::default(),
-            )
-            .unwrap()
-        })
-        .collect();
+    let silhouetters = common::silhouetters(&sim);
     // Worst distance for the band at the bending base and for the band ending at the tip.
     let (mut worst_base, mut worst_tip): (f64, f64) = (0.0, 0.0);
     for (n, pose) in sim.sweep(8).iter().enumerate() {

@@ -1,11 +1,13 @@
 //! Exact (lookup-table) carving on the simulated rig against ground truth.
 
+mod common;
+
 use std::f64::consts::PI;
 
 use flexshape_camera::nalgebra::Point3;
 use flexshape_carve::{CarveError, LookupTable, OutsideImage};
 use flexshape_rig::Volume;
-use flexshape_silhouette::{BackgroundModel, BitMask, SilhouetteSettings, Silhouetter};
+use flexshape_silhouette::BitMask;
 use flexshape_sim::{SimConfig, Simulator};
 
 #[test]
@@ -14,17 +16,7 @@ fn the_hull_contains_the_catheter_and_stays_close_to_its_volume() {
     let volume = sim.rig().volume;
     let table = LookupTable::new(&sim.cameras(), &volume).unwrap();
     assert_eq!(table.memory_bytes(), 256 * 256 * 256 * 3 * 4);
-    let silhouetters: Vec<Silhouetter> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| {
-            Silhouetter::new(
-                &BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap(),
-                SilhouetteSettings::default(),
-            )
-            .unwrap()
-        })
-        .collect();
+    let silhouetters = common::silhouetters(&sim);
     let r = sim.config().catheter.radius;
     let mut worst_ratio: f64 = 0.0;
     for (n, pose) in sim.sweep(6).iter().enumerate() {

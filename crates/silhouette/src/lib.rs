@@ -5,8 +5,8 @@
 //! ([`Classifier`]: the paper's green matting, or colour subtraction with shadow rejection) into
 //! bit-packed masks ([`BitMask`]), close small holes, keep the object's connected components
 //! ([`KeepComponents`]), then find the marker tape inside the object ([`MarkerSettings`]).
-//! Masks keep their boundary at half contrast; [`dilated`] derives a margin where one is
-//! wanted. Pixel (0, 0) is the top-left pixel.
+//! Masks keep their boundary at half contrast; a consumer that wants a margin dilates its own
+//! copy ([`BitMask::dilate`]). Pixel (0, 0) is the top-left pixel.
 
 mod background;
 mod bitmask;
@@ -22,6 +22,4 @@ pub use classify::{Classifier, ColourShadow, GreenMatte};
 pub use components::KeepComponents;
 pub use error::SilhouetteError;
 pub use markers::MarkerSettings;
-pub use silhouetter::{
-    Silhouette, SilhouetteSettings, SilhouetteStatus, Silhouetter, debug_image, dilated,
-};
+pub use silhouetter::{Silhouette, SilhouetteSettings, SilhouetteStatus, Silhouetter, debug_image};

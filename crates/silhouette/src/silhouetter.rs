@@ -214,9 +214,3 @@ pub fn debug_image(frame: &RgbImage, s: &Silhouette) -> RgbImage {
     }
     out
 }
-
-/// A dilated copy of an object mask for consumers that want a margin (e.g. carving against
-/// calibration error), leaving the measured silhouette itself at half contrast.
-pub fn dilated(mask: &BitMask, radius: usize) -> BitMask {
-    mask.dilate(radius)
-}
