@@ -6,7 +6,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::cloud::Occupancy;
 use crate::error::CarveError;
-use crate::lookup::{check_masks, voxel_pixel};
+use crate::lookup::check_masks;
+use crate::projector::VoxelProjector;
 
 /// When an occupied voxel is a band voxel, and which groups count as bands.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -56,6 +57,7 @@ pub fn find_bands(
             cameras: cameras.len(),
         });
     }
+    let projectors: Vec<VoxelProjector> = cameras.iter().map(VoxelProjector::new).collect();
     let band_voxels: Vec<u32> = occupancy
         .voxels
         .iter()
@@ -63,11 +65,11 @@ pub fn find_bands(
         .filter(|&v| {
             let [i, j, k] = occupancy.ijk(v);
             let centre = occupancy.volume.voxel_centre(i, j, k);
-            let hits = cameras
+            let hits = projectors
                 .iter()
                 .zip(markers)
-                .filter(|(cam, m)| {
-                    voxel_pixel(cam, &centre, m.stride())
+                .filter(|(proj, m)| {
+                    proj.bit_address([centre.x, centre.y, centre.z])
                         .is_some_and(|a| m.words()[(a >> 6) as usize] >> (a & 63) & 1 == 1)
                 })
                 .count();

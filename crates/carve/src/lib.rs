@@ -20,6 +20,7 @@ mod error;
 mod hierarchical;
 mod interval;
 mod lookup;
+mod projector;
 
 pub use bands::{Band, BandRule, find_bands};
 pub use cloud::{Occupancy, PointCloud};

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cloud::Occupancy;
 use crate::error::CarveError;
+use crate::projector::VoxelProjector;
 
 /// Table entry of a voxel a camera does not see (outside its image, behind it, or beyond its
 /// lens model's valid radius).
@@ -60,10 +61,7 @@ impl LookupTable {
         }
         let [nx, ny, _] = volume.dims.map(|d| d as usize);
         let slice = nx * ny * nc;
-        let strides: Vec<usize> = cameras
-            .iter()
-            .map(|c| (c.intrinsics.width as usize).div_ceil(64))
-            .collect();
+        let projectors: Vec<VoxelProjector> = cameras.iter().map(VoxelProjector::new).collect();
         let mut table = vec![UNSEEN; volume.voxel_count() as usize * nc];
         table
             .par_chunks_mut(slice)
@@ -73,11 +71,9 @@ impl LookupTable {
                     for i in 0..nx {
                         let centre = volume.voxel_centre(i as u32, j as u32, k as u32);
                         let v = (j * nx + i) * nc;
-                        for (c, cam) in cameras.iter().enumerate() {
-                            if let Ok(p) = cam.project(&centre)
-                                && let Some((x, y)) = cam.intrinsics.pixel_index(p.pixel)
-                            {
-                                out[v + c] = (64 * strides[c] * y as usize + x as usize) as u32;
+                        for (c, proj) in projectors.iter().enumerate() {
+                            if let Some(a) = proj.bit_address([centre.x, centre.y, centre.z]) {
+                                out[v + c] = a;
                             }
                         }
                     }
@@ -151,19 +147,6 @@ impl LookupTable {
             voxels,
         })
     }
-}
-
-/// Bit address ([`BitMask::bit_address`]) of the pixel holding the projection of `centre`, or
-/// `None` when the camera does not see it (behind, beyond the lens fold, or off the image).
-/// The one test both carvers apply to single voxels.
-pub(crate) fn voxel_pixel(
-    cam: &Camera,
-    centre: &flexshape_camera::nalgebra::Point3<f64>,
-    stride: usize,
-) -> Option<u32> {
-    let p = cam.project(centre).ok()?;
-    let (x, y) = cam.intrinsics.pixel_index(p.pixel)?;
-    Some((64 * stride * y as usize + x as usize) as u32)
 }
 
 /// Checks that there is one mask per camera, of that camera's image size.
