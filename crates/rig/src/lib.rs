@@ -10,6 +10,7 @@
 
 pub mod camera_file;
 mod error;
+pub mod middlebury;
 mod opencv_matrix;
 mod rig;
 mod volume;

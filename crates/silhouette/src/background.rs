@@ -74,6 +74,32 @@ impl BackgroundModel {
         })
     }
 
+    /// A backdrop of one colour everywhere (e.g. black cloth or a lit screen), when no empty
+    /// frame was recorded. `colour` is RGB and `spread` the noise, both in grey levels.
+    pub fn uniform(
+        width: u32,
+        height: u32,
+        colour: [f32; 3],
+        spread: f32,
+    ) -> Result<Self, SilhouetteError> {
+        if width == 0 || height == 0 {
+            return Err(SilhouetteError::EmptyFrame);
+        }
+        if colour.iter().any(|c| !(0.0..=255.0).contains(c)) || !(0.0..=255.0).contains(&spread) {
+            return Err(SilhouetteError::Setting {
+                field: "background",
+                problem: format!("colour {colour:?} and spread {spread} must lie in [0, 255]"),
+            });
+        }
+        let n = (width * height) as usize;
+        Ok(BackgroundModel {
+            width,
+            height,
+            mean: vec![colour; n],
+            spread: vec![spread; n],
+        })
+    }
+
     /// Image width.
     pub fn width(&self) -> u32 {
         self.width

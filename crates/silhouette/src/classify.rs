@@ -1,10 +1,13 @@
 //! Foreground classification against the background model, per pixel, into bit masks.
 //!
-//! Two classifiers, chosen per camera:
+//! Three classifiers, chosen per camera:
 //! - [`Classifier::GreenMatte`], the paper's: foreground where the green channel is darker
 //!   than the background's by more than `max(fraction · bg, min_difference, noise_factor · σ)`.
 //!   With `fraction` ≈ 0.45 the boundary sits at half contrast for a dark object on a bright
 //!   backdrop. Shadows darker than that fraction become foreground.
+//! - [`Classifier::Difference`]: foreground where any channel differs from the background by
+//!   more than `max(min_difference, noise_factor · σ)` — for black cloth or a lit screen,
+//!   where no shadow falls on the backdrop.
 //! - [`Classifier::ColourShadow`], after Horprasert et al. and Cheung et al.: with `E` the
 //!   background colour and `I` the pixel, the brightness distortion `α = I·E / E·E` and the
 //!   chromaticity distortion `CD = ‖I − αE‖ / ‖E‖` (≈ the angle between the two RGB vectors).
@@ -47,6 +50,27 @@ impl Default for GreenMatte {
     }
 }
 
+/// Parameters of plain background subtraction (for dark or uniform backdrops without
+/// shadows on them).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Difference {
+    /// Smallest difference in any channel that makes a pixel foreground, grey levels.
+    pub min_difference: f32,
+    /// Smallest difference in units of the pixel's background spread.
+    pub noise_factor: f32,
+}
+
+impl Default for Difference {
+    /// About a fifth of the range: a lit object on black cloth.
+    fn default() -> Self {
+        Difference {
+            min_difference: 48.0,
+            noise_factor: 4.0,
+        }
+    }
+}
+
 /// Parameters of colour subtraction with shadow rejection.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -79,8 +103,8 @@ impl Default for ColourShadow {
     }
 }
 
-/// How pixels are told from the background (`kind = "green_matte"` or `"colour_shadow"` in
-/// the rig file, with any parameters beside it).
+/// How pixels are told from the background (`kind = "green_matte"`, `"colour_shadow"` or
+/// `"difference"` in the rig file, with any parameters beside it).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Classifier {
@@ -88,6 +112,8 @@ pub enum Classifier {
     GreenMatte(GreenMatte),
     /// Colour subtraction with shadow rejection and hysteresis.
     ColourShadow(ColourShadow),
+    /// Any channel differing from the background by more than a margin.
+    Difference(Difference),
 }
 
 impl Classifier {
@@ -118,6 +144,10 @@ impl Classifier {
                 check("min_difference", g.min_difference, 0.0, 255.0)?;
                 check("noise_factor", g.noise_factor, 0.0, 100.0)
             }
+            Classifier::Difference(d) => {
+                check("min_difference", d.min_difference, 0.0, 255.0)?;
+                check("noise_factor", d.noise_factor, 0.0, 100.0)
+            }
             Classifier::ColourShadow(c) => {
                 check("chroma", c.chroma, 0.0, 2.0)?;
                 check("chroma_weak", c.chroma_weak, 0.0, c.chroma)?;
@@ -147,6 +177,8 @@ pub(crate) struct Prepared {
 enum Kind {
     /// Foreground iff the green value is below `limit[i]`.
     Green { limit: Vec<u8> },
+    /// Foreground iff some channel differs from `bg[i]` by more than `margin[i]`.
+    Difference { bg: Vec<[f32; 3]>, margin: Vec<f32> },
     /// Per pixel: background colour, `1 / E·E`, and squared chromaticity thresholds.
     Colour {
         bg: Vec<[f32; 3]>,
@@ -183,6 +215,23 @@ impl Prepared {
                     })
                     .collect(),
             },
+            Classifier::Difference(Difference {
+                min_difference,
+                noise_factor,
+            }) => {
+                let margin: Vec<f32> = (0..n)
+                    .map(|i| {
+                        let m = min_difference.max(noise_factor * model.spread(i));
+                        // |I − round(E)| ≤ t keeps |I − E| ≤ t + ½ ≤ m when t ≤ m − 1.5.
+                        tolerance[i] = m - 1.5;
+                        m
+                    })
+                    .collect();
+                Kind::Difference {
+                    bg: (0..n).map(|i| model.mean(i)).collect(),
+                    margin,
+                }
+            }
             Classifier::ColourShadow(ColourShadow {
                 chroma,
                 chroma_weak,
@@ -355,6 +404,25 @@ impl Prepared {
                 let weak = strong.clone();
                 (strong, weak)
             }
+            Kind::Difference { bg, margin } => {
+                for y in 0..h {
+                    let row = &px[y * w * 3..(y + 1) * w * 3];
+                    let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
+                    let words = strong.row_mut(y);
+                    self.busy_blocks(row, bg_row, y, w, |x0, x1| {
+                        let mut bits = 0u64;
+                        for x in x0..x1 {
+                            let (e, m) = (bg[y * w + x], margin[y * w + x]);
+                            let p = &row[x * 3..x * 3 + 3];
+                            let fg = (0..3).any(|c| (p[c] as f32 - e[c]).abs() > m);
+                            bits |= (fg as u64) << (x - x0);
+                        }
+                        words[x0 / 64] |= bits << (x0 % 64);
+                    });
+                }
+                let weak = strong.clone();
+                (strong, weak)
+            }
             Kind::Colour {
                 bg,
                 inv_e2,
@@ -404,7 +472,11 @@ mod tests {
         config.render.shadows = true;
         let sim = Simulator::new(config).unwrap();
         let backgrounds = sim.backgrounds();
-        for classifier in [Classifier::colour_shadow(), Classifier::green_matte()] {
+        for classifier in [
+            Classifier::colour_shadow(),
+            Classifier::green_matte(),
+            Classifier::Difference(Difference::default()),
+        ] {
             let models: Vec<BackgroundModel> = backgrounds
                 .iter()
                 .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
@@ -428,5 +500,21 @@ mod tests {
                 "the skip test never applied ({skipped} chunks)"
             );
         }
+    }
+
+    #[test]
+    fn difference_marks_pixels_off_the_backdrop_in_any_channel() {
+        let model = BackgroundModel::uniform(70, 3, [10.0, 10.0, 10.0], 2.0).unwrap();
+        let d = Difference {
+            min_difference: 40.0,
+            noise_factor: 4.0,
+        };
+        let mut frame = RgbImage::from_pixel(70, 3, image::Rgb([10, 10, 10]));
+        frame.put_pixel(5, 1, image::Rgb([10, 51, 10])); // 41 above: foreground
+        frame.put_pixel(66, 1, image::Rgb([10, 10, 49])); // 39 above: background
+        frame.put_pixel(67, 2, image::Rgb([200, 0, 0]));
+        let fg = Prepared::new(&model, &Classifier::Difference(d)).foreground(&frame);
+        assert_eq!(fg.count(), 2);
+        assert!(fg.get(5, 1) && fg.get(67, 2));
     }
 }
