@@ -6,6 +6,7 @@ use std::path::Path;
 use flexshape_camera::nalgebra::Point3;
 use flexshape_rig::Volume;
 
+use crate::bands::Band;
 use crate::error::CarveError;
 
 /// The occupied voxels of a volume, as ascending voxel indices `i + nx·(j + ny·k)`.
@@ -57,7 +58,7 @@ impl Occupancy {
         self.len() as f64 * self.volume.voxel_size.iter().product::<f64>()
     }
 
-    /// The voxel centres as a point cloud.
+    /// The voxel centres as a point cloud, no voxel in a band.
     pub fn to_cloud(&self) -> PointCloud {
         let voxels: Vec<[u32; 3]> = self.voxels.iter().map(|&i| self.ijk(i)).collect();
         let points = voxels
@@ -67,17 +68,38 @@ impl Occupancy {
                 [c.x as f32, c.y as f32, c.z as f32]
             })
             .collect();
-        PointCloud { points, voxels }
+        PointCloud {
+            points,
+            band: vec![0; voxels.len()],
+            voxels,
+        }
+    }
+
+    /// The point cloud with each voxel labelled by the band holding it (`bands` as
+    /// [`crate::find_bands`] returned them for this occupancy).
+    pub fn to_cloud_with_bands(&self, bands: &[Band]) -> PointCloud {
+        let mut cloud = self.to_cloud();
+        for (n, band) in bands.iter().enumerate() {
+            let label = u16::try_from(n + 1).unwrap_or(u16::MAX);
+            for v in &band.voxels {
+                if let Ok(at) = self.voxels.binary_search(v) {
+                    cloud.band[at] = label;
+                }
+            }
+        }
+        cloud
     }
 }
 
-/// Occupied voxel centres (world mm) and their `(i, j, k)`.
+/// Occupied voxel centres (world mm), their `(i, j, k)` and band labels.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct PointCloud {
     /// Voxel centres, world mm.
     pub points: Vec<[f32; 3]>,
     /// Voxel coordinates.
     pub voxels: Vec<[u32; 3]>,
+    /// Per point: 0 outside every band, `n` in the `n`-th band (1-based, largest first).
+    pub band: Vec<u16>,
 }
 
 impl PointCloud {
@@ -89,11 +111,13 @@ impl PointCloud {
         };
         let mut out = std::io::BufWriter::new(std::fs::File::create(path).map_err(err)?);
         let mut text = format!(
-            "ply\nformat ascii 1.0\ncomment flexshape carved voxel centres, world frame, mm\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+            "ply\nformat ascii 1.0\ncomment flexshape carved voxel centres, world frame, mm; band 0 = no band\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty ushort band\nend_header\n",
             self.points.len()
         );
-        for p in &self.points {
-            text.push_str(&format!("{} {} {}\n", p[0], p[1], p[2]));
+        for (p, &b) in self.points.iter().zip(&self.band) {
+            // Band voxels red, the rest grey, for viewers that colour by vertex.
+            let rgb = if b == 0 { "160 160 160" } else { "220 30 30" };
+            text.push_str(&format!("{} {} {} {rgb} {b}\n", p[0], p[1], p[2]));
         }
         out.write_all(text.as_bytes()).map_err(err)?;
         out.flush().map_err(err)

@@ -25,6 +25,17 @@ fn band_centroids_are_within_a_millimetre_of_the_true_band_centres() {
         let markers: Vec<_> = sil.iter().map(|s| &s.markers).collect();
         let occ = carver.carve(&objects, OutsideImage::Carve).unwrap();
         let bands = find_bands(&occ, &cameras, &markers, &BandRule::default()).unwrap();
+        // The cloud labels exactly the band voxels, each with its band.
+        let cloud = occ.to_cloud_with_bands(&bands);
+        for (n, band) in bands.iter().enumerate() {
+            let labelled = cloud.band.iter().filter(|&&b| b as usize == n + 1).count();
+            assert_eq!(labelled, band.voxels.len());
+        }
+        let unlabelled = cloud.band.iter().filter(|&&b| b == 0).count();
+        assert_eq!(
+            unlabelled + bands.iter().map(|b| b.voxels.len()).sum::<usize>(),
+            occ.len()
+        );
         let inside: Vec<_> = f
             .truth
             .bands

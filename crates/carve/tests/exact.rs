@@ -164,5 +164,6 @@ fn voxels_outside_some_images_follow_the_rule() {
     all_seen.to_cloud().write_ply(&path).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains(&format!("element vertex {}", all_seen.len())));
-    assert_eq!(text.lines().count(), 8 + all_seen.len());
+    assert_eq!(text.lines().count(), 12 + all_seen.len());
+    assert!(text.lines().nth(13).unwrap().ends_with(" 160 160 160 0"));
 }
