@@ -1,1 +1,146 @@
-//! Shape estimation: ordered centerline, smoothing spline, bands and circular-arc fit from a carved cloud (issue 5; not yet built).
+//! Shape estimation (paper, Section II-C and the circular approximation of Section V-B): from
+//! the carved voxels of a tube and its marker bands to one smooth centerline with arc length,
+//! curvature, torsion, tip, band positions, axial strains and constant-curvature fits.
+//!
+//! Pipeline ([`ShapeEstimator::estimate`]):
+//! 1. `order`: the cloud is ordered along the tube by geodesic distance over a coarse voxel
+//!    graph (ends by a double sweep), then cut into slices square to the tube; the proximal end
+//!    is the one entering the volume. [`angle_order`] is the paper's ordering, kept as a
+//!    baseline.
+//! 2. `centerline`: slice centroids smoothed into one cubic spline in arc length
+//!    ([`Smoothing`]: smoothing spline by default, or the paper's moving average or polynomial),
+//!    ends corrected for the cloud's extent and the tip's cap, sampled at uniform arc length.
+//! 3. `bands`: band centres on the curve; strains between bands of known nominal spacing.
+//! 4. `arcfit`: constant-curvature (and two-piece) fits of a section.
+//!
+//! Everything is in the world frame, millimetres and radians; arc lengths run from the
+//! proximal end. The output is a [`ShapeRecord`] whose [`Status`] says whether there is a shape.
+
+mod arcfit;
+mod bands;
+mod centerline;
+mod graph;
+mod order;
+mod record;
+mod settings;
+mod spline;
+
+use std::time::Instant;
+
+use flexshape_carve::{Band, Occupancy};
+use thiserror::Error;
+
+pub use arcfit::section_frame;
+pub use order::angle_order;
+pub use record::{ArcFit, BandOnCurve, Compression, ShapeRecord, Status, Timings, TwoSectionFit};
+pub use settings::{ArcFitSettings, NominalSection, ShapeSettings, Smoothing, TipEnd};
+pub use spline::{CubicSpline3, Derivatives, moving_average, polynomial_fit};
+
+/// Why the shape stage cannot be set up.
+#[derive(Debug, Error)]
+pub enum ShapeError {
+    /// A setting is out of range.
+    #[error("shape setting `{field}`: {problem}")]
+    Setting {
+        /// The setting, e.g. `smoothing.window`.
+        field: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+/// Turns carved clouds into shapes with fixed settings.
+#[derive(Debug, Clone)]
+pub struct ShapeEstimator {
+    settings: ShapeSettings,
+}
+
+impl ShapeEstimator {
+    /// Checks the settings.
+    pub fn new(settings: ShapeSettings) -> Result<Self, ShapeError> {
+        settings.validate()?;
+        Ok(ShapeEstimator { settings })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &ShapeSettings {
+        &self.settings
+    }
+
+    /// The shape of the tube in `occupancy`, with `bands` as [`flexshape_carve::find_bands`]
+    /// found them in it. Never fails: a cloud that is not one open tube gives a record whose
+    /// status says why.
+    pub fn estimate(&self, occupancy: &Occupancy, bands: &[Band]) -> ShapeRecord {
+        let s = &self.settings;
+        let t0 = Instant::now();
+        let slices = match order::slice(occupancy, s) {
+            Ok(slices) => slices,
+            Err(status) => {
+                let mut r = ShapeRecord::empty(status);
+                r.timings.order_ms = ms(t0);
+                return r;
+            }
+        };
+        let t1 = Instant::now();
+        let vs = occupancy.volume.voxel_size;
+        let voxel = vs.iter().copied().fold(f64::INFINITY, f64::min);
+        let radius = s.radius_mm.unwrap_or_else(|| estimate_radius(&slices, vs));
+        let curve = centerline::Centerline::new(&slices, s, voxel, radius);
+        let length = curve.length();
+        let steps = (length / s.sample_mm).ceil().max(1.0) as usize;
+        let mut record = ShapeRecord::empty(Status::Ok);
+        for i in 0..=steps {
+            let arc = (i as f64 * s.sample_mm).min(length);
+            let sample = curve.sample(arc);
+            record.points.push(sample.point);
+            record.arc.push(arc);
+            record.tangent.push(sample.tangent);
+            record.curvature.push(sample.curvature);
+            record.torsion.push(sample.torsion);
+        }
+        record.length = length;
+        record.tip = record.points[record.points.len() - 1];
+        record.tip_direction = record.tangent[record.tangent.len() - 1];
+        record.radius = radius;
+        record.enters_volume = slices.enters_volume;
+        let t2 = Instant::now();
+        record.bands = bands::locate(occupancy, bands, &slices, &curve, voxel);
+        record.compression = bands::compression(&s.sections, &record.bands, length);
+        if record.bands.len() < s.expected_bands {
+            record.status = Status::BandsMissing {
+                found: record.bands.len(),
+                expected: s.expected_bands,
+            };
+        }
+        let t3 = Instant::now();
+        if s.arc_fit.enabled {
+            let start = s
+                .arc_fit
+                .from_band
+                .and_then(|b| record.bands.get(b))
+                .map_or(s.arc_fit.start_arc_mm, |b| b.arc_length);
+            record.arc_fit = arcfit::fit(&curve, start, &s.arc_fit);
+        }
+        record.timings = Timings {
+            order_ms: (t1 - t0).as_secs_f64() * 1e3,
+            smooth_ms: (t2 - t1).as_secs_f64() * 1e3,
+            bands_ms: (t3 - t2).as_secs_f64() * 1e3,
+            arc_fit_ms: ms(t3),
+        };
+        record
+    }
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+/// Tube radius from the mean cross-section of the middle 80 % of the slices, mm (the visual
+/// hull's cross-section is a little larger than the tube's).
+fn estimate_radius(slices: &order::Slices, voxel_size: [f64; 3]) -> f64 {
+    let n = slices.count.len();
+    let inner = &slices.count[n / 10..(n - n / 10).max(n / 10 + 1)];
+    let mean = inner.iter().sum::<f64>() / inner.len() as f64;
+    let area = mean * voxel_size.iter().product::<f64>() / slices.spacing;
+    (area / std::f64::consts::PI).sqrt()
+}

@@ -1,0 +1,239 @@
+//! Constant-curvature fits of a section of the curve (paper, Section V-B): non-linear least
+//! squares for `[κx, κz]` (and by default the section frame's offset and tilt), the cost being
+//! the distance between curve and arc at equal arc lengths, the arc's length being the
+//! curve's. Also a two-piece (piecewise constant curvature) fit.
+
+use flexshape_curve::{Frame, Section, SectionChain};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Owned, Point3, Rotation3, Vector3};
+
+use crate::centerline::Centerline;
+use crate::order::dot;
+use crate::record::{ArcFit, TwoSectionFit};
+use crate::settings::ArcFitSettings;
+
+/// Spacing of the data points compared with the arc, mm.
+const DATA_STEP: f64 = 1.0;
+
+/// Fits the curve from arc length `start` to the tip; `None` when the section is shorter than
+/// 5 mm.
+pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> Option<ArcFit> {
+    let length = curve.length() - start;
+    if length < 5.0 {
+        return None;
+    }
+    let n = (length / DATA_STEP).ceil() as usize;
+    let data: Vec<(f64, [f64; 3])> = (0..=n)
+        .map(|i| {
+            let u = length * i as f64 / n as f64;
+            (u, curve.point_at(start + u))
+        })
+        .collect();
+    let s0 = curve.sample(start);
+    let frame = section_frame(s0.point, s0.tangent, settings.reference_axis);
+    let kappa0 = chord_curvature(&frame, data[data.len() - 1].1, length);
+    let one = Problem::new(
+        &data,
+        frame.clone(),
+        vec![length],
+        settings.free_base,
+        &kappa0,
+    );
+    let (one, report) = LevenbergMarquardt::new().minimize(one);
+    let _ = report;
+    let base = one.base();
+    let kappa = [one.params[0], one.params[1]];
+    let (mean, max) = one.residual_stats();
+    let split = length * settings.two_section_split;
+    let mut init = kappa.to_vec();
+    init.extend_from_slice(&kappa);
+    let two = Problem::new(
+        &data,
+        frame,
+        vec![split, length - split],
+        settings.free_base,
+        &init,
+    );
+    let (two, _) = LevenbergMarquardt::new().minimize(two);
+    let (mean2, max2) = two.residual_stats();
+    let curvature = kappa[0].hypot(kappa[1]);
+    let axes = base.rotation.matrix();
+    Some(ArcFit {
+        start_arc: start,
+        length,
+        kappa,
+        curvature,
+        plane_angle: (kappa[0]).atan2(-kappa[1]),
+        origin: [base.position.x, base.position.y, base.position.z],
+        axes: std::array::from_fn(|c| std::array::from_fn(|r| axes[(r, c)])),
+        residual_mean: mean,
+        residual_max: max,
+        residual_percent: 100.0 * mean / length,
+        two_section: Some(TwoSectionFit {
+            split,
+            kappa: [
+                [two.params[0], two.params[1]],
+                [two.params[2], two.params[3]],
+            ],
+            residual_mean: mean2,
+            residual_max: max2,
+        }),
+    })
+}
+
+/// The section frame at a curve point: y along the tangent, x the reference direction made
+/// perpendicular to it (world z if the reference is nearly along the tangent), z = x × y.
+pub fn section_frame(origin: [f64; 3], tangent: [f64; 3], reference: [f64; 3]) -> Frame {
+    let y = Vector3::from(tangent).normalize();
+    let mut r = Vector3::from(reference).normalize();
+    if r.cross(&y).norm() < 1e-3 {
+        r = if y.z.abs() < 0.9 {
+            Vector3::z()
+        } else {
+            Vector3::x()
+        };
+    }
+    let x = (r - y * r.dot(&y)).normalize();
+    let z = x.cross(&y);
+    Frame {
+        position: Point3::from(origin),
+        rotation: Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z])),
+    }
+}
+
+/// `[κx, κz]` of the arc of `length` from `frame` through `end` (world): the chord makes half
+/// the bending angle with the tangent.
+fn chord_curvature(frame: &Frame, end: [f64; 3], length: f64) -> [f64; 2] {
+    let local = frame.rotation.inverse() * (Vector3::from(end) - frame.position.coords);
+    let side = local.x.hypot(local.z);
+    if side < 1e-9 {
+        return [0.0, 0.0];
+    }
+    let kappa = 2.0 * side.atan2(local.y) / length;
+    // The bend direction is (−κz, κx)/κ in the x–z plane.
+    [kappa * local.z / side, -kappa * local.x / side]
+}
+
+/// Least squares over `[κ per piece…, tilt x, tilt z, offset x, y, z]`.
+struct Problem<'a> {
+    data: &'a [(f64, [f64; 3])],
+    frame: Frame,
+    lengths: Vec<f64>,
+    free_base: bool,
+    params: DVector<f64>,
+}
+
+impl<'a> Problem<'a> {
+    fn new(
+        data: &'a [(f64, [f64; 3])],
+        frame: Frame,
+        lengths: Vec<f64>,
+        free_base: bool,
+        kappa: &[f64],
+    ) -> Self {
+        let mut p = kappa.to_vec();
+        if free_base {
+            p.extend_from_slice(&[0.0; 5]);
+        }
+        Problem {
+            data,
+            frame,
+            lengths,
+            free_base,
+            params: DVector::from_vec(p),
+        }
+    }
+
+    fn base_of(&self, p: &DVector<f64>) -> Frame {
+        if !self.free_base {
+            return self.frame.clone();
+        }
+        let k = 2 * self.lengths.len();
+        let tilt = Rotation3::from_scaled_axis(Vector3::new(p[k], 0.0, p[k + 1]));
+        let offset = Vector3::new(p[k + 2], p[k + 3], p[k + 4]);
+        Frame {
+            position: self.frame.position + self.frame.rotation * offset,
+            rotation: self.frame.rotation * tilt,
+        }
+    }
+
+    fn base(&self) -> Frame {
+        self.base_of(&self.params)
+    }
+
+    fn residuals_of(&self, p: &DVector<f64>) -> DVector<f64> {
+        let chain = SectionChain {
+            base: self.base_of(p),
+            sections: self
+                .lengths
+                .iter()
+                .enumerate()
+                .map(|(i, &length)| Section {
+                    length,
+                    kappa: [p[2 * i], p[2 * i + 1]],
+                    strain: 0.0,
+                })
+                .collect(),
+        };
+        let mut r = DVector::zeros(3 * self.data.len());
+        for (i, (u, x)) in self.data.iter().enumerate() {
+            let m = chain.frame_at(*u).position;
+            for c in 0..3 {
+                r[3 * i + c] = m[c] - x[c];
+            }
+        }
+        r
+    }
+
+    /// Mean and largest distance between curve and arc, mm.
+    fn residual_stats(&self) -> (f64, f64) {
+        let r = self.residuals_of(&self.params);
+        let d: Vec<f64> = r
+            .as_slice()
+            .chunks_exact(3)
+            .map(|v| dot([v[0], v[1], v[2]], [v[0], v[1], v[2]]).sqrt())
+            .collect();
+        let mean = d.iter().sum::<f64>() / d.len() as f64;
+        (mean, d.iter().copied().fold(0.0, f64::max))
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.params.copy_from(x);
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.params.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        Some(self.residuals_of(&self.params))
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        // Central differences: the model is smooth and cheap.
+        let n = self.params.len();
+        let m = 3 * self.data.len();
+        let mut j = DMatrix::zeros(m, n);
+        for k in 0..n {
+            let h = 1e-6
+                * self.params[k].abs().max(if k < 2 * self.lengths.len() {
+                    1e-2
+                } else {
+                    1.0
+                });
+            let mut plus = self.params.clone();
+            let mut minus = self.params.clone();
+            plus[k] += h;
+            minus[k] -= h;
+            let d = (self.residuals_of(&plus) - self.residuals_of(&minus)) / (2.0 * h);
+            j.set_column(k, &d);
+        }
+        Some(j)
+    }
+}

@@ -1,0 +1,396 @@
+//! Ordering the carved cloud along the tube, and cutting it into slices across it.
+//!
+//! The robust method: on the coarse cell graph, a double sweep of shortest paths finds the two
+//! ends (the farthest node from anywhere, then the farthest from that); slices of equal
+//! geodesic distance from one end give a first axis. Each voxel is then projected onto that
+//! axis and the cloud re-sliced perpendicular to it, twice, so slices end up square to the
+//! tube wherever it bends (geodesic level sets are not: they are spheres around the end).
+//! A closed loop shows as slices that fall into two pieces; two objects as two components.
+//!
+//! The proximal end is the one whose voxels touch the volume's boundary (the tube enters
+//! there). When both or neither do, it is the end nearer `proximal_hint` if given, else the
+//! end nearer the volume's boundary.
+//!
+//! [`angle_order`] is the paper's baseline, kept for comparison.
+
+use flexshape_carve::Occupancy;
+
+use crate::graph::{CellGraph, farthest};
+use crate::record::Status;
+use crate::settings::ShapeSettings;
+
+/// The cloud cut into slices across the tube, proximal end first.
+#[derive(Debug, Clone)]
+pub(crate) struct Slices {
+    /// Axis parameter of each slice (mean over its voxels), mm, increasing toward the tip.
+    pub s: Vec<f64>,
+    /// Centroid of each slice, world mm.
+    pub centroid: Vec<[f64; 3]>,
+    /// Voxels in each slice.
+    pub count: Vec<f64>,
+    /// Axis parameter of each occupied voxel (NaN for voxels not in the tube's component).
+    pub voxel_s: Vec<f64>,
+    /// Smallest and largest voxel parameter.
+    pub s_range: [f64; 2],
+    /// Slice spacing, mm.
+    pub spacing: f64,
+    /// Whether the proximal end touches the volume's boundary.
+    pub enters_volume: bool,
+}
+
+/// A polyline with cumulative chord lengths, for projecting voxels onto.
+struct Axis {
+    points: Vec<[f64; 3]>,
+    arc: Vec<f64>,
+}
+
+impl Axis {
+    fn new(points: Vec<[f64; 3]>) -> Self {
+        let mut arc = vec![0.0];
+        for w in points.windows(2) {
+            arc.push(arc[arc.len() - 1] + dist(w[0], w[1]));
+        }
+        Axis { points, arc }
+    }
+
+    /// Arc parameter of the point of the axis nearest `p`, searching segments within `window`
+    /// mm of `guess`; beyond an end the axis continues straight.
+    fn project(&self, p: [f64; 3], guess: f64, window: f64) -> f64 {
+        let n = self.points.len();
+        let first = self
+            .arc
+            .partition_point(|&a| a < guess - window)
+            .saturating_sub(1);
+        let last = self
+            .arc
+            .partition_point(|&a| a <= guess + window)
+            .min(n - 1);
+        let (mut best, mut best_d2) = (guess, f64::INFINITY);
+        for k in first..last.max(first + 1).min(n - 1) {
+            let (a, b) = (self.points[k], self.points[k + 1]);
+            let ab = sub(b, a);
+            let len2 = dot(ab, ab).max(1e-18);
+            let raw = dot(sub(p, a), ab) / len2;
+            // Extend the first and last segments beyond the axis's ends.
+            let lo = if k == 0 { f64::NEG_INFINITY } else { 0.0 };
+            let hi = if k == n - 2 { f64::INFINITY } else { 1.0 };
+            let t = raw.clamp(lo, hi);
+            let q = [a[0] + ab[0] * t, a[1] + ab[1] * t, a[2] + ab[2] * t];
+            let d2 = dot(sub(p, q), sub(p, q));
+            if d2 < best_d2 {
+                best_d2 = d2;
+                best = self.arc[k] + t * len2.sqrt();
+            }
+        }
+        best
+    }
+}
+
+/// Orders the occupancy into slices, or says why it cannot.
+pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices, Status> {
+    let n = occ.voxels.len();
+    if n < settings.min_voxels {
+        return Err(Status::NoObject { voxels: n });
+    }
+    let vs = occ.volume.voxel_size;
+    let voxel = vs.iter().copied().fold(f64::INFINITY, f64::min);
+    let spacing = if settings.slice_mm > 0.0 {
+        settings.slice_mm
+    } else {
+        voxel
+    };
+    let cell_mm = settings.cell_voxels as f64 * vs.iter().copied().fold(0.0, f64::max);
+    let graph = CellGraph::new(occ, settings.cell_voxels);
+    let components = graph.components();
+    let main = &components[0];
+    let main_voxels = graph.voxels_in(main) as usize;
+    if main_voxels < settings.min_voxels {
+        return Err(Status::NoObject { voxels: n });
+    }
+    if let Some(second) = components.get(1) {
+        let second = graph.voxels_in(second) as usize;
+        if second >= settings.min_voxels.max(main_voxels / 10) {
+            return Err(Status::Ambiguous {
+                reason: format!(
+                    "two separate objects ({main_voxels} and {second} voxels); check for occluders or a second instrument in the volume"
+                ),
+            });
+        }
+    }
+    let (a, _) = farthest(&graph.distances(main[0]));
+    let from_a = graph.distances(a);
+    let (_, length) = farthest(&from_a);
+    if length < 3.0 * cell_mm {
+        return Err(Status::Ambiguous {
+            reason: format!(
+                "the object is only {length:.1} mm long; too short to follow as a tube"
+            ),
+        });
+    }
+    check_open(&graph, main, &from_a, 2.0 * cell_mm)?;
+
+    // First axis: centroids of geodesic slices one cell thick.
+    let bins = (length / cell_mm).floor() as usize + 1;
+    let mut sums = vec![([0.0; 3], 0.0); bins];
+    for &m in main {
+        let b = (from_a[m as usize] / cell_mm) as usize;
+        for c in 0..3 {
+            sums[b].0[c] += graph.sum[m as usize][c];
+        }
+        sums[b].1 += graph.count[m as usize] as f64;
+    }
+    let mut vertex_of_bin = vec![0usize; bins];
+    let mut points = Vec::new();
+    for (b, (s, k)) in sums.iter().enumerate() {
+        if *k > 0.0 {
+            points.push(s.map(|v| v / k));
+        }
+        vertex_of_bin[b] = points.len().saturating_sub(1);
+    }
+    let mut axis = Axis::new(smooth3(&points));
+    let in_main = {
+        let mut f = vec![false; graph.len()];
+        for &m in main {
+            f[m as usize] = true;
+        }
+        f
+    };
+    let centres: Vec<[f64; 3]> = occ
+        .voxels
+        .iter()
+        .map(|&v| {
+            let [i, j, k] = occ.ijk(v);
+            let c = occ.volume.voxel_centre(i, j, k);
+            [c.x, c.y, c.z]
+        })
+        .collect();
+    let mut guess: Vec<f64> = graph
+        .node_of_voxel
+        .iter()
+        .map(|&m| {
+            if in_main[m as usize] {
+                let b = (from_a[m as usize] / cell_mm) as usize;
+                axis.arc[vertex_of_bin[b].min(axis.arc.len() - 1)]
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    let window = 3.0 * cell_mm;
+
+    // Re-slice square to the axis, twice.
+    let mut result = None;
+    for round in 0..3 {
+        let s: Vec<f64> = centres
+            .iter()
+            .zip(&guess)
+            .map(|(&p, &g)| {
+                if g.is_nan() {
+                    g
+                } else {
+                    axis.project(p, g, window)
+                }
+            })
+            .collect();
+        let (lo, hi) = s
+            .iter()
+            .filter(|v| !v.is_nan())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        let nb = ((hi - lo) / spacing).floor() as usize + 1;
+        let mut acc = vec![([0.0; 3], 0.0, 0.0); nb];
+        let bin_of = |v: f64| (((v - lo) / spacing) as usize).min(nb - 1);
+        for (p, &v) in centres.iter().zip(&s) {
+            if v.is_nan() {
+                continue;
+            }
+            let e = &mut acc[bin_of(v)];
+            for c in 0..3 {
+                e.0[c] += p[c];
+            }
+            e.1 += v;
+            e.2 += 1.0;
+        }
+        let kept: Vec<usize> = (0..nb).filter(|&b| acc[b].2 > 0.0).collect();
+        let centroid: Vec<[f64; 3]> = kept
+            .iter()
+            .map(|&b| acc[b].0.map(|v| v / acc[b].2))
+            .collect();
+        if round == 2 {
+            result = Some(Slices {
+                s: kept.iter().map(|&b| acc[b].1 / acc[b].2).collect(),
+                centroid,
+                count: kept.iter().map(|&b| acc[b].2).collect(),
+                voxel_s: s,
+                s_range: [lo, hi],
+                spacing,
+                enters_volume: false,
+            });
+            break;
+        }
+        let next = Axis::new(smooth3(&centroid));
+        // Each voxel's next guess: the new axis's arc at its slice's vertex.
+        let mut vertex = vec![0usize; nb];
+        let mut at = 0;
+        for (b, v) in vertex.iter_mut().enumerate() {
+            if at + 1 < kept.len() && kept[at] < b {
+                at += 1;
+            }
+            *v = at;
+        }
+        guess = s
+            .iter()
+            .map(|&v| {
+                if v.is_nan() {
+                    v
+                } else {
+                    next.arc[vertex[bin_of(v)]]
+                }
+            })
+            .collect();
+        axis = next;
+    }
+    let mut slices = result.expect("the last round returns");
+    orient(occ, &centres, &mut slices, voxel, settings);
+    Ok(slices)
+}
+
+/// Fails when many geodesic slices fall into two or more pieces: a closed loop (or a branch).
+fn check_open(graph: &CellGraph, main: &[u32], dist: &[f64], width: f64) -> Result<(), Status> {
+    let bins = main
+        .iter()
+        .map(|&m| (dist[m as usize] / width) as usize)
+        .max()
+        .unwrap_or(0)
+        + 1;
+    let bin = |m: u32| (dist[m as usize] / width) as usize;
+    let mut label = vec![u32::MAX; graph.len()];
+    let mut pieces = vec![0usize; bins];
+    for &start in main {
+        if label[start as usize] != u32::MAX {
+            continue;
+        }
+        let b = bin(start);
+        pieces[b] += 1;
+        label[start as usize] = start;
+        let mut stack = vec![start];
+        while let Some(n) = stack.pop() {
+            for &(m, _) in graph.neighbours(n as usize) {
+                if label[m as usize] == u32::MAX && bin(m) == b {
+                    label[m as usize] = start;
+                    stack.push(m);
+                }
+            }
+        }
+    }
+    // The first and last slices are left out: the ends are ragged.
+    let inner = &pieces[2.min(bins)..bins.saturating_sub(2).max(2.min(bins))];
+    let split = inner.iter().filter(|&&p| p >= 2).count();
+    if !inner.is_empty() && split * 4 > inner.len() {
+        return Err(Status::Ambiguous {
+            reason: format!(
+                "{split} of {} cross-sections fall into two or more pieces: a closed loop, a branch or a tube touching itself",
+                inner.len()
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Makes the parameter increase from the proximal end to the tip (see the module docs).
+fn orient(
+    occ: &Occupancy,
+    centres: &[[f64; 3]],
+    slices: &mut Slices,
+    voxel: f64,
+    settings: &ShapeSettings,
+) {
+    let [lo, hi] = slices.s_range;
+    let dims = occ.volume.dims;
+    let touches = |near: &dyn Fn(f64) -> bool| {
+        occ.voxels.iter().zip(&slices.voxel_s).any(|(&v, &s)| {
+            !s.is_nan()
+                && near(s)
+                && occ
+                    .ijk(v)
+                    .iter()
+                    .zip(&dims)
+                    .any(|(&c, &d)| c == 0 || c + 1 == d)
+        })
+    };
+    let margin = 2.0 * voxel;
+    let low = touches(&|s| s < lo + margin);
+    let high = touches(&|s| s > hi - margin);
+    let (first, last) = (
+        slices.centroid[0],
+        slices.centroid[slices.centroid.len() - 1],
+    );
+    let flip = match (low, high) {
+        (true, false) => false,
+        (false, true) => true,
+        _ => match settings.proximal_hint {
+            Some(h) => dist(last, h) < dist(first, h),
+            None => boundary_distance(occ, last) < boundary_distance(occ, first),
+        },
+    };
+    slices.enters_volume = if flip { high } else { low };
+    let _ = centres;
+    if flip {
+        let total = lo + hi;
+        for v in slices.s.iter_mut().chain(slices.voxel_s.iter_mut()) {
+            *v = total - *v;
+        }
+        slices.s.reverse();
+        slices.centroid.reverse();
+        slices.count.reverse();
+    }
+}
+
+/// Distance from `p` to the nearest face of the volume's box, mm.
+fn boundary_distance(occ: &Occupancy, p: [f64; 3]) -> f64 {
+    let v = &occ.volume;
+    let max = v.max_corner();
+    (0..3)
+        .map(|a| (p[a] - v.origin[a]).min(max[a] - p[a]))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Three-point moving average keeping the ends, to take the corners off an axis.
+fn smooth3(p: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    crate::spline::moving_average(p, 3)
+}
+
+/// The paper's ordering (Section II-C), as a baseline: points sorted by the angle between their
+/// vector from the cloud's centroid and the first point's vector, then a moving average of
+/// `window` points per axis. Works while the tube bends less than a half-turn around its
+/// centroid; returns the smoothed points in order.
+pub fn angle_order(points: &[[f64; 3]], window: usize) -> Vec<[f64; 3]> {
+    if points.is_empty() {
+        return Vec::new();
+    }
+    let n = points.len() as f64;
+    let c: [f64; 3] = std::array::from_fn(|a| points.iter().map(|p| p[a]).sum::<f64>() / n);
+    let reference = sub(points[0], c);
+    let angle = |p: [f64; 3]| {
+        let v = sub(p, c);
+        let d = (dot(v, v) * dot(reference, reference)).sqrt().max(1e-12);
+        (dot(v, reference) / d).clamp(-1.0, 1.0).acos()
+    };
+    let mut sorted: Vec<(f64, [f64; 3])> = points.iter().map(|&p| (angle(p), p)).collect();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let ordered: Vec<[f64; 3]> = sorted.into_iter().map(|(_, p)| p).collect();
+    crate::spline::moving_average(&ordered, window.max(1) | 1)
+}
+
+pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+pub(crate) fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    dot(sub(a, b), sub(a, b)).sqrt()
+}

@@ -1,0 +1,207 @@
+//! Settings of the shape stage (`[processing.shape]` in the rig file). Lengths in mm.
+
+use serde::{Deserialize, Serialize};
+
+use crate::ShapeError;
+
+/// How the ordered slice centroids become one smooth curve.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Smoothing {
+    /// Cubic smoothing spline in arc length; `bandwidth_mm` is the length over which it
+    /// averages (its equivalent kernel's width: `λ = bandwidth⁴ / slice spacing`).
+    Spline {
+        /// Averaging length, mm.
+        bandwidth_mm: f64,
+    },
+    /// The paper's moving average over `window` slices per axis.
+    MovingAverage {
+        /// Slices averaged (odd).
+        window: usize,
+    },
+    /// The paper's alternative: one polynomial of `degree` in arc length per axis.
+    Polynomial {
+        /// Polynomial degree.
+        degree: usize,
+    },
+}
+
+impl Default for Smoothing {
+    fn default() -> Self {
+        Smoothing::Spline { bandwidth_mm: 4.0 }
+    }
+}
+
+/// What the tube's distal end looks like, for placing the tip (the centerline's end) from the
+/// carved cloud's far end.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TipEnd {
+    /// A hemispherical cap: the tip is one radius short of the cloud's far end.
+    #[default]
+    Rounded,
+    /// A flat end face: the tip is at the cloud's far end.
+    Flat,
+}
+
+/// A section whose axial strain is measured between two reference points of known nominal
+/// (unloaded) length: the paper's compression measurement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NominalSection {
+    /// Name in the output, e.g. `"distal"`.
+    pub name: String,
+    /// Start: band number from the proximal end (0 = first band).
+    pub from_band: usize,
+    /// End: band number, or `None` for the tip.
+    #[serde(default)]
+    pub to_band: Option<usize>,
+    /// Unloaded length between the two, mm.
+    pub nominal_mm: f64,
+}
+
+/// Which part of the curve the circular-arc fit covers.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ArcFitSettings {
+    /// Whether to fit at all.
+    pub enabled: bool,
+    /// The section starts at this band's centre (0 = most proximal band); without bands, or
+    /// with `None`, at `start_arc_mm`.
+    pub from_band: Option<usize>,
+    /// Start arc length (mm from the proximal end) when no band gives it.
+    pub start_arc_mm: f64,
+    /// Also fit the base pose (offset and tilt of the section frame), not only the curvature.
+    pub free_base: bool,
+    /// World direction that fixes the section frame's roll: its x axis is this direction made
+    /// perpendicular to the tangent (world x by default).
+    pub reference_axis: [f64; 3],
+    /// Where the two-section fit splits the section, as a fraction of its length.
+    pub two_section_split: f64,
+}
+
+impl Default for ArcFitSettings {
+    fn default() -> Self {
+        ArcFitSettings {
+            enabled: true,
+            from_band: Some(0),
+            start_arc_mm: 0.0,
+            free_base: true,
+            reference_axis: [1.0, 0.0, 0.0],
+            two_section_split: 0.5,
+        }
+    }
+}
+
+/// Everything the shape stage can be told.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ShapeSettings {
+    /// Coarse cell edge for ordering, in voxels.
+    pub cell_voxels: u32,
+    /// Slice spacing along the tube, mm (0: the smallest voxel edge).
+    pub slice_mm: f64,
+    /// Smoothing method.
+    pub smoothing: Smoothing,
+    /// Spacing of the output samples, mm.
+    pub sample_mm: f64,
+    /// Tube radius, mm, if known (else estimated from the cloud's cross-sections).
+    pub radius_mm: Option<f64>,
+    /// The distal end's form.
+    pub tip_end: TipEnd,
+    /// A world point near where the tube enters the volume, for rigs where neither end touches
+    /// the volume's boundary.
+    pub proximal_hint: Option<[f64; 3]>,
+    /// Bands expected on the tube (status `bands_missing` when fewer are found).
+    pub expected_bands: usize,
+    /// Groups of voxels smaller than this are ignored as specks.
+    pub min_voxels: usize,
+    /// Sections whose axial strain is reported.
+    pub sections: Vec<NominalSection>,
+    /// The circular-arc fit.
+    pub arc_fit: ArcFitSettings,
+}
+
+impl Default for ShapeSettings {
+    fn default() -> Self {
+        ShapeSettings {
+            cell_voxels: 2,
+            slice_mm: 0.0,
+            smoothing: Smoothing::default(),
+            sample_mm: 1.0,
+            radius_mm: None,
+            tip_end: TipEnd::default(),
+            proximal_hint: None,
+            expected_bands: 0,
+            min_voxels: 30,
+            sections: Vec::new(),
+            arc_fit: ArcFitSettings::default(),
+        }
+    }
+}
+
+impl ShapeSettings {
+    /// Checks ranges; the error names the field.
+    pub fn validate(&self) -> Result<(), ShapeError> {
+        let bad =
+            |field: &'static str, problem: String| Err(ShapeError::Setting { field, problem });
+        if !(1..=16).contains(&self.cell_voxels) {
+            return bad(
+                "cell_voxels",
+                format!("{} is outside 1..=16", self.cell_voxels),
+            );
+        }
+        if !(self.slice_mm.is_finite() && self.slice_mm >= 0.0) {
+            return bad("slice_mm", format!("{} must be ≥ 0", self.slice_mm));
+        }
+        if !(self.sample_mm.is_finite() && self.sample_mm > 0.0) {
+            return bad("sample_mm", format!("{} must be > 0", self.sample_mm));
+        }
+        if let Some(r) = self.radius_mm
+            && !(r.is_finite() && r > 0.0)
+        {
+            return bad("radius_mm", format!("{r} must be > 0"));
+        }
+        match self.smoothing {
+            Smoothing::Spline { bandwidth_mm }
+                if !(bandwidth_mm.is_finite() && bandwidth_mm >= 0.0) =>
+            {
+                return bad(
+                    "smoothing.bandwidth_mm",
+                    format!("{bandwidth_mm} must be ≥ 0"),
+                );
+            }
+            Smoothing::MovingAverage { window } if window == 0 || window % 2 == 0 => {
+                return bad("smoothing.window", format!("{window} must be odd"));
+            }
+            Smoothing::Polynomial { degree } if !(1..=20).contains(&degree) => {
+                return bad("smoothing.degree", format!("{degree} is outside 1..=20"));
+            }
+            _ => {}
+        }
+        for s in &self.sections {
+            if !(s.nominal_mm.is_finite() && s.nominal_mm > 0.0) {
+                return bad(
+                    "sections.nominal_mm",
+                    format!("{}: {} must be > 0", s.name, s.nominal_mm),
+                );
+            }
+        }
+        let a = &self.arc_fit;
+        if !(a.two_section_split > 0.05 && a.two_section_split < 0.95) {
+            return bad(
+                "arc_fit.two_section_split",
+                format!("{} is outside (0.05, 0.95)", a.two_section_split),
+            );
+        }
+        if a.reference_axis.iter().map(|v| v * v).sum::<f64>() < 1e-12
+            || a.reference_axis.iter().any(|v| !v.is_finite())
+        {
+            return bad(
+                "arc_fit.reference_axis",
+                "must be a non-zero direction".into(),
+            );
+        }
+        Ok(())
+    }
+}
