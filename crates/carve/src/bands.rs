@@ -10,12 +10,22 @@ use crate::lookup::check_masks;
 use crate::projector::VoxelProjector;
 
 /// When an occupied voxel is a band voxel, and which groups count as bands.
+///
+/// A camera's pixel shows the surface nearest to it, not the voxel: a voxel deep in the hull,
+/// or on its far side, takes the colour of whatever lies in front of it. With `visibility`
+/// each voxel is judged only by the cameras that see it on the hull's surface (a z-buffer of
+/// the occupied voxels per camera), so the band is the patch of surface that looks like tape.
+/// Without it (the simple rule), every camera that projects the voxel onto a marker pixel
+/// counts, which shifts a band toward the cameras' side by up to a tube radius times the
+/// tangent of the viewing elevation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct BandRule {
-    /// A voxel is a band voxel when its pixel is a marker pixel in at least this many cameras
-    /// (cameras that do not see it do not count). Two keeps one camera's stray marker pixel,
-    /// or a voxel lying on a camera's ray through the band, from making a band alone.
+    /// Judge voxels only by the cameras that see them (see above).
+    pub visibility: bool,
+    /// With `visibility`: a band voxel is a marker pixel in every camera that sees it, and in
+    /// at least this many. Without: in at least this many of all cameras (two keeps one
+    /// camera's stray pixel, or a voxel on a camera's ray through the band, out).
     pub min_views: usize,
     /// 26-connected groups of band voxels smaller than this are dropped as specks.
     pub min_voxels: usize,
@@ -24,7 +34,8 @@ pub struct BandRule {
 impl Default for BandRule {
     fn default() -> Self {
         BandRule {
-            min_views: 2,
+            visibility: true,
+            min_views: 1,
             min_voxels: 8,
         }
     }
@@ -58,23 +69,45 @@ pub fn find_bands(
         });
     }
     let projectors: Vec<VoxelProjector> = cameras.iter().map(VoxelProjector::new).collect();
+    let centres: Vec<[f64; 3]> = occupancy
+        .voxels
+        .iter()
+        .map(|&v| {
+            let [i, j, k] = occupancy.ijk(v);
+            let c = occupancy.volume.voxel_centre(i, j, k);
+            [c.x, c.y, c.z]
+        })
+        .collect();
+    // Per camera and voxel: not seen, seen on a marker pixel, or seen elsewhere.
+    let verdicts: Vec<Vec<Seen>> = projectors
+        .iter()
+        .zip(markers)
+        .map(|(proj, m)| {
+            let visible = rule
+                .visibility
+                .then(|| visible_voxels(proj, &centres, &occupancy.volume));
+            centres
+                .iter()
+                .enumerate()
+                .map(|(n, &c)| match proj.bit_address(c) {
+                    Some(_) if visible.as_ref().is_some_and(|v| !v[n]) => Seen::No,
+                    Some(a) if m.words()[(a >> 6) as usize] >> (a & 63) & 1 == 1 => Seen::Marker,
+                    Some(_) => Seen::Other,
+                    None => Seen::No,
+                })
+                .collect()
+        })
+        .collect();
     let band_voxels: Vec<u32> = occupancy
         .voxels
         .iter()
-        .copied()
-        .filter(|&v| {
-            let [i, j, k] = occupancy.ijk(v);
-            let centre = occupancy.volume.voxel_centre(i, j, k);
-            let hits = projectors
-                .iter()
-                .zip(markers)
-                .filter(|(proj, m)| {
-                    proj.bit_address([centre.x, centre.y, centre.z])
-                        .is_some_and(|a| m.words()[(a >> 6) as usize] >> (a & 63) & 1 == 1)
-                })
-                .count();
-            hits >= rule.min_views
+        .enumerate()
+        .filter(|&(n, _)| {
+            let hits = verdicts.iter().filter(|v| v[n] == Seen::Marker).count();
+            let others = verdicts.iter().filter(|v| v[n] == Seen::Other).count();
+            hits >= rule.min_views && (!rule.visibility || others == 0)
         })
+        .map(|(_, &v)| v)
         .collect();
     let mut bands: Vec<Band> = components(occupancy, &band_voxels)
         .into_iter()
@@ -97,6 +130,51 @@ pub fn find_bands(
         .collect();
     bands.sort_by_key(|b| std::cmp::Reverse(b.voxels.len()));
     Ok(bands)
+}
+
+/// What one camera says about one voxel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Seen {
+    No,
+    Marker,
+    Other,
+}
+
+/// Which voxels (in `centres`' order) the camera sees on the surface: each voxel's depth is
+/// splatted over its footprint into a z-buffer; a voxel is visible when it lies within a voxel
+/// diagonal of the nearest depth at its pixel.
+fn visible_voxels(
+    proj: &VoxelProjector,
+    centres: &[[f64; 3]],
+    volume: &flexshape_rig::Volume,
+) -> Vec<bool> {
+    let (w, h) = (proj.width as usize, proj.height as usize);
+    let mut zbuf = vec![f64::INFINITY; w * h];
+    let edge = volume.voxel_size.iter().copied().fold(0.0, f64::max);
+    let diagonal = volume.voxel_size.iter().map(|s| s * s).sum::<f64>().sqrt();
+    let focal = proj.fx.max(proj.fy);
+    let pixels: Vec<Option<(usize, usize, f64)>> = centres
+        .iter()
+        .map(|&c| {
+            let a = proj.bit_address(c)? as usize;
+            let (x, y) = (a % proj.row_bits(), a / proj.row_bits());
+            Some((x, y, proj.to_camera(c)[2]))
+        })
+        .collect();
+    for &(x, y, z) in pixels.iter().flatten() {
+        // Half the voxel's footprint, in whole pixels.
+        let r = (0.5 * edge * focal / z).ceil() as usize;
+        for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+            for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                let d = &mut zbuf[yy * w + xx];
+                *d = d.min(z);
+            }
+        }
+    }
+    pixels
+        .iter()
+        .map(|p| p.is_some_and(|(x, y, z)| z <= zbuf[y * w + x] + diagonal))
+        .collect()
 }
 
 /// 26-connected components of a sorted set of voxel indices.

@@ -72,6 +72,11 @@ impl VoxelProjector {
         }
     }
 
+    /// Bits per mask row: a bit address is `row_bits · y + x`.
+    pub fn row_bits(&self) -> usize {
+        self.row_bits
+    }
+
     /// Camera-frame coordinates of a world point, mm.
     #[inline]
     pub fn to_camera(&self, p: [f64; 3]) -> [f64; 3] {

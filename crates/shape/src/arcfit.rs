@@ -34,7 +34,7 @@ pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> 
     let kappa0 = chord_curvature(&frame, data[data.len() - 1].1, length);
     let one = Problem::new(
         &data,
-        frame.clone(),
+        frame,
         vec![length],
         settings.free_base,
         &kappa0,
@@ -146,7 +146,7 @@ impl<'a> Problem<'a> {
 
     fn base_of(&self, p: &DVector<f64>) -> Frame {
         if !self.free_base {
-            return self.frame.clone();
+            return self.frame;
         }
         let k = 2 * self.lengths.len();
         let tilt = Rotation3::from_scaled_axis(Vector3::new(p[k], 0.0, p[k + 1]));

@@ -1,10 +1,12 @@
 //! Bands on the curve, and the axial strain between them.
 //!
 //! A band's centre is the mean axis parameter of its voxels (their projections onto the
-//! curve), which the cross-section's shape cannot bias. A band that reaches the cloud's far
-//! end is different: the visual hull runs on past the tube's end and those voxels see band
-//! colour, so its far edge is unknown. Its centre is placed halfway between its proximal edge
-//! (its 2nd-percentile voxel, minus half a voxel) and the tip.
+//! curve), which the cross-section's shape cannot bias. A band that reaches past the
+//! centerline's end (to within a voxel) is taken to end at the tip, and its far voxels are
+//! not its own: the visual hull runs on past the tube's end, and a marked cap is band-coloured.
+//! Its centre is placed halfway between its proximal edge (its 2nd-percentile voxel, less 2 %
+//! of its length) and the tip, so it carries half the tip's error. (Placing it half a known
+//! band width beyond the edge measured worse on the simulator: 0.67 mm against 0.54 mm.)
 
 use flexshape_carve::{Band, Occupancy};
 
@@ -21,7 +23,6 @@ pub(crate) fn locate(
     curve: &Centerline,
     voxel: f64,
 ) -> Vec<BandOnCurve> {
-    let far = slices.s_range[1];
     let mut out: Vec<BandOnCurve> = bands
         .iter()
         .filter_map(|band| {
@@ -38,9 +39,12 @@ pub(crate) fn locate(
             s.sort_by(f64::total_cmp);
             let pick = |q: f64| s[((s.len() - 1) as f64 * q).round() as usize];
             let (lo, hi) = (pick(0.02), pick(0.98));
-            let at_tip = s[s.len() - 1] >= far - 1.5 * voxel;
+            let at_tip = s[s.len() - 1] >= curve.tip_param() - voxel;
+            // Voxel centres fill the band's length about uniformly: the 2nd percentile sits 2 %
+            // of that length inside its proximal edge.
+            let edge = lo - 0.02 * (hi - lo) / 0.96;
             let centre = if at_tip {
-                (lo - voxel / 2.0 + curve.tip_param()) / 2.0
+                (edge + curve.tip_param()) / 2.0
             } else {
                 s.iter().sum::<f64>() / s.len() as f64
             };

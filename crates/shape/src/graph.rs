@@ -87,7 +87,6 @@ impl CellGraph {
         self.count.len()
     }
 
-
     pub fn neighbours(&self, n: usize) -> &[(u32, f64)] {
         &self.edges[self.offsets[n]..self.offsets[n + 1]]
     }

@@ -85,7 +85,7 @@ impl ShapeEstimator {
         let vs = occupancy.volume.voxel_size;
         let voxel = vs.iter().copied().fold(f64::INFINITY, f64::min);
         let radius = s.radius_mm.unwrap_or_else(|| estimate_radius(&slices, vs));
-        let curve = centerline::Centerline::new(&slices, s, voxel, radius);
+        let curve = centerline::Centerline::new(&slices, s, &occupancy.volume, radius);
         let length = curve.length();
         let steps = (length / s.sample_mm).ceil().max(1.0) as usize;
         let mut record = ShapeRecord::empty(Status::Ok);

@@ -120,10 +120,15 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
     let (a, _) = farthest(&graph.distances(main[0]));
     let from_a = graph.distances(a);
     let (_, length) = farthest(&from_a);
-    if length < 3.0 * cell_mm {
+    // A tube of length L holding n voxels has radius ≈ √(n·v / πL): it must be at least twice
+    // as long as it is wide to be followed.
+    let voxel_volume: f64 = vs.iter().product();
+    let width = 2.0
+        * (main_voxels as f64 * voxel_volume / (std::f64::consts::PI * length.max(1e-9))).sqrt();
+    if length < 3.0 * cell_mm || length < 2.0 * width {
         return Err(Status::Ambiguous {
             reason: format!(
-                "the object is only {length:.1} mm long; too short to follow as a tube"
+                "the object is {length:.1} mm long and about {width:.1} mm wide: too short to follow as a tube"
             ),
         });
     }
@@ -206,8 +211,8 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
                 continue;
             }
             let e = &mut acc[bin_of(v)];
-            for c in 0..3 {
-                e.0[c] += p[c];
+            for (sum, x) in e.0.iter_mut().zip(p) {
+                *sum += x;
             }
             e.1 += v;
             e.2 += 1.0;
