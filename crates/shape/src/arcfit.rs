@@ -32,13 +32,7 @@ pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> 
     let s0 = curve.sample(start);
     let frame = section_frame(s0.point, s0.tangent, settings.reference_axis);
     let kappa0 = chord_curvature(&frame, data[data.len() - 1].1, length);
-    let one = Problem::new(
-        &data,
-        frame,
-        vec![length],
-        settings.free_base,
-        &kappa0,
-    );
+    let one = Problem::new(&data, frame, vec![length], settings.free_base, &kappa0);
     let (one, report) = LevenbergMarquardt::new().minimize(one);
     let _ = report;
     let base = one.base();

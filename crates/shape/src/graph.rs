@@ -3,7 +3,8 @@
 //! diameter is a few cells.
 
 use std::cmp::Ordering;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, HashMap};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use flexshape_carve::Occupancy;
 
@@ -32,11 +33,16 @@ impl CellGraph {
         keys.sort_unstable();
         keys.dedup();
         let n = keys.len();
+        let index: CellMap = keys
+            .iter()
+            .enumerate()
+            .map(|(i, &k)| (k, i as u32))
+            .collect();
         let mut sum = vec![[0.0; 3]; n];
         let mut count = vec![0u32; n];
         let mut node_of_voxel = Vec::with_capacity(voxel_keys.len());
         for (&v, &k) in occ.voxels.iter().zip(&voxel_keys) {
-            let node = keys.binary_search(&k).unwrap_or(0);
+            let node = index.get(&k).copied().unwrap_or(0) as usize;
             let [i, j, kk] = occ.ijk(v);
             let c = occ.volume.voxel_centre(i, j, kk);
             for a in 0..3 {
@@ -60,7 +66,8 @@ impl CellGraph {
                             continue;
                         }
                         let qk = q[0] as u64 | (q[1] as u64) << 21 | (q[2] as u64) << 42;
-                        if let Ok(o) = keys.binary_search(&qk) {
+                        if let Some(&o) = index.get(&qk) {
+                            let o = o as usize;
                             let (a, b) = (centroid(m), centroid(o));
                             let d = ((a[0] - b[0]).powi(2)
                                 + (a[1] - b[1]).powi(2)
@@ -85,6 +92,11 @@ impl CellGraph {
     /// Number of nodes.
     pub fn len(&self) -> usize {
         self.count.len()
+    }
+
+    /// Centroid of a node's voxels, world mm.
+    pub fn centroid(&self, n: usize) -> [f64; 3] {
+        self.sum[n].map(|s| s / self.count[n] as f64)
     }
 
     pub fn neighbours(&self, n: usize) -> &[(u32, f64)] {
@@ -142,6 +154,31 @@ impl CellGraph {
             }
         }
         dist
+    }
+}
+
+/// Cell key → node. Keys are packed coordinates, so one multiplication hashes them well
+/// (SipHash cost more than the rest of the graph).
+type CellMap = HashMap<u64, u32, BuildHasherDefault<CellHasher>>;
+
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(self.0 ^ b as u64);
+        }
+    }
+
+    fn write_u64(&mut self, k: u64) {
+        self.0 = (k ^ self.0)
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            .rotate_left(29);
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
     }
 }
 

@@ -53,20 +53,15 @@ impl Axis {
         Axis { points, arc }
     }
 
-    /// Arc parameter of the point of the axis nearest `p`, searching segments within `window`
-    /// mm of `guess`; beyond an end the axis continues straight.
-    fn project(&self, p: [f64; 3], guess: f64, window: f64) -> f64 {
+    /// Arc parameter of the point of the axis nearest `p`, and the segment holding it,
+    /// searching the segments within `reach` of segment `guess`; beyond an end the axis
+    /// continues straight.
+    fn project(&self, p: [f64; 3], guess: usize, reach: usize) -> (f64, usize) {
         let n = self.points.len();
-        let first = self
-            .arc
-            .partition_point(|&a| a < guess - window)
-            .saturating_sub(1);
-        let last = self
-            .arc
-            .partition_point(|&a| a <= guess + window)
-            .min(n - 1);
-        let (mut best, mut best_d2) = (guess, f64::INFINITY);
-        for k in first..last.max(first + 1).min(n - 1) {
+        let first = guess.saturating_sub(reach).min(n - 2);
+        let last = (guess + reach).min(n - 2);
+        let (mut best, mut best_seg, mut best_d2) = (0.0, first, f64::INFINITY);
+        for k in first..=last {
             let (a, b) = (self.points[k], self.points[k + 1]);
             let ab = sub(b, a);
             let len2 = dot(ab, ab).max(1e-18);
@@ -78,11 +73,103 @@ impl Axis {
             let q = [a[0] + ab[0] * t, a[1] + ab[1] * t, a[2] + ab[2] * t];
             let d2 = dot(sub(p, q), sub(p, q));
             if d2 < best_d2 {
-                best_d2 = d2;
-                best = self.arc[k] + t * len2.sqrt();
+                (best, best_seg, best_d2) = (self.arc[k] + t * len2.sqrt(), k, d2);
             }
         }
-        best
+        (best, best_seg)
+    }
+}
+
+/// Points cut into slices square to an axis.
+struct Cut {
+    /// Each point's axis parameter (NaN for points not searched).
+    s: Vec<f64>,
+    /// Smallest and largest parameter.
+    range: [f64; 2],
+    /// Per non-empty slice: weighted centroid, weighted mean parameter, total weight.
+    centroid: Vec<[f64; 3]>,
+    mean_s: Vec<f64>,
+    weight: Vec<f64>,
+    /// Each point's slice (index into the non-empty slices).
+    slice_of: Vec<usize>,
+}
+
+impl Cut {
+    /// Projects `points` (those whose `guess` is not `usize::MAX`) onto `axis`, searching
+    /// `reach` segments either side of their guess, and slices them `spacing` mm apart.
+    fn new(
+        axis: &Axis,
+        points: &[[f64; 3]],
+        weights: &[f64],
+        guess: &[usize],
+        reach: usize,
+        spacing: f64,
+    ) -> Self {
+        let s: Vec<f64> = points
+            .iter()
+            .zip(guess)
+            .map(|(&p, &g)| {
+                if g == usize::MAX {
+                    f64::NAN
+                } else {
+                    axis.project(p, g, reach).0
+                }
+            })
+            .collect();
+        let (lo, hi) = s
+            .iter()
+            .filter(|v| !v.is_nan())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        let nb = ((hi - lo) / spacing).floor() as usize + 1;
+        let bin_of = |v: f64| (((v - lo) / spacing) as usize).min(nb - 1);
+        let mut acc = vec![([0.0; 3], 0.0, 0.0); nb];
+        for ((p, &v), &w) in points.iter().zip(&s).zip(weights) {
+            if v.is_nan() {
+                continue;
+            }
+            let e = &mut acc[bin_of(v)];
+            for (sum, x) in e.0.iter_mut().zip(p) {
+                *sum += w * x;
+            }
+            e.1 += w * v;
+            e.2 += w;
+        }
+        // Non-empty slices, and each bin's non-empty slice (the previous one if empty).
+        let mut index = vec![0usize; nb];
+        let (mut centroid, mut mean_s, mut weight) = (Vec::new(), Vec::new(), Vec::new());
+        for (b, (sum, sw, w)) in acc.iter().enumerate() {
+            if *w > 0.0 {
+                centroid.push(sum.map(|v| v / w));
+                mean_s.push(sw / w);
+                weight.push(*w);
+            }
+            index[b] = centroid.len().saturating_sub(1);
+        }
+        let slice_of = s
+            .iter()
+            .map(|&v| {
+                if v.is_nan() {
+                    usize::MAX
+                } else {
+                    index[bin_of(v)]
+                }
+            })
+            .collect();
+        Cut {
+            s,
+            range: [lo, hi],
+            centroid,
+            mean_s,
+            weight,
+            slice_of,
+        }
+    }
+
+    /// Guesses for projecting the same points onto the axis through these slices.
+    fn next_guess(&self) -> Vec<usize> {
+        self.slice_of.clone()
     }
 }
 
@@ -153,13 +240,27 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
         vertex_of_bin[b] = points.len().saturating_sub(1);
     }
     let mut axis = Axis::new(smooth3(&points));
-    let in_main = {
-        let mut f = vec![false; graph.len()];
-        for &m in main {
-            f[m as usize] = true;
-        }
-        f
-    };
+    // Refine the axis twice on the cells (a few per slice, cheap), then cut the voxels once.
+    let nodes: Vec<usize> = main.iter().map(|&m| m as usize).collect();
+    let node_points: Vec<[f64; 3]> = nodes.iter().map(|&m| graph.centroid(m)).collect();
+    let node_weights: Vec<f64> = nodes.iter().map(|&m| graph.count[m] as f64).collect();
+    let mut node_guess: Vec<usize> = nodes
+        .iter()
+        .map(|&m| vertex_of_bin[(from_a[m] / cell_mm) as usize])
+        .collect();
+    for _ in 0..2 {
+        let cut = Cut::new(&axis, &node_points, &node_weights, &node_guess, 3, cell_mm);
+        node_guess = cut.next_guess();
+        axis = Axis::new(smooth3(&cut.centroid));
+    }
+    let mut guess = vec![usize::MAX; occ.voxels.len()];
+    let mut node_at = vec![usize::MAX; graph.len()];
+    for (&m, &g) in nodes.iter().zip(&node_guess) {
+        node_at[m] = g;
+    }
+    for (g, &m) in guess.iter_mut().zip(&graph.node_of_voxel) {
+        *g = node_at[m as usize];
+    }
     let centres: Vec<[f64; 3]> = occ
         .voxels
         .iter()
@@ -169,94 +270,17 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
             [c.x, c.y, c.z]
         })
         .collect();
-    let mut guess: Vec<f64> = graph
-        .node_of_voxel
-        .iter()
-        .map(|&m| {
-            if in_main[m as usize] {
-                let b = (from_a[m as usize] / cell_mm) as usize;
-                axis.arc[vertex_of_bin[b].min(axis.arc.len() - 1)]
-            } else {
-                f64::NAN
-            }
-        })
-        .collect();
-    let window = 3.0 * cell_mm;
-
-    // Re-slice square to the axis, twice.
-    let mut result = None;
-    for round in 0..3 {
-        let s: Vec<f64> = centres
-            .iter()
-            .zip(&guess)
-            .map(|(&p, &g)| {
-                if g.is_nan() {
-                    g
-                } else {
-                    axis.project(p, g, window)
-                }
-            })
-            .collect();
-        let (lo, hi) = s
-            .iter()
-            .filter(|v| !v.is_nan())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                (a.min(v), b.max(v))
-            });
-        let nb = ((hi - lo) / spacing).floor() as usize + 1;
-        let mut acc = vec![([0.0; 3], 0.0, 0.0); nb];
-        let bin_of = |v: f64| (((v - lo) / spacing) as usize).min(nb - 1);
-        for (p, &v) in centres.iter().zip(&s) {
-            if v.is_nan() {
-                continue;
-            }
-            let e = &mut acc[bin_of(v)];
-            for (sum, x) in e.0.iter_mut().zip(p) {
-                *sum += x;
-            }
-            e.1 += v;
-            e.2 += 1.0;
-        }
-        let kept: Vec<usize> = (0..nb).filter(|&b| acc[b].2 > 0.0).collect();
-        let centroid: Vec<[f64; 3]> = kept
-            .iter()
-            .map(|&b| acc[b].0.map(|v| v / acc[b].2))
-            .collect();
-        if round == 2 {
-            result = Some(Slices {
-                s: kept.iter().map(|&b| acc[b].1 / acc[b].2).collect(),
-                centroid,
-                count: kept.iter().map(|&b| acc[b].2).collect(),
-                voxel_s: s,
-                s_range: [lo, hi],
-                spacing,
-                enters_volume: false,
-            });
-            break;
-        }
-        let next = Axis::new(smooth3(&centroid));
-        // Each voxel's next guess: the new axis's arc at its slice's vertex.
-        let mut vertex = vec![0usize; nb];
-        let mut at = 0;
-        for (b, v) in vertex.iter_mut().enumerate() {
-            if at + 1 < kept.len() && kept[at] < b {
-                at += 1;
-            }
-            *v = at;
-        }
-        guess = s
-            .iter()
-            .map(|&v| {
-                if v.is_nan() {
-                    v
-                } else {
-                    next.arc[vertex[bin_of(v)]]
-                }
-            })
-            .collect();
-        axis = next;
-    }
-    let mut slices = result.expect("the last round returns");
+    let ones = vec![1.0; centres.len()];
+    let cut = Cut::new(&axis, &centres, &ones, &guess, 2, spacing);
+    let mut slices = Slices {
+        s: cut.mean_s,
+        centroid: cut.centroid,
+        count: cut.weight,
+        voxel_s: cut.s,
+        s_range: cut.range,
+        spacing,
+        enters_volume: false,
+    };
     orient(occ, &centres, &mut slices, voxel, settings);
     Ok(slices)
 }
