@@ -3,7 +3,7 @@
 //! the distance between curve and arc at equal arc lengths, the arc's length being the
 //! curve's. Also a two-piece (piecewise constant curvature) fit.
 
-use flexshape_curve::{Frame, Section, SectionChain};
+use flexshape_curve::{Frame, Section};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Owned, Point3, Rotation3, Vector3};
 
@@ -13,7 +13,7 @@ use crate::record::{ArcFit, TwoSectionFit};
 use crate::settings::ArcFitSettings;
 
 /// Spacing of the data points compared with the arc, mm.
-const DATA_STEP: f64 = 1.0;
+const DATA_STEP: f64 = 2.0;
 
 /// Fits the curve from arc length `start` to the tip; `None` when the section is shorter than
 /// 5 mm.
@@ -108,6 +108,21 @@ fn chord_curvature(frame: &Frame, end: [f64; 3], length: f64) -> [f64; 2] {
     [kappa * local.z / side, -kappa * local.x / side]
 }
 
+/// Position at arc length `u` along a constant-curvature piece, in its base frame: the same
+/// geometry as [`Section::local_frame`] (tested), without building the rotation.
+fn local_position([kx, kz]: [f64; 2], u: f64) -> Vector3<f64> {
+    let k = kx.hypot(kz);
+    let angle = k * u;
+    if angle.abs() < 1e-4 {
+        let along = u * (1.0 - angle * angle / 6.0);
+        let side = 0.5 * u * u * (1.0 - angle * angle / 12.0);
+        return Vector3::new(-kz * side, along, kx * side);
+    }
+    let (sin, cos) = angle.sin_cos();
+    let side = (1.0 - cos) / k;
+    Vector3::new(-kz / k * side, sin / k, kx / k * side)
+}
+
 /// Least squares over `[κ per piece…, tilt x, tilt z, offset x, y, z]`.
 struct Problem<'a> {
     data: &'a [(f64, [f64; 3])],
@@ -156,22 +171,28 @@ impl<'a> Problem<'a> {
     }
 
     fn residuals_of(&self, p: &DVector<f64>) -> DVector<f64> {
-        let chain = SectionChain {
-            base: self.base_of(p),
-            sections: self
-                .lengths
-                .iter()
-                .enumerate()
-                .map(|(i, &length)| Section {
-                    length,
-                    kappa: [p[2 * i], p[2 * i + 1]],
-                    strain: 0.0,
-                })
-                .collect(),
-        };
+        // Base frame of each piece, and where it starts along the section.
+        let mut bases = Vec::with_capacity(self.lengths.len());
+        let (mut frame, mut start) = (self.base_of(p), 0.0);
+        for (i, &length) in self.lengths.iter().enumerate() {
+            bases.push((frame, start, [p[2 * i], p[2 * i + 1]]));
+            let piece = Section {
+                length,
+                kappa: [p[2 * i], p[2 * i + 1]],
+                strain: 0.0,
+            };
+            frame = frame.compose(&piece.local_frame(length));
+            start += length;
+        }
         let mut r = DVector::zeros(3 * self.data.len());
         for (i, (u, x)) in self.data.iter().enumerate() {
-            let m = chain.frame_at(*u).position;
+            let (base, from, kappa) = bases
+                .iter()
+                .rev()
+                .find(|b| *u >= b.1)
+                .copied()
+                .unwrap_or(bases[0]);
+            let m = base.position + base.rotation * local_position(kappa, u - from);
             for c in 0..3 {
                 r[3 * i + c] = m[c] - x[c];
             }
@@ -210,24 +231,50 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
-        // Central differences: the model is smooth and cheap.
+        // Forward differences: the model is smooth, and LM needs no more precision.
         let n = self.params.len();
-        let m = 3 * self.data.len();
-        let mut j = DMatrix::zeros(m, n);
+        let at = self.residuals_of(&self.params);
+        let mut j = DMatrix::zeros(at.len(), n);
         for k in 0..n {
-            let h = 1e-6
-                * self.params[k].abs().max(if k < 2 * self.lengths.len() {
-                    1e-2
-                } else {
-                    1.0
-                });
-            let mut plus = self.params.clone();
-            let mut minus = self.params.clone();
-            plus[k] += h;
-            minus[k] -= h;
-            let d = (self.residuals_of(&plus) - self.residuals_of(&minus)) / (2.0 * h);
-            j.set_column(k, &d);
+            let scale = if k < 2 * self.lengths.len() {
+                1e-2
+            } else {
+                1.0
+            };
+            let h = 1e-7 * self.params[k].abs().max(scale);
+            let mut moved = self.params.clone();
+            moved[k] += h;
+            j.set_column(k, &((self.residuals_of(&moved) - &at) / h));
         }
         Some(j)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn local_position_matches_the_section_model() {
+        for kappa in [
+            [0.0, 0.0],
+            [0.02, 0.0],
+            [0.0, -0.015],
+            [0.011, 0.007],
+            [1e-7, 2e-7],
+        ] {
+            for u in [0.0, 3.0, 40.0, 150.0] {
+                let section = Section {
+                    length: 160.0,
+                    kappa,
+                    strain: 0.0,
+                };
+                let expected = section.local_frame(u).position.coords;
+                assert!(
+                    (local_position(kappa, u) - expected).norm() < 1e-9,
+                    "{kappa:?} {u}"
+                );
+            }
+        }
     }
 }

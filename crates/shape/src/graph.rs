@@ -41,8 +41,13 @@ impl CellGraph {
         let mut sum = vec![[0.0; 3]; n];
         let mut count = vec![0u32; n];
         let mut node_of_voxel = Vec::with_capacity(voxel_keys.len());
+        // Voxels come in index order, so runs of them share a cell: look each run up once.
+        let mut last = (u64::MAX, 0usize);
         for (&v, &k) in occ.voxels.iter().zip(&voxel_keys) {
-            let node = index.get(&k).copied().unwrap_or(0) as usize;
+            if k != last.0 {
+                last = (k, index.get(&k).copied().unwrap_or(0) as usize);
+            }
+            let node = last.1;
             let [i, j, kk] = occ.ijk(v);
             let c = occ.volume.voxel_centre(i, j, kk);
             for a in 0..3 {
@@ -52,34 +57,41 @@ impl CellGraph {
             node_of_voxel.push(node as u32);
         }
         let centroid = |m: usize| sum[m].map(|s| s / count[m] as f64);
-        let mut offsets = Vec::with_capacity(n + 1);
-        let mut edges = Vec::new();
+        // Each pair once (the 13 neighbours after a cell in key order), stored both ways.
         let mask = (1u64 << 21) - 1;
+        let mut pairs = Vec::new();
         for (m, &k) in keys.iter().enumerate() {
-            offsets.push(edges.len());
             let c = [k & mask, k >> 21 & mask, k >> 42].map(|v| v as i64);
-            for dz in -1..=1i64 {
-                for dy in -1..=1i64 {
-                    for dx in -1..=1i64 {
-                        let q = [c[0] + dx, c[1] + dy, c[2] + dz];
-                        if (dx, dy, dz) == (0, 0, 0) || q.iter().any(|&v| v < 0) {
-                            continue;
-                        }
-                        let qk = q[0] as u64 | (q[1] as u64) << 21 | (q[2] as u64) << 42;
-                        if let Some(&o) = index.get(&qk) {
-                            let o = o as usize;
-                            let (a, b) = (centroid(m), centroid(o));
-                            let d = ((a[0] - b[0]).powi(2)
-                                + (a[1] - b[1]).powi(2)
-                                + (a[2] - b[2]).powi(2))
-                            .sqrt();
-                            edges.push((o as u32, d));
-                        }
-                    }
+            for (dx, dy, dz) in FORWARD {
+                let q = [c[0] + dx, c[1] + dy, c[2] + dz];
+                if q.iter().any(|&v| v < 0) {
+                    continue;
+                }
+                let qk = q[0] as u64 | (q[1] as u64) << 21 | (q[2] as u64) << 42;
+                if let Some(&o) = index.get(&qk) {
+                    let (a, b) = (centroid(m), centroid(o as usize));
+                    let d = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
+                        .sqrt();
+                    pairs.push((m as u32, o, d));
                 }
             }
         }
-        offsets.push(edges.len());
+        let mut offsets = vec![0usize; n + 1];
+        for &(a, b, _) in &pairs {
+            offsets[a as usize + 1] += 1;
+            offsets[b as usize + 1] += 1;
+        }
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut edges = vec![(0u32, 0.0); 2 * pairs.len()];
+        for &(a, b, d) in &pairs {
+            edges[fill[a as usize]] = (b, d);
+            fill[a as usize] += 1;
+            edges[fill[b as usize]] = (a, d);
+            fill[b as usize] += 1;
+        }
         CellGraph {
             node_of_voxel,
             sum,
@@ -156,6 +168,23 @@ impl CellGraph {
         dist
     }
 }
+
+/// Half of the 26 neighbour offsets: those after a cell in key order (z, then y, then x).
+const FORWARD: [(i64, i64, i64); 13] = [
+    (1, 0, 0),
+    (-1, 1, 0),
+    (0, 1, 0),
+    (1, 1, 0),
+    (-1, -1, 1),
+    (0, -1, 1),
+    (1, -1, 1),
+    (-1, 0, 1),
+    (0, 0, 1),
+    (1, 0, 1),
+    (-1, 1, 1),
+    (0, 1, 1),
+    (1, 1, 1),
+];
 
 /// Cell key → node. Keys are packed coordinates, so one multiplication hashes them well
 /// (SipHash cost more than the rest of the graph).

@@ -271,7 +271,8 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
         })
         .collect();
     let ones = vec![1.0; centres.len()];
-    let cut = Cut::new(&axis, &centres, &ones, &guess, 2, spacing);
+    // A voxel lies within its cell's slice or the next.
+    let cut = Cut::new(&axis, &centres, &ones, &guess, 1, spacing);
     let mut slices = Slices {
         s: cut.mean_s,
         centroid: cut.centroid,
