@@ -141,6 +141,23 @@ impl Default for ShapeSettings {
 }
 
 impl ShapeSettings {
+    /// The settings in a rig file's `[processing.shape]` table (defaults for missing keys;
+    /// all defaults without the table), validated.
+    pub fn from_processing(processing: &toml::Table) -> Result<Self, ShapeError> {
+        let settings: ShapeSettings = match processing.get("shape") {
+            None => Self::default(),
+            Some(v) => v
+                .clone()
+                .try_into()
+                .map_err(|e: toml::de::Error| ShapeError::Setting {
+                    field: "processing.shape",
+                    problem: e.message().to_string(),
+                })?,
+        };
+        settings.validate()?;
+        Ok(settings)
+    }
+
     /// Checks ranges; the error names the field.
     pub fn validate(&self) -> Result<(), ShapeError> {
         let bad =
@@ -203,5 +220,40 @@ impl ShapeSettings {
             );
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_the_rig_table_and_names_bad_fields() {
+        let table: toml::Table = toml::from_str(
+            "[shape]\nsmoothing = { kind = \"moving_average\", window = 9 }\nexpected_bands = 2\n",
+        )
+        .unwrap();
+        let s = ShapeSettings::from_processing(&table).unwrap();
+        assert_eq!(s.smoothing, Smoothing::MovingAverage { window: 9 });
+        assert_eq!(s.expected_bands, 2);
+        assert_eq!(
+            ShapeSettings::from_processing(&toml::Table::new()).unwrap(),
+            ShapeSettings::default()
+        );
+        let even: toml::Table =
+            toml::from_str("[shape]\nsmoothing = { kind = \"moving_average\", window = 4 }\n")
+                .unwrap();
+        let e = ShapeSettings::from_processing(&even)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("smoothing.window"), "{e}");
+        let typo: toml::Table = toml::from_str("[shape]\nsmoothin = 3\n").unwrap();
+        let e = ShapeSettings::from_processing(&typo)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("processing.shape") && e.contains("smoothin"),
+            "{e}"
+        );
     }
 }

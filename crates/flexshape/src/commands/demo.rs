@@ -1,8 +1,8 @@
 //! `flexshape demo`: the whole system on the built-in simulated rig.
 //!
-//! Each frame of the simulated sweep goes through the sensing stages built so far (today:
-//! silhouettes → voxel carving → marker bands), and the demo reports each stage against the
-//! simulator's ground truth; shape estimation joins the loop when it lands.
+//! Each frame of the simulated sweep goes through the sensing chain — silhouettes → voxel
+//! carving → marker bands → shape (centerline spline, tip, band positions, circular-arc fit) —
+//! and the demo reports each stage against the simulator's ground truth.
 
 use std::ops::ControlFlow;
 use std::time::Instant;
@@ -11,6 +11,8 @@ use anyhow::Context;
 use flexshape_camera::Camera;
 use flexshape_camera::nalgebra::Point3;
 use flexshape_carve::{BandRule, HierarchicalCarver, OutsideImage, find_bands};
+use flexshape_curve::Polyline;
+use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status};
 use flexshape_silhouette::{BackgroundModel, BitMask, SilhouetteSettings, Silhouetter};
 use flexshape_sim::{SimFrame, Simulator};
 
@@ -22,6 +24,7 @@ struct Stages {
     cameras: Vec<Camera>,
     silhouetters: Vec<Silhouetter>,
     carver: HierarchicalCarver,
+    shape: ShapeEstimator,
 }
 
 /// One frame measured against its truth.
@@ -32,11 +35,23 @@ struct Measured {
     voxels: usize,
     /// Share of the truth centerline samples inside the volume that lie in occupied voxels.
     hull_covers: f64,
-    /// Bands found, and the worst distance from a true band centre to the nearest centroid (mm).
-    bands: usize,
-    band_error: f64,
+    /// The shape and its errors against truth.
+    shape: ShapeRecord,
+    errors: Option<ShapeErrors>,
     silhouette_ms: f64,
     carve_ms: f64,
+    shape_ms: f64,
+}
+
+/// A shape against the simulator's truth, mm (curvature relative).
+struct ShapeErrors {
+    /// RMS distance from the true centerline samples in the volume to the estimated curve.
+    centerline_rms: f64,
+    tip: f64,
+    /// Worst distance from a true band centre to the nearest estimated one.
+    band: f64,
+    /// Estimated and true curvature of the bending section, 1/mm.
+    curvature: Option<(f64, f64)>,
 }
 
 impl Stages {
@@ -57,10 +72,17 @@ impl Stages {
         let cameras = sim.cameras();
         let carver = HierarchicalCarver::new(&cameras, &sim.rig().volume)
             .context("cannot set up carving")?;
+        let mut settings = ShapeSettings::from_processing(&sim.rig().processing)
+            .context("cannot set up shape estimation")?;
+        if settings.expected_bands == 0 {
+            settings.expected_bands = 2 + sim.config().catheter.extra_bands.len();
+        }
+        let shape = ShapeEstimator::new(settings).context("cannot set up shape estimation")?;
         Ok(Stages {
             cameras,
             silhouetters,
             carver,
+            shape,
         })
     }
 
@@ -90,6 +112,9 @@ impl Stages {
         let bands = find_bands(&occupancy, &self.cameras, &markers, &BandRule::default())
             .with_context(|| format!("frame {n}: bands"))?;
         let carve_ms = t.elapsed().as_secs_f64() * 1e3;
+        let t = Instant::now();
+        let shape = self.shape.estimate(&occupancy, &bands);
+        let shape_ms = t.elapsed().as_secs_f64() * 1e3;
         let volume = self.carver.volume();
         let inside: Vec<Point3<f64>> = frame
             .truth
@@ -102,28 +127,100 @@ impl Stages {
             .iter()
             .filter(|p| occupancy.contains_point(p))
             .count();
-        let band_error = frame
-            .truth
-            .bands
-            .iter()
-            .map(|b| Point3::from(b.position))
-            .filter(|p| volume.contains(p))
-            .map(|p| {
-                bands
-                    .iter()
-                    .map(|b| (Point3::from(b.centroid) - p).norm())
-                    .fold(f64::INFINITY, f64::min)
-            })
-            .fold(0.0, f64::max);
+        let errors = shape_errors(frame, &shape, &inside);
         Ok(Measured {
             iou,
             voxels: occupancy.len(),
             hull_covers: covered as f64 / inside.len().max(1) as f64,
-            bands: bands.len(),
-            band_error,
+            shape,
+            errors,
             silhouette_ms,
             carve_ms,
+            shape_ms,
         })
+    }
+}
+
+/// The shape's errors against truth (`None` without a shape).
+fn shape_errors(
+    frame: &SimFrame,
+    shape: &ShapeRecord,
+    inside: &[Point3<f64>],
+) -> Option<ShapeErrors> {
+    if shape.points.len() < 2 {
+        return None;
+    }
+    let curve = Polyline::new(shape.points.iter().map(|&p| Point3::from(p)).collect()).ok()?;
+    let sum2: f64 = inside.iter().map(|p| curve.closest(p).1.powi(2)).sum();
+    let truth = &frame.truth;
+    let band = truth
+        .bands
+        .iter()
+        .map(|b| Point3::from(b.position))
+        .filter(|p| inside.iter().any(|q| (q - p).norm() < 1.0))
+        .map(|p| {
+            shape
+                .bands
+                .iter()
+                .map(|b| (Point3::from(b.position) - p).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max);
+    let curvature = match (truth.kappa, &shape.arc_fit) {
+        (Some([kx, kz]), Some(fit)) => Some((fit.curvature, kx.hypot(kz))),
+        _ => None,
+    };
+    Some(ShapeErrors {
+        centerline_rms: (sum2 / inside.len().max(1) as f64).sqrt(),
+        tip: (Point3::from(shape.tip) - Point3::from(truth.tip)).norm(),
+        band,
+        curvature,
+    })
+}
+
+/// Worst figures over the frames so far.
+#[derive(Default)]
+struct Worst {
+    iou: f64,
+    cover: f64,
+    ok: usize,
+    rms: f64,
+    tip: f64,
+    band: f64,
+    curvature: f64,
+    seen: bool,
+}
+
+impl Worst {
+    fn add(&mut self, m: &Measured) {
+        if !self.seen {
+            (self.iou, self.cover, self.seen) = (1.0, 1.0, true);
+        }
+        self.iou = m.iou.iter().copied().fold(self.iou, f64::min);
+        self.cover = self.cover.min(m.hull_covers);
+        if m.shape.status == Status::Ok {
+            self.ok += 1;
+        }
+        if let Some(e) = &m.errors {
+            self.rms = self.rms.max(e.centerline_rms);
+            self.tip = self.tip.max(e.tip);
+            self.band = self.band.max(e.band);
+            if let Some((fit, truth)) = e.curvature
+                && truth >= 1.0 / 200.0
+            {
+                self.curvature = self.curvature.max((fit / truth - 1.0).abs());
+            }
+        }
+    }
+}
+
+/// A short word for a status without a shape.
+fn status_text(status: &Status) -> String {
+    match status {
+        Status::Ok => "ok".into(),
+        Status::NoObject { .. } => "no object".into(),
+        Status::Ambiguous { .. } => "ambiguous".into(),
+        Status::BandsMissing { found, expected } => format!("{found}/{expected} bands"),
     }
 }
 
@@ -149,30 +246,33 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         c.catheter.bend_length
     );
     println!(
-        "stages in this build: simulator → silhouettes → voxel carving → marker bands (shape estimation is not built yet)"
+        "stages: simulator → silhouettes → voxel carving → marker bands → shape (centerline, tip, bands, arc fit); errors against the simulator's truth"
     );
     println!("set up in {setup_ms:.0} ms\n");
     let names: Vec<&str> = sim.rig().cameras.iter().map(|c| c.name.as_str()).collect();
     let iou_header = format!("silhouette IoU ({})", names.join("/"));
     println!(
-        "{:>5} {:>6} {:>7} {:>22}  {:<w$}  {:>7} {:>6} {:>5} {:>8}  {:>6} {:>8} {:>9}",
+        "{:>5} {:>6} {:>7}  {:<w$}  {:>6} {:>6} {:>6} {:>7} {:>6} {:>7} {:>13}  {:>6} {:>6} {:>6} {:>7}",
         "frame",
         "bend°",
         "plane°",
-        "tip x, y, z (mm)",
         iou_header,
         "voxels",
         "hull⊇",
         "bands",
-        "band err",
+        "rms mm",
+        "tip mm",
+        "band mm",
+        "κ fit/true 1/m",
         "sil ms",
-        "carve ms",
-        "render ms",
+        "carve",
+        "shape",
+        "render",
         w = iou_header.len()
     );
     let mut render_ms = Vec::new();
-    let (mut worst_iou, mut worst_cover, mut worst_band): (f64, f64, f64) = (1.0, 1.0, 0.0);
-    let (mut sil_total, mut carve_total) = (0.0, 0.0);
+    let mut worst = Worst::default();
+    let (mut sil_total, mut carve_total, mut shape_total) = (0.0, 0.0, 0.0);
     let mut failure = None;
     let mut last = Instant::now();
     let mut report = |frame: &SimFrame| {
@@ -185,29 +285,38 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 return ControlFlow::Break(());
             }
         };
-        worst_iou = m.iou.iter().copied().fold(worst_iou, f64::min);
-        worst_cover = worst_cover.min(m.hull_covers);
-        worst_band = worst_band.max(m.band_error);
+        worst.add(&m);
         sil_total += m.silhouette_ms;
         carve_total += m.carve_ms;
+        shape_total += m.shape_ms;
         let truth = &frame.truth;
         let [kx, kz] = truth.kappa.unwrap_or([0.0, 0.0]);
         let [_, e1] = truth.eps.unwrap_or([0.0, 0.0]);
-        let [x, y, z] = truth.tip;
         let ious: Vec<String> = m.iou.iter().map(|i| format!("{i:.3}")).collect();
+        let errors = match &m.errors {
+            Some(e) => format!(
+                "{:>7.3} {:>6.2} {:>7.2} {:>13}",
+                e.centerline_rms,
+                e.tip,
+                e.band,
+                e.curvature
+                    .map(|(fit, t)| format!("{:.2}/{:.2}", fit * 1e3, t * 1e3))
+                    .unwrap_or_else(|| "-".into())
+            ),
+            None => format!("{:>36}", status_text(&m.shape.status)),
+        };
         println!(
-            "{:>5} {:>6.1} {:>7.1} {:>22}  {:<w$}  {:>7} {:>5.1}% {:>5} {:>8.2}  {:>6.2} {:>8.2} {ms:>9.1}",
+            "{:>5} {:>6.1} {:>7.1}  {:<w$}  {:>6} {:>5.1}% {:>6} {errors}  {:>6.2} {:>6.2} {:>6.2} {ms:>7.1}",
             truth.frame,
             (kx.hypot(kz) * c.catheter.bend_length * (1.0 - e1)).to_degrees(),
             kz.atan2(kx).to_degrees(),
-            format!("{x:.1}, {y:.1}, {z:.1}"),
             ious.join("/"),
             m.voxels,
             m.hull_covers * 100.0,
-            m.bands,
-            m.band_error,
+            m.shape.bands.len(),
             m.silhouette_ms,
             m.carve_ms,
+            m.shape_ms,
             w = iou_header.len(),
         );
         last = Instant::now();
@@ -244,13 +353,23 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     println!(
-        "\n{n} frames: silhouette IoU ≥ {worst_iou:.4}; the carved hull holds {:.1} % of the true centerline at worst; band centroids within {worst_band:.2} mm of the true band centres",
-        worst_cover * 100.0
+        "\n{n} frames: silhouette IoU ≥ {:.4}; the carved hull holds {:.1} % of the true centerline at worst",
+        worst.iou,
+        worst.cover * 100.0
     );
     println!(
-        "per frame on average: silhouettes {:.2} ms, carving + bands {:.2} ms (timed inside the demo loop; `cargo bench` gives steady figures)",
+        "shape: {} of {n} frames ok; worst centerline rms {:.3} mm, tip {:.2} mm, band centre {:.2} mm, arc-fit curvature {:.2} %",
+        worst.ok,
+        worst.rms,
+        worst.tip,
+        worst.band,
+        worst.curvature * 100.0
+    );
+    println!(
+        "per frame on average: silhouettes {:.2} ms, carving + bands {:.2} ms, shape {:.2} ms (timed inside the demo loop; `cargo bench` gives steady figures)",
         sil_total / n as f64,
-        carve_total / n as f64
+        carve_total / n as f64,
+        shape_total / n as f64
     );
     render_ms.sort_by(f64::total_cmp);
     let mean = render_ms.iter().sum::<f64>() / n as f64;
