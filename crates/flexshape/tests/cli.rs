@@ -116,6 +116,7 @@ fn demo_runs_and_reports() {
         t.contains("the carved hull holds 100.0 % of the true centerline at worst"),
         "{t}"
     );
+    assert!(t.contains("shape: 2 of 2 frames ok"), "{t}");
     assert!(t.contains("simulating 3 cameras takes"), "{t}");
     assert_eq!(
         t.lines()
