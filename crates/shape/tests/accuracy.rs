@@ -5,7 +5,9 @@
 use flexshape_carve::{BandRule, HierarchicalCarver, OutsideImage, find_bands};
 use flexshape_curve::Polyline;
 use flexshape_recording::Truth;
-use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status, angle_order};
+use flexshape_shape::{
+    NominalSection, ShapeEstimator, ShapeRecord, ShapeSettings, Smoothing, Status, angle_order,
+};
 use flexshape_silhouette::{BackgroundModel, SilhouetteSettings, Silhouetter};
 use flexshape_sim::{SimConfig, Simulator};
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -84,11 +86,34 @@ fn default_scene_shape_meets_the_accuracy_targets() {
             Silhouetter::new(&model, SilhouetteSettings::default()).unwrap()
         })
         .collect();
-    let estimator = ShapeEstimator::new(ShapeSettings {
+    let settings = ShapeSettings {
         expected_bands: 2,
+        // The paper's axial strain: bending section from the base band to the tip.
+        sections: vec![NominalSection {
+            name: "bending".into(),
+            from_band: 0,
+            to_band: None,
+            nominal_mm: sim.config().catheter.bend_length,
+        }],
         ..ShapeSettings::default()
+    };
+    let estimator = ShapeEstimator::new(settings.clone()).unwrap();
+    // The paper's smoothers, on the same clouds, for comparison.
+    let paper: Vec<(&str, ShapeEstimator)> = [
+        ("moving average", Smoothing::MovingAverage { window: 9 }),
+        ("polynomial", Smoothing::Polynomial { degree: 9 }),
+    ]
+    .into_iter()
+    .map(|(name, smoothing)| {
+        let s = ShapeSettings {
+            smoothing,
+            ..settings.clone()
+        };
+        (name, ShapeEstimator::new(s).unwrap())
     })
-    .unwrap();
+    .collect();
+    let mut paper_rms = vec![0.0f64; paper.len()];
+    let mut strain_error = 0.0f64;
     let mut all = Vec::new();
     for (n, pose) in sim.sweep(20).iter().enumerate() {
         let f = sim.render(n as u64, pose).unwrap();
@@ -114,6 +139,12 @@ fn default_scene_shape_meets_the_accuracy_targets() {
             .map(|p| p.map(f64::from))
             .collect();
         let e = errors(&sim, &f.truth, &record, &cloud);
+        for ((_, est), worst) in paper.iter().zip(&mut paper_rms) {
+            *worst = worst.max(rms_to(&f.truth, &sim, &est.estimate(&occ, &bands).points));
+        }
+        let eps1 = f.truth.eps.unwrap()[1];
+        let strain = record.compression[0].strain;
+        strain_error = strain_error.max((strain - eps1).abs());
         println!(
             "frame {n:2}: centerline rms {:.3} mm (paper's ordering {:.2}), tip {:.2} mm, bands {:?} mm, arc fit {:?}, radius {:.2}",
             e.centerline_rms,
@@ -151,6 +182,18 @@ fn default_scene_shape_meets_the_accuracy_targets() {
         kappa * 100.0,
         angle.to_degrees()
     );
+    println!(
+        "worst centerline rms with the paper's smoothers: {}; bending-section strain within {:.4} of truth",
+        paper
+            .iter()
+            .zip(&paper_rms)
+            .map(|((n, _), r)| format!("{n} {r:.3} mm"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        strain_error
+    );
+    assert!(paper_rms.iter().all(|&r| r <= 0.5), "{paper_rms:?}");
+    assert!(strain_error <= 0.006, "strain error {strain_error:.4}");
     assert!(
         fitted >= 10,
         "only {fitted} frames bent enough to check the arc fit"
