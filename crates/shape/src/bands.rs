@@ -1,6 +1,7 @@
 //! Bands on the curve, and the axial strain between them.
 //!
-//! A band's centre is the mean axis parameter of its voxels (their projections onto the
+//! Bands that overlap along the curve are merged first (with the visibility rule a band's
+//! surface can come out as separate patches). A band's centre is the mean axis parameter of its voxels (their projections onto the
 //! curve), which the cross-section's shape cannot bias. A band that reaches past the
 //! centerline's end (to within a voxel) is taken to end at the tip, and its far voxels are
 //! not its own: the visual hull runs on past the tube's end, and a marked cap is band-coloured.
@@ -23,9 +24,11 @@ pub(crate) fn locate(
     curve: &Centerline,
     voxel: f64,
 ) -> Vec<BandOnCurve> {
-    let mut out: Vec<BandOnCurve> = bands
+    // Each band's voxels along the curve; bands overlapping along it (a band's visible surface
+    // can fall into patches that do not touch) are one band.
+    let mut groups: Vec<Vec<f64>> = bands
         .iter()
-        .filter_map(|band| {
+        .map(|band| {
             let mut s: Vec<f64> = band
                 .voxels
                 .iter()
@@ -33,10 +36,25 @@ pub(crate) fn locate(
                 .map(|i| slices.voxel_s[i])
                 .filter(|s| !s.is_nan())
                 .collect();
-            if s.is_empty() {
-                return None;
-            }
             s.sort_by(f64::total_cmp);
+            s
+        })
+        .filter(|s| !s.is_empty())
+        .collect();
+    groups.sort_by(|a, b| a[0].total_cmp(&b[0]));
+    let mut merged: Vec<Vec<f64>> = Vec::new();
+    for g in groups {
+        match merged.last_mut() {
+            Some(last) if g[0] <= last[last.len() - 1] + voxel => {
+                last.extend(g);
+                last.sort_by(f64::total_cmp);
+            }
+            _ => merged.push(g),
+        }
+    }
+    let mut out: Vec<BandOnCurve> = merged
+        .into_iter()
+        .map(|s| {
             let pick = |q: f64| s[((s.len() - 1) as f64 * q).round() as usize];
             let (lo, hi) = (pick(0.02), pick(0.98));
             let at_tip = s[s.len() - 1] >= curve.tip_param() - voxel;
@@ -49,13 +67,13 @@ pub(crate) fn locate(
                 s.iter().sum::<f64>() / s.len() as f64
             };
             let arc = curve.arc_of(centre);
-            Some(BandOnCurve {
+            BandOnCurve {
                 arc_length: arc,
                 position: curve.point_at(arc),
                 extent: [curve.arc_of(lo), curve.arc_of(hi)],
-                voxels: band.voxels.len(),
+                voxels: s.len(),
                 at_tip,
-            })
+            }
         })
         .collect();
     out.sort_by(|a, b| a.arc_length.total_cmp(&b.arc_length));
