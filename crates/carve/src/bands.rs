@@ -83,13 +83,14 @@ pub fn find_bands(
         .iter()
         .zip(markers)
         .map(|(proj, m)| {
+            let pixels: Vec<Option<u32>> = centres.iter().map(|&c| proj.bit_address(c)).collect();
             let visible = rule
                 .visibility
-                .then(|| visible_voxels(proj, &centres, &occupancy.volume));
-            centres
+                .then(|| visible_voxels(proj, &centres, &pixels, &occupancy.volume));
+            pixels
                 .iter()
                 .enumerate()
-                .map(|(n, &c)| match proj.bit_address(c) {
+                .map(|(n, &p)| match p {
                     Some(_) if visible.as_ref().is_some_and(|v| !v[n]) => Seen::No,
                     Some(a) if m.words()[(a >> 6) as usize] >> (a & 63) & 1 == 1 => Seen::Marker,
                     Some(_) => Seen::Other,
@@ -146,34 +147,50 @@ enum Seen {
 fn visible_voxels(
     proj: &VoxelProjector,
     centres: &[[f64; 3]],
+    addresses: &[Option<u32>],
     volume: &flexshape_rig::Volume,
 ) -> Vec<bool> {
-    let (w, h) = (proj.width as usize, proj.height as usize);
-    let mut zbuf = vec![f64::INFINITY; w * h];
     let edge = volume.voxel_size.iter().copied().fold(0.0, f64::max);
     let diagonal = volume.voxel_size.iter().map(|s| s * s).sum::<f64>().sqrt();
     let focal = proj.fx.max(proj.fy);
-    let pixels: Vec<Option<(usize, usize, f64)>> = centres
+    let row = proj.row_bits();
+    // Pixel, depth and footprint half-width (whole pixels) of each seen voxel.
+    let pixels: Vec<Option<(usize, usize, f64, usize)>> = centres
         .iter()
-        .map(|&c| {
-            let a = proj.bit_address(c)? as usize;
-            let (x, y) = (a % proj.row_bits(), a / proj.row_bits());
-            Some((x, y, proj.to_camera(c)[2]))
+        .zip(addresses)
+        .map(|(&c, &a)| {
+            let a = a? as usize;
+            let z = proj.to_camera(c)[2];
+            Some((
+                a % row,
+                a / row,
+                z,
+                (0.5 * edge * focal / z).ceil() as usize,
+            ))
         })
         .collect();
-    for &(x, y, z) in pixels.iter().flatten() {
-        // Half the voxel's footprint, in whole pixels.
-        let r = (0.5 * edge * focal / z).ceil() as usize;
-        for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
-            for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
-                let d = &mut zbuf[yy * w + xx];
+    // The z-buffer covers only the voxels' footprints.
+    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+    for &(x, y, _, r) in pixels.iter().flatten() {
+        (x0, y0) = (x0.min(x.saturating_sub(r)), y0.min(y.saturating_sub(r)));
+        (x1, y1) = (x1.max(x + r), y1.max(y + r));
+    }
+    if x0 > x1 {
+        return vec![false; centres.len()];
+    }
+    let w = x1 - x0 + 1;
+    let mut zbuf = vec![f64::INFINITY; w * (y1 - y0 + 1)];
+    for &(x, y, z, r) in pixels.iter().flatten() {
+        for yy in y - r.min(y)..=y + r {
+            let line = &mut zbuf[(yy - y0) * w..(yy - y0 + 1) * w];
+            for d in &mut line[x - r.min(x) - x0..=x + r - x0] {
                 *d = d.min(z);
             }
         }
     }
     pixels
         .iter()
-        .map(|p| p.is_some_and(|(x, y, z)| z <= zbuf[y * w + x] + diagonal))
+        .map(|p| p.is_some_and(|(x, y, z, _)| z <= zbuf[(y - y0) * w + x - x0] + diagonal))
         .collect()
 }
 
