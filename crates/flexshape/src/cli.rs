@@ -23,6 +23,9 @@ pub enum Command {
     /// Compute one recorded frame's silhouettes with the rig's settings, report them (against
     /// ground truth when the recording has it) and optionally write debug images.
     Silhouettes(SilhouettesArgs),
+    /// Track a recording: silhouettes → carving → shape for every frame, written as JSON Lines
+    /// (one record per frame, then a summary).
+    Track(TrackArgs),
     /// Inspect rig files.
     Rig {
         #[command(subcommand)]
@@ -38,6 +41,23 @@ pub enum RigCommand {
         /// Rig TOML file, or a folder of camera files (*.yml, *.yaml, *.json).
         path: PathBuf,
     },
+}
+
+#[derive(Debug, Args)]
+pub struct TrackArgs {
+    /// Recording folder (the layout `flexshape simulate` writes: rig.toml, calibration/,
+    /// background/, frames/).
+    pub recording: PathBuf,
+    /// Output file for the JSON Lines records; `-` for standard output.
+    #[arg(long, default_value = "-")]
+    pub out: PathBuf,
+    /// Carving volume as XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in world mm (default: the rig's volume;
+    /// a rig without one has the 256 mm cube centred on the origin).
+    #[arg(long, value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", value_parser = parse_box)]
+    pub volume: Option<[f64; 6]>,
+    /// Voxel edge in mm (default: the rig volume's).
+    #[arg(long, value_name = "MM")]
+    pub voxel: Option<f64>,
 }
 
 /// Settings of the simulated rig shared by `demo` and `simulate`.
@@ -129,4 +149,23 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
             .map_err(|_| format!("`{v}` is not a pixel count"))
     };
     Ok((n(w)?, n(h)?))
+}
+
+/// Parses `XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX`.
+fn parse_box(s: &str) -> Result<[f64; 6], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("expected six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm): {e}"))?;
+    let b: [f64; 6] = v.try_into().map_err(|v: Vec<f64>| {
+        format!(
+            "expected six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm), got {}",
+            v.len()
+        )
+    })?;
+    if (0..3).any(|a| b[a].is_nan() || b[a + 3].is_nan() || b[a] >= b[a + 3]) {
+        return Err(format!("each minimum must be below its maximum: {s}"));
+    }
+    Ok(b)
 }

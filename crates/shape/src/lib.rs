@@ -87,10 +87,12 @@ impl ShapeEstimator {
         let radius = s.radius_mm.unwrap_or_else(|| estimate_radius(&slices, vs));
         let curve = centerline::Centerline::new(&slices, s, &occupancy.volume, radius);
         let length = curve.length();
-        let steps = (length / s.sample_mm).ceil().max(1.0) as usize;
+        // Evenly spaced, a little closer than `sample_mm` so that no chord exceeds it (the arc
+        // table is exact to ~1e-4 mm).
+        let steps = (length / (0.999 * s.sample_mm)).ceil().max(1.0) as usize;
         let mut record = ShapeRecord::empty(Status::Ok);
         for i in 0..=steps {
-            let arc = (i as f64 * s.sample_mm).min(length);
+            let arc = length * i as f64 / steps as f64;
             let sample = curve.sample(arc);
             record.points.push(sample.point);
             record.arc.push(arc);

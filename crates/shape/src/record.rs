@@ -122,7 +122,8 @@ pub struct ShapeRecord {
     pub status: Status,
     /// Centerline length from the proximal end to the tip, mm.
     pub length: f64,
-    /// Samples every `sample_mm` from the proximal end to the tip (last one at the tip), mm.
+    /// Samples evenly spaced at most `sample_mm` apart, from the proximal end to the tip (the
+    /// last one), world mm.
     pub points: Vec<[f64; 3]>,
     /// Arc length of each sample, mm.
     pub arc: Vec<f64>,

@@ -8,23 +8,19 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use anyhow::Context;
-use flexshape_camera::Camera;
 use flexshape_camera::nalgebra::Point3;
-use flexshape_carve::{BandRule, HierarchicalCarver, OutsideImage, find_bands};
 use flexshape_curve::Polyline;
-use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status};
-use flexshape_silhouette::{BackgroundModel, BitMask, SilhouetteSettings, Silhouetter};
+use flexshape_shape::{ShapeRecord, Status};
+use flexshape_silhouette::{BackgroundModel, BitMask};
 use flexshape_sim::{SimFrame, Simulator};
+use flexshape_track::Pipeline;
 
 use crate::cli::DemoArgs;
 use crate::interrupt::Interrupt;
 
-/// The sensing stages, set up once for the simulated rig.
+/// The sensing chain, set up once for the simulated rig.
 struct Stages {
-    cameras: Vec<Camera>,
-    silhouetters: Vec<Silhouetter>,
-    carver: HierarchicalCarver,
-    shape: ShapeEstimator,
+    pipeline: Pipeline,
 }
 
 /// One frame measured against its truth.
@@ -56,66 +52,40 @@ struct ShapeErrors {
 
 impl Stages {
     fn new(sim: &Simulator) -> anyhow::Result<Self> {
-        let silhouetters = sim
+        let backgrounds = sim
             .backgrounds()
             .iter()
-            .zip(&sim.rig().cameras)
-            .map(|(bg, cam)| {
-                let model = BackgroundModel::from_frames(std::slice::from_ref(bg))?;
-                Silhouetter::new(
-                    &model,
-                    SilhouetteSettings::from_processing(&sim.rig().processing, &cam.name)?,
-                )
-            })
+            .map(|bg| BackgroundModel::from_frames(std::slice::from_ref(bg)))
             .collect::<Result<Vec<_>, _>>()
-            .context("cannot set up the silhouette stage")?;
-        let cameras = sim.cameras();
-        let carver = HierarchicalCarver::new(&cameras, &sim.rig().volume)
-            .context("cannot set up carving")?;
-        let mut settings = ShapeSettings::from_processing(&sim.rig().processing)
-            .context("cannot set up shape estimation")?;
+            .context("cannot model the simulated backgrounds")?;
+        let rig = sim.rig();
+        let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume)
+            .context("cannot set up the sensing chain")?;
+        let mut settings = pipeline.shape_settings().clone();
         if settings.expected_bands == 0 {
             settings.expected_bands = 2 + sim.config().catheter.extra_bands.len();
         }
-        let shape = ShapeEstimator::new(settings).context("cannot set up shape estimation")?;
-        Ok(Stages {
-            cameras,
-            silhouetters,
-            carver,
-            shape,
-        })
+        let pipeline = pipeline
+            .with_shape_settings(settings)
+            .context("cannot set up shape estimation")?;
+        Ok(Stages { pipeline })
     }
 
     fn measure(&self, frame: &SimFrame) -> anyhow::Result<Measured> {
         let n = frame.truth.frame;
-        let t = Instant::now();
-        let silhouettes = self
-            .silhouetters
-            .iter()
-            .zip(&frame.views)
-            .map(|(s, v)| s.process(&v.image))
-            .collect::<Result<Vec<_>, _>>()
-            .with_context(|| format!("frame {n}: silhouettes"))?;
-        let silhouette_ms = t.elapsed().as_secs_f64() * 1e3;
-        let iou = silhouettes
+        let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+        let tracked = self
+            .pipeline
+            .process(&images)
+            .with_context(|| format!("frame {n}"))?;
+        let iou = tracked
+            .silhouettes
             .iter()
             .zip(&frame.views)
             .map(|(s, v)| s.object.iou(&BitMask::from_gray(&v.mask)))
             .collect();
-        let t = Instant::now();
-        let objects: Vec<&BitMask> = silhouettes.iter().map(|s| &s.object).collect();
-        let markers: Vec<&BitMask> = silhouettes.iter().map(|s| &s.markers).collect();
-        let occupancy = self
-            .carver
-            .carve(&objects, OutsideImage::Carve)
-            .with_context(|| format!("frame {n}: carving"))?;
-        let bands = find_bands(&occupancy, &self.cameras, &markers, &BandRule::default())
-            .with_context(|| format!("frame {n}: bands"))?;
-        let carve_ms = t.elapsed().as_secs_f64() * 1e3;
-        let t = Instant::now();
-        let shape = self.shape.estimate(&occupancy, &bands);
-        let shape_ms = t.elapsed().as_secs_f64() * 1e3;
-        let volume = self.carver.volume();
+        let (occupancy, shape, timings) = (tracked.occupancy, tracked.shape, tracked.timings);
+        let volume = self.pipeline.volume();
         let inside: Vec<Point3<f64>> = frame
             .truth
             .centerline
@@ -134,9 +104,9 @@ impl Stages {
             hull_covers: covered as f64 / inside.len().max(1) as f64,
             shape,
             errors,
-            silhouette_ms,
-            carve_ms,
-            shape_ms,
+            silhouette_ms: timings.silhouettes,
+            carve_ms: timings.carve + timings.bands,
+            shape_ms: timings.shape,
         })
     }
 }

@@ -5,6 +5,7 @@ mod demo;
 mod rig_check;
 mod silhouettes;
 mod simulate;
+mod track;
 
 use flexshape_sim::{Catheter, RenderSettings, SimConfig, SimRigConfig};
 
@@ -17,6 +18,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(args) => simulate::run(&args),
         Command::Background(args) => background::run(&args),
         Command::Silhouettes(args) => silhouettes::run(&args),
+        Command::Track(args) => track::run(&args),
         Command::Rig {
             command: RigCommand::Check { path },
         } => rig_check::run(&path),

@@ -1,0 +1,42 @@
+//! Tracking: the whole sensing chain for one frame ([`Pipeline`]) and the JSON Lines records
+//! `flexshape track` writes ([`TrackRecord`], then one [`SummaryLine`]). World frame, mm.
+
+mod pipeline;
+mod record;
+
+use flexshape_carve::CarveError;
+use flexshape_shape::ShapeError;
+use flexshape_silhouette::SilhouetteError;
+use thiserror::Error;
+
+pub use pipeline::{Pipeline, StageTimings, Tracked};
+pub use record::{StageSummary, SummaryLine, TrackArcFit, TrackBand, TrackRecord, TrackSummary};
+
+/// Why a frame (or the pipeline's setup) failed.
+#[derive(Debug, Error)]
+pub enum TrackError {
+    /// A camera's silhouette stage.
+    #[error("camera {camera}: {source}")]
+    Silhouette {
+        /// Camera name.
+        camera: String,
+        /// What went wrong.
+        source: SilhouetteError,
+    },
+    /// Carving or bands.
+    #[error(transparent)]
+    Carve(#[from] CarveError),
+    /// Shape settings.
+    #[error(transparent)]
+    Shape(#[from] ShapeError),
+    /// One item per camera was expected.
+    #[error("{found} {what} for a rig of {expected} cameras")]
+    CameraCount {
+        /// What was counted.
+        what: &'static str,
+        /// How many were given.
+        found: usize,
+        /// Cameras in the rig.
+        expected: usize,
+    },
+}

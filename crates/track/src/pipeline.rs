@@ -1,0 +1,182 @@
+//! One frame through the sensing chain: silhouettes (cameras in parallel) → hierarchical
+//! carving → marker bands → shape.
+
+use std::time::Instant;
+
+use flexshape_camera::Camera;
+use flexshape_carve::{Band, BandRule, HierarchicalCarver, Occupancy, OutsideImage, find_bands};
+use flexshape_rig::{Rig, Volume};
+use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings};
+use flexshape_silhouette::{BackgroundModel, Silhouette, SilhouetteSettings, Silhouetter};
+use image::RgbImage;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::TrackError;
+
+/// Milliseconds per stage of one frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct StageTimings {
+    /// All cameras' silhouettes.
+    pub silhouettes: f64,
+    /// Carving.
+    pub carve: f64,
+    /// Marker bands in the carved volume.
+    pub bands: f64,
+    /// Shape estimation.
+    pub shape: f64,
+}
+
+impl StageTimings {
+    /// The stages' names and times, in pipeline order.
+    pub fn stages(&self) -> [(&'static str, f64); 4] {
+        [
+            ("silhouettes", self.silhouettes),
+            ("carve", self.carve),
+            ("bands", self.bands),
+            ("shape", self.shape),
+        ]
+    }
+}
+
+/// What one frame gave at every stage.
+#[derive(Debug, Clone)]
+pub struct Tracked {
+    /// Per camera, in the rig's order.
+    pub silhouettes: Vec<Silhouette>,
+    /// The carved voxels.
+    pub occupancy: Occupancy,
+    /// Marker bands in them.
+    pub bands: Vec<Band>,
+    /// The shape.
+    pub shape: ShapeRecord,
+    /// Time per stage.
+    pub timings: StageTimings,
+}
+
+/// The sensing chain, set up once per rig.
+#[derive(Debug, Clone)]
+pub struct Pipeline {
+    names: Vec<String>,
+    cameras: Vec<Camera>,
+    silhouetters: Vec<Silhouetter>,
+    carver: HierarchicalCarver,
+    band_rule: BandRule,
+    shape: ShapeEstimator,
+}
+
+impl Pipeline {
+    /// The chain for `rig` (settings from its `[processing]` tables) carving `volume`, with one
+    /// background model per camera in the rig's order.
+    pub fn new(
+        rig: &Rig,
+        backgrounds: &[BackgroundModel],
+        volume: &Volume,
+    ) -> Result<Self, TrackError> {
+        if backgrounds.len() != rig.cameras.len() {
+            return Err(TrackError::CameraCount {
+                what: "background models",
+                found: backgrounds.len(),
+                expected: rig.cameras.len(),
+            });
+        }
+        let silhouetters = rig
+            .cameras
+            .iter()
+            .zip(backgrounds)
+            .map(|(cam, bg)| {
+                let err = |source| TrackError::Silhouette {
+                    camera: cam.name.clone(),
+                    source,
+                };
+                let settings =
+                    SilhouetteSettings::from_processing(&rig.processing, &cam.name).map_err(err)?;
+                Silhouetter::new(bg, settings).map_err(err)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let cameras: Vec<Camera> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
+        let carver = HierarchicalCarver::new(&cameras, volume)?;
+        let shape = ShapeEstimator::new(ShapeSettings::from_processing(&rig.processing)?)?;
+        Ok(Pipeline {
+            names: rig.cameras.iter().map(|c| c.name.clone()).collect(),
+            cameras,
+            silhouetters,
+            carver,
+            band_rule: BandRule::default(),
+            shape,
+        })
+    }
+
+    /// Replaces the shape stage's settings.
+    pub fn with_shape_settings(mut self, settings: ShapeSettings) -> Result<Self, TrackError> {
+        self.shape = ShapeEstimator::new(settings)?;
+        Ok(self)
+    }
+
+    /// The shape stage's settings.
+    pub fn shape_settings(&self) -> &ShapeSettings {
+        self.shape.settings()
+    }
+
+    /// The cameras' names, in order.
+    pub fn camera_names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// The carved volume.
+    pub fn volume(&self) -> &Volume {
+        self.carver.volume()
+    }
+
+    /// One frame: one image per camera, in the rig's order.
+    pub fn process(&self, images: &[&RgbImage]) -> Result<Tracked, TrackError> {
+        if images.len() != self.cameras.len() {
+            return Err(TrackError::CameraCount {
+                what: "images",
+                found: images.len(),
+                expected: self.cameras.len(),
+            });
+        }
+        let t = Instant::now();
+        let silhouettes = self
+            .silhouetters
+            .par_iter()
+            .zip(images)
+            .zip(&self.names)
+            .map(|((s, img), name)| {
+                s.process(img).map_err(|source| TrackError::Silhouette {
+                    camera: name.clone(),
+                    source,
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let silhouettes_ms = ms(t);
+        let t = Instant::now();
+        let objects: Vec<_> = silhouettes.iter().map(|s| &s.object).collect();
+        let occupancy = self.carver.carve(&objects, OutsideImage::Carve)?;
+        let carve_ms = ms(t);
+        let t = Instant::now();
+        let markers: Vec<_> = silhouettes.iter().map(|s| &s.markers).collect();
+        let bands = find_bands(&occupancy, &self.cameras, &markers, &self.band_rule)?;
+        let bands_ms = ms(t);
+        let t = Instant::now();
+        let shape = self.shape.estimate(&occupancy, &bands);
+        let shape_ms = ms(t);
+        Ok(Tracked {
+            silhouettes,
+            occupancy,
+            bands,
+            shape,
+            timings: StageTimings {
+                silhouettes: silhouettes_ms,
+                carve: carve_ms,
+                bands: bands_ms,
+                shape: shape_ms,
+            },
+        })
+    }
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}

@@ -1,0 +1,213 @@
+//! The JSON Lines records of `flexshape track`: one per frame, then one summary. The fields
+//! documented in `docs/formats.md` are a stable contract; others may be added. World frame,
+//! mm, radians.
+
+use flexshape_shape::Status;
+use serde::{Deserialize, Serialize};
+
+use crate::pipeline::{StageTimings, Tracked};
+
+/// A band on the centerline.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrackBand {
+    /// Centre, world mm.
+    pub position: [f64; 3],
+    /// Arc length of the centre from the proximal end, mm.
+    pub arc_length: f64,
+}
+
+/// The circular-arc fit of the bending section, in world coordinates.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrackArcFit {
+    /// Curvature, 1/mm.
+    pub curvature: f64,
+    /// Start of the section, world mm.
+    pub base: [f64; 3],
+    /// Unit tangent at the start.
+    pub base_tangent: [f64; 3],
+    /// Unit direction toward which the section bends, perpendicular to the tangent.
+    pub bend_direction: [f64; 3],
+    /// Mean distance between the curve and the arc, mm.
+    pub residual_mm: f64,
+    /// Section length, mm.
+    pub length: f64,
+}
+
+/// One frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrackRecord {
+    /// Frame number.
+    pub frame: u64,
+    /// `ok`, `no_object`, `ambiguous`, `bands_missing` or `error`.
+    pub status: String,
+    /// Why, when the status is not `ok`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    /// Points from the proximal end to the tip, ≤ 1 mm apart, world mm.
+    pub centerline: Vec<[f64; 3]>,
+    /// The centerline's end, world mm.
+    pub tip: Option<[f64; 3]>,
+    /// Unit tangent at the tip.
+    pub tip_direction: Option<[f64; 3]>,
+    /// Centerline length, mm.
+    pub arc_length: f64,
+    /// Bands from proximal to distal.
+    pub bands: Vec<TrackBand>,
+    /// The bending section's arc fit.
+    pub arc_fit: Option<TrackArcFit>,
+    /// Occupied voxels.
+    pub voxels: usize,
+    /// Milliseconds per stage.
+    pub timings_ms: StageTimings,
+    /// Curvature at each centerline point, 1/mm (additive).
+    #[serde(default)]
+    pub curvature: Vec<f64>,
+}
+
+impl TrackRecord {
+    /// The record of a processed frame.
+    pub fn from_tracked(frame: u64, t: &Tracked) -> Self {
+        let s = &t.shape;
+        let (status, reason) = match &s.status {
+            Status::Ok => ("ok", None),
+            Status::NoObject { voxels } => ("no_object", Some(format!("{voxels} voxels carved"))),
+            Status::Ambiguous { reason } => ("ambiguous", Some(reason.clone())),
+            Status::BandsMissing { found, expected } => (
+                "bands_missing",
+                Some(format!("{found} of {expected} bands found")),
+            ),
+        };
+        let has_shape = !s.points.is_empty();
+        let arc_fit = s.arc_fit.as_ref().map(|f| {
+            let [x, y, z] = f.axes;
+            let k = f.curvature.max(1e-300);
+            // The bend direction is (−κz, 0, κx)/κ in the section frame.
+            let (bx, bz) = (-f.kappa[1] / k, f.kappa[0] / k);
+            TrackArcFit {
+                curvature: f.curvature,
+                base: f.origin,
+                base_tangent: y,
+                bend_direction: std::array::from_fn(|i| bx * x[i] + bz * z[i]),
+                residual_mm: f.residual_mean,
+                length: f.length,
+            }
+        });
+        TrackRecord {
+            frame,
+            status: status.into(),
+            reason,
+            centerline: s.points.clone(),
+            tip: has_shape.then_some(s.tip),
+            tip_direction: has_shape.then_some(s.tip_direction),
+            arc_length: s.length,
+            bands: s
+                .bands
+                .iter()
+                .map(|b| TrackBand {
+                    position: b.position,
+                    arc_length: b.arc_length,
+                })
+                .collect(),
+            arc_fit,
+            voxels: t.occupancy.len(),
+            timings_ms: t.timings,
+            curvature: s.curvature.clone(),
+        }
+    }
+
+    /// The record of a frame that could not be processed.
+    pub fn error(frame: u64, reason: String) -> Self {
+        TrackRecord {
+            frame,
+            status: "error".into(),
+            reason: Some(reason),
+            centerline: Vec::new(),
+            tip: None,
+            tip_direction: None,
+            arc_length: 0.0,
+            bands: Vec::new(),
+            arc_fit: None,
+            voxels: 0,
+            timings_ms: StageTimings::default(),
+            curvature: Vec::new(),
+        }
+    }
+}
+
+/// Median and 95th percentile of one stage's time, ms.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StageSummary {
+    /// Stage name.
+    pub stage: String,
+    /// Median, ms.
+    pub median_ms: f64,
+    /// 95th percentile, ms.
+    pub p95_ms: f64,
+}
+
+/// The last line of a run: `{"summary": {…}}`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrackSummary {
+    /// Frames read.
+    pub frames: usize,
+    /// Frames with status `ok`.
+    pub ok: usize,
+    /// Frames with status `error`.
+    pub errors: usize,
+    /// Whether the run was stopped early (Ctrl-C or a structural input error).
+    pub stopped: bool,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+    /// Frames per second, wall clock (including reading and decoding images).
+    pub fps: f64,
+    /// Per-stage times.
+    pub stages: Vec<StageSummary>,
+}
+
+impl TrackSummary {
+    /// Summarises per-frame timings.
+    pub fn new(
+        records: &[StageTimings],
+        ok: usize,
+        errors: usize,
+        stopped: bool,
+        seconds: f64,
+    ) -> Self {
+        let frames = records.len() + errors;
+        let stages = StageTimings::default()
+            .stages()
+            .iter()
+            .enumerate()
+            .map(|(i, (name, _))| {
+                let mut t: Vec<f64> = records.iter().map(|r| r.stages()[i].1).collect();
+                t.sort_by(f64::total_cmp);
+                let pick = |q: f64| {
+                    t.get(((t.len().max(1) - 1) as f64 * q).round() as usize)
+                        .copied()
+                        .unwrap_or(0.0)
+                };
+                StageSummary {
+                    stage: (*name).into(),
+                    median_ms: pick(0.5),
+                    p95_ms: pick(0.95),
+                }
+            })
+            .collect();
+        TrackSummary {
+            frames,
+            ok,
+            errors,
+            stopped,
+            seconds,
+            fps: frames as f64 / seconds.max(1e-9),
+            stages,
+        }
+    }
+}
+
+/// The summary as its own line.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SummaryLine {
+    /// The summary.
+    pub summary: TrackSummary,
+}
