@@ -26,6 +26,9 @@ pub enum Command {
     /// Track a recording: silhouettes → carving → shape for every frame, written as JSON Lines
     /// (one record per frame, then a summary).
     Track(TrackArgs),
+    /// Measure per-stage throughput on the simulated rig (1 and 2 threads) and print a table,
+    /// or JSON with `--json`.
+    Bench(BenchArgs),
     /// Inspect rig files.
     Rig {
         #[command(subcommand)]
@@ -135,6 +138,21 @@ pub struct DemoArgs {
     /// Also write the simulated recording to this folder.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub sim: SimArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Distinct simulated frames (each is processed `--rounds` times).
+    #[arg(long, default_value_t = 10)]
+    pub frames: usize,
+    /// Passes over the frames per thread count.
+    #[arg(long, default_value_t = 5)]
+    pub rounds: usize,
+    /// Print the figures as JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
     #[command(flatten)]
     pub sim: SimArgs,
 }

@@ -201,3 +201,23 @@ fn background_and_silhouettes_commands() {
     assert!(!o.status.success());
     assert!(text(&o).contains("no PNG or JPEG images"), "{}", text(&o));
 }
+
+#[test]
+fn bench_prints_per_stage_figures_as_json() {
+    let o = flexshape(&["bench", "--frames", "2", "--rounds", "1", "--json"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let results = v["results"].as_array().unwrap();
+    assert_eq!(results.len(), 2);
+    for r in results {
+        let stages: Vec<&str> = r["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s["stage"].as_str().unwrap())
+            .collect();
+        assert_eq!(stages, ["silhouettes", "carve", "bands", "shape"]);
+        assert!(r["throughput_fps"].as_f64().unwrap() > 0.0);
+    }
+    assert!(v["png_decode_ms"].as_f64().unwrap() > 0.0);
+}

@@ -1,6 +1,7 @@
 //! One module per command.
 
 mod background;
+mod bench;
 mod demo;
 mod rig_check;
 mod silhouettes;
@@ -19,6 +20,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Background(args) => background::run(&args),
         Command::Silhouettes(args) => silhouettes::run(&args),
         Command::Track(args) => track::run(&args),
+        Command::Bench(args) => bench::run(&args),
         Command::Rig {
             command: RigCommand::Check { path },
         } => rig_check::run(&path),
