@@ -69,15 +69,7 @@ pub fn find_bands(
         });
     }
     let projectors: Vec<VoxelProjector> = cameras.iter().map(VoxelProjector::new).collect();
-    let centres: Vec<[f64; 3]> = occupancy
-        .voxels
-        .iter()
-        .map(|&v| {
-            let [i, j, k] = occupancy.ijk(v);
-            let c = occupancy.volume.voxel_centre(i, j, k);
-            [c.x, c.y, c.z]
-        })
-        .collect();
+    let centres = occupancy.centres();
     // Per camera and voxel: not seen, seen on a marker pixel, or seen elsewhere.
     let verdicts: Vec<Vec<Seen>> = projectors
         .iter()

@@ -58,6 +58,18 @@ impl Occupancy {
         self.len() as f64 * self.volume.voxel_size.iter().product::<f64>()
     }
 
+    /// The occupied voxels' centres, world mm, in index order.
+    pub fn centres(&self) -> Vec<[f64; 3]> {
+        self.voxels
+            .iter()
+            .map(|&v| {
+                let [i, j, k] = self.ijk(v);
+                let c = self.volume.voxel_centre(i, j, k);
+                [c.x, c.y, c.z]
+            })
+            .collect()
+    }
+
     /// The voxel centres as a point cloud, no voxel in a band.
     pub fn to_cloud(&self) -> PointCloud {
         let voxels: Vec<[u32; 3]> = self.voxels.iter().map(|&i| self.ijk(i)).collect();

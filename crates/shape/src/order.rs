@@ -261,15 +261,7 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
     for (g, &m) in guess.iter_mut().zip(&graph.node_of_voxel) {
         *g = node_at[m as usize];
     }
-    let centres: Vec<[f64; 3]> = occ
-        .voxels
-        .iter()
-        .map(|&v| {
-            let [i, j, k] = occ.ijk(v);
-            let c = occ.volume.voxel_centre(i, j, k);
-            [c.x, c.y, c.z]
-        })
-        .collect();
+    let centres = occ.centres();
     let ones = vec![1.0; centres.len()];
     // A voxel lies within its cell's slice or the next.
     let cut = Cut::new(&axis, &centres, &ones, &guess, 1, spacing);

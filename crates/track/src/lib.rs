@@ -10,7 +10,10 @@ use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
 pub use pipeline::{Pipeline, StageTimings, Tracked};
-pub use record::{StageSummary, SummaryLine, TrackArcFit, TrackBand, TrackRecord, TrackSummary};
+pub use record::{
+    StageSummary, SummaryLine, TrackArcFit, TrackBand, TrackRecord, TrackSummary, quantile,
+    stage_summaries,
+};
 
 /// Why a frame (or the pipeline's setup) failed.
 #[derive(Debug, Error)]

@@ -174,25 +174,7 @@ impl TrackSummary {
         seconds: f64,
     ) -> Self {
         let frames = records.len() + errors;
-        let stages = StageTimings::default()
-            .stages()
-            .iter()
-            .enumerate()
-            .map(|(i, (name, _))| {
-                let mut t: Vec<f64> = records.iter().map(|r| r.stages()[i].1).collect();
-                t.sort_by(f64::total_cmp);
-                let pick = |q: f64| {
-                    t.get(((t.len().max(1) - 1) as f64 * q).round() as usize)
-                        .copied()
-                        .unwrap_or(0.0)
-                };
-                StageSummary {
-                    stage: (*name).into(),
-                    median_ms: pick(0.5),
-                    p95_ms: pick(0.95),
-                }
-            })
-            .collect();
+        let stages = stage_summaries(records);
         TrackSummary {
             frames,
             ok,
@@ -210,4 +192,30 @@ impl TrackSummary {
 pub struct SummaryLine {
     /// The summary.
     pub summary: TrackSummary,
+}
+
+/// Median and 95th percentile of each stage over per-frame timings.
+pub fn stage_summaries(records: &[StageTimings]) -> Vec<StageSummary> {
+    StageTimings::default()
+        .stages()
+        .iter()
+        .enumerate()
+        .map(|(i, (name, _))| {
+            let mut t: Vec<f64> = records.iter().map(|r| r.stages()[i].1).collect();
+            StageSummary {
+                stage: (*name).into(),
+                median_ms: quantile(&mut t, 0.5),
+                p95_ms: quantile(&mut t, 0.95),
+            }
+        })
+        .collect()
+}
+
+/// The `q`-quantile (nearest rank) of `values`, which it sorts; 0 when empty.
+pub fn quantile(values: &mut [f64], q: f64) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values
+        .get(((values.len().max(1) - 1) as f64 * q).round() as usize)
+        .copied()
+        .unwrap_or(0.0)
 }

@@ -9,7 +9,7 @@ use std::time::Instant;
 use anyhow::Context;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::Simulator;
-use flexshape_track::{Pipeline, StageTimings};
+use flexshape_track::{Pipeline, StageSummary, quantile, stage_summaries};
 use image::RgbImage;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -21,18 +21,11 @@ use crate::cli::BenchArgs;
 struct Figures {
     threads: usize,
     /// Per stage, median and 95th percentile ms, one frame at a time.
-    stages: Vec<Stage>,
+    stages: Vec<StageSummary>,
     /// Median ms of the whole chain, one frame at a time.
     frame_median_ms: f64,
     /// Frames per second with one frame per thread in flight.
     throughput_fps: f64,
-}
-
-#[derive(Debug, Serialize)]
-struct Stage {
-    stage: String,
-    median_ms: f64,
-    p95_ms: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -125,32 +118,13 @@ fn measure(
             .collect::<Result<Vec<()>, _>>()?;
     }
     let throughput_fps = (rounds * frames.len()) as f64 / start.elapsed().as_secs_f64();
-    let stages = StageTimings::default()
-        .stages()
-        .iter()
-        .enumerate()
-        .map(|(i, (name, _))| {
-            let mut t: Vec<f64> = timings.iter().map(|s| s.stages()[i].1).collect();
-            Stage {
-                stage: (*name).into(),
-                median_ms: quantile(&mut t, 0.5),
-                p95_ms: quantile(&mut t, 0.95),
-            }
-        })
-        .collect();
+    let stages = stage_summaries(&timings);
     Ok(Figures {
         threads: rayon::current_num_threads(),
         stages,
         frame_median_ms: quantile(&mut totals, 0.5),
         throughput_fps,
     })
-}
-
-fn quantile(v: &mut [f64], q: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(((v.len().max(1) - 1) as f64 * q).round() as usize)
-        .copied()
-        .unwrap_or(0.0)
 }
 
 /// Median time to decode one frame stored as PNG, ms.

@@ -1,0 +1,48 @@
+//! One simulated frame through the pipeline, and its record against truth.
+
+use flexshape_silhouette::BackgroundModel;
+use flexshape_sim::{SimConfig, Simulator};
+use flexshape_track::{Pipeline, TrackError, TrackRecord};
+
+#[test]
+fn a_frame_becomes_a_record_in_world_coordinates() {
+    let sim = Simulator::new(SimConfig::default()).unwrap();
+    let backgrounds: Vec<_> = sim
+        .backgrounds()
+        .iter()
+        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
+        .collect();
+    let rig = sim.rig();
+    let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume).unwrap();
+    let frame = sim.render(2, &sim.sweep(3)[2]).unwrap();
+    let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+    let tracked = pipeline.process(&images).unwrap();
+    let record = TrackRecord::from_tracked(7, &tracked);
+    assert_eq!((record.frame, record.status.as_str()), (7, "ok"));
+    assert_eq!(record.voxels, tracked.occupancy.len());
+    assert_eq!(record.centerline.len(), record.curvature.len());
+    // The arc fit's bend direction is a unit vector across the tangent, and points where the
+    // simulated section bends.
+    let fit = record.arc_fit.unwrap();
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    assert!((dot(fit.bend_direction, fit.bend_direction) - 1.0).abs() < 1e-9);
+    assert!(dot(fit.bend_direction, fit.base_tangent).abs() < 1e-9);
+    let [kx, kz] = frame.truth.kappa.unwrap();
+    let r = frame.truth.bend_base.unwrap().rotation;
+    let local = [-kz, 0.0, kx].map(|v| v / kx.hypot(kz));
+    let truth: [f64; 3] = std::array::from_fn(|i| dot(r[i], local));
+    let angle = dot(truth, fit.bend_direction)
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees();
+    assert!(angle < 1.0, "bend direction {angle:.2}° from truth");
+    // One image short is an error, not a panic.
+    assert!(matches!(
+        pipeline.process(&images[..2]),
+        Err(TrackError::CameraCount {
+            found: 2,
+            expected: 3,
+            ..
+        })
+    ));
+}
