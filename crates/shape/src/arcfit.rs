@@ -33,8 +33,8 @@ pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> 
     let frame = section_frame(s0.point, s0.tangent, settings.reference_axis);
     let kappa0 = chord_curvature(&frame, data[data.len() - 1].1, length);
     let one = Problem::new(&data, frame, vec![length], settings.free_base, &kappa0);
-    let (one, report) = LevenbergMarquardt::new().minimize(one);
-    let _ = report;
+    // The residuals report the fit's quality whatever the termination reason.
+    let (one, _) = LevenbergMarquardt::new().minimize(one);
     let base = one.base();
     let kappa = [one.params[0], one.params[1]];
     let (mean, max) = one.residual_stats();

@@ -274,7 +274,7 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
         spacing,
         enters_volume: false,
     };
-    orient(occ, &centres, &mut slices, voxel, settings);
+    orient(occ, &mut slices, voxel, settings);
     Ok(slices)
 }
 
@@ -321,13 +321,7 @@ fn check_open(graph: &CellGraph, main: &[u32], dist: &[f64], width: f64) -> Resu
 }
 
 /// Makes the parameter increase from the proximal end to the tip (see the module docs).
-fn orient(
-    occ: &Occupancy,
-    centres: &[[f64; 3]],
-    slices: &mut Slices,
-    voxel: f64,
-    settings: &ShapeSettings,
-) {
+fn orient(occ: &Occupancy, slices: &mut Slices, voxel: f64, settings: &ShapeSettings) {
     let [lo, hi] = slices.s_range;
     let dims = occ.volume.dims;
     let touches = |near: &dyn Fn(f64) -> bool| {
@@ -357,7 +351,6 @@ fn orient(
         },
     };
     slices.enters_volume = if flip { high } else { low };
-    let _ = centres;
     if flip {
         let total = lo + hi;
         for v in slices.s.iter_mut().chain(slices.voxel_s.iter_mut()) {
