@@ -8,8 +8,8 @@
 //!   camera (interval arithmetic through the lens model) and tested on the bit-packed masks;
 //!   identical results to the lookup table at a cost that follows the object's surface.
 //! - [`OutsideImage`]: what a camera that does not see a voxel says about it.
-//! - [`find_bands`]: marker-band voxels (marker pixels in enough cameras) grouped into bands
-//!   with their centroids.
+//! - [`find_bands`]: marker-band voxels (marker pixels in the cameras that see them on the
+//!   hull's surface) grouped into bands with their centroids.
 //! - [`Occupancy`] and [`PointCloud`]: the result, with PLY export.
 //!
 //! World frame and millimetres throughout; voxel `(i, j, k)` has index `i + nx·(j + ny·k)`.
