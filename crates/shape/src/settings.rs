@@ -256,4 +256,17 @@ mod tests {
             "{e}"
         );
     }
+
+    #[test]
+    fn the_documented_example_is_valid() {
+        let doc = include_str!("../../../docs/formats.md");
+        let start = doc.find("```toml\n[processing.shape]").expect("docs/formats.md has the example");
+        let block = &doc[start + 8..];
+        let block = &block[..block.find("```").unwrap()];
+        let table: toml::Table = toml::from_str(block).unwrap();
+        let processing = table["processing"].as_table().unwrap();
+        let s = ShapeSettings::from_processing(processing).unwrap();
+        assert_eq!(s.sections.len(), 1);
+        assert_eq!(s.smoothing, Smoothing::default());
+    }
 }
