@@ -260,7 +260,9 @@ mod tests {
     #[test]
     fn the_documented_example_is_valid() {
         let doc = include_str!("../../../docs/formats.md");
-        let start = doc.find("```toml\n[processing.shape]").expect("docs/formats.md has the example");
+        let start = doc
+            .find("```toml\n[processing.shape]")
+            .expect("docs/formats.md has the example");
         let block = &doc[start + 8..];
         let block = &block[..block.find("```").unwrap()];
         let table: toml::Table = toml::from_str(block).unwrap();
