@@ -80,7 +80,9 @@ impl Section {
         }
         let axis = Vector3::new(kx / k, 0.0, kz / k);
         let bend = Vector3::new(-axis.z, 0.0, axis.x); // axis × ŷ
-        let position = Vector3::y() * (angle.sin() / k) + bend * ((1.0 - angle.cos()) / k);
+        // 1 − cos θ = 2 sin²(θ/2), without the cancellation at small angles.
+        let side = 2.0 * (angle / 2.0).sin().powi(2) / k;
+        let position = Vector3::y() * (angle.sin() / k) + bend * side;
         Frame {
             position: Point3::from(position),
             rotation: Rotation3::from_axis_angle(&Unit::new_unchecked(axis), angle),

@@ -1,1 +1,71 @@
-//! Tendon-driven continuum manipulator mechanics: forward/inverse kinematics and stiffness estimation (issue 6; not yet built).
+//! The tendon-driven continuum manipulator model (paper, Section V): a straight proximal
+//! section and a constant-curvature bending section driven by `n` tendons terminated at the
+//! tip.
+//!
+//! - [`ManipulatorParams`]: tendons (moment arms, lengths, stiffnesses), section lengths, `Km`.
+//! - [`Model`]: `Cm`, the forward map `q = A·y` with tensions and slack tendons, and the
+//!   minimum-norm inverse.
+//! - [`geometry`]: configuration → sections and tip (model frame: +y along the axis).
+//! - [`estimate_stiffness`]: the tensionless estimation of `Km` from sensed shapes and tendon
+//!   displacements (eq. 6), with the tip error of Table I.
+//!
+//! Units: mm, N, radians; curvature 1/mm; strains compression-positive.
+
+mod estimate;
+pub mod geometry;
+mod mechanics;
+mod params;
+
+use thiserror::Error;
+
+pub use estimate::{Estimate, Observation, estimate_stiffness};
+pub use mechanics::{Forward, Model};
+pub use params::{ManipulatorParams, Stiffness, Tendon};
+
+/// Why the model cannot be built or evaluated.
+#[derive(Debug, Error, PartialEq)]
+pub enum ModelError {
+    /// A parameter is out of range.
+    #[error("model parameter `{field}`: {problem}")]
+    Parameter {
+        /// The parameter, e.g. `tendons[2].length`.
+        field: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// `Cm` cannot be inverted (e.g. two tendons at the same place).
+    #[error(
+        "the compliance matrix Cm is singular (condition {condition:.3e}); check for tendons at the same position"
+    )]
+    SingularCompliance {
+        /// Its condition number.
+        condition: f64,
+    },
+    /// A vector has the wrong number of tendon entries.
+    #[error("{found} tendon values for a model with {expected} tendons")]
+    TendonCount {
+        /// Given.
+        found: usize,
+        /// Tendons in the model.
+        expected: usize,
+    },
+    /// The active-set search for slack tendons did not settle.
+    #[error("no consistent set of taut tendons was found for these displacements")]
+    NoTautSet,
+    /// An observation is malformed.
+    #[error("observation {index}: {problem}")]
+    Observation {
+        /// Its index.
+        index: usize,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The data do not determine a stiffness.
+    #[error("cannot estimate {what} from {observations} observations; add poses that exercise it")]
+    Unobservable {
+        /// The stiffness and why.
+        what: &'static str,
+        /// Observations given.
+        observations: usize,
+    },
+}

@@ -118,8 +118,9 @@ fn local_position([kx, kz]: [f64; 2], u: f64) -> Vector3<f64> {
         let side = 0.5 * u * u * (1.0 - angle * angle / 12.0);
         return Vector3::new(-kz * side, along, kx * side);
     }
-    let (sin, cos) = angle.sin_cos();
-    let side = (1.0 - cos) / k;
+    // 1 − cos θ = 2 sin²(θ/2), without the cancellation at small angles.
+    let sin = angle.sin();
+    let side = 2.0 * (angle / 2.0).sin().powi(2) / k;
     Vector3::new(-kz / k * side, sin / k, kx / k * side)
 }
 
