@@ -29,11 +29,41 @@ pub enum Command {
     /// Measure per-stage throughput on the simulated rig (1 and 2 threads) and print a table,
     /// or JSON with `--json`.
     Bench(BenchArgs),
+    /// The tendon-driven manipulator model: forward and inverse kinematics.
+    Model {
+        #[command(subcommand)]
+        command: ModelCommand,
+    },
     /// Inspect rig files.
     Rig {
         #[command(subcommand)]
         command: RigCommand,
     },
+}
+
+#[derive(Debug, Subcommand)]
+pub enum ModelCommand {
+    /// Print a parameter file to start from (the paper's catheter: 4 tendons, L1 = 160 mm).
+    Template,
+    /// Tendon displacements → configuration [κx, κz, ε0, ε1], tensions and slack tendons.
+    Forward(ModelArgs),
+    /// Configuration [κx, κz, ε0] → minimum-norm tendon displacements.
+    Inverse(ModelArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ModelArgs {
+    /// Model parameters (TOML; see `flexshape model template`).
+    #[arg(long)]
+    pub params: PathBuf,
+    /// Input values, comma-separated: forward: one displacement per tendon (mm); inverse:
+    /// κx, κz (1/mm), ε0 [, ε1 (ignored)].
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "csv")]
+    pub values: Option<String>,
+    /// A CSV file with one input per line (same columns as --values; `#` lines are comments);
+    /// the output is CSV too.
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
 }
 
 #[derive(Debug, Subcommand)]

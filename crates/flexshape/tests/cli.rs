@@ -221,3 +221,58 @@ fn bench_prints_per_stage_figures_as_json() {
     }
     assert!(v["png_decode_ms"].as_f64().unwrap() > 0.0);
 }
+
+#[test]
+fn model_template_inverse_and_forward_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("m.toml");
+    let o = flexshape(&["model", "template"]);
+    assert!(o.status.success(), "{}", text(&o));
+    std::fs::write(&params, &o.stdout).unwrap();
+    let p = params.to_str().unwrap();
+    let o = flexshape(&[
+        "model",
+        "inverse",
+        "--params",
+        p,
+        "--values",
+        "0.01,-0.005,0.006",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let y = String::from_utf8_lossy(&o.stdout)
+        .trim()
+        .rsplit(": ")
+        .next()
+        .unwrap()
+        .replace(' ', "");
+    let o = flexshape(&["model", "forward", "--params", p, "--values", &y]);
+    let t = text(&o);
+    assert!(
+        t.contains("κx 0.010000") && t.contains("κz -0.005000") && t.contains("ε0 0.006000"),
+        "{t}"
+    );
+    assert!(t.contains("slack tendons: none"), "{t}");
+    // CSV in, CSV out; wrong sizes and bad files are named.
+    let csv = dir.path().join("y.csv");
+    std::fs::write(&csv, format!("# y0..y3\n{y}\n-3,5,0,0\n")).unwrap();
+    let o = flexshape(&[
+        "model",
+        "forward",
+        "--params",
+        p,
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    assert_eq!(out.lines().count(), 3, "{out}");
+    assert!(out.lines().last().unwrap().ends_with(",0 2"), "{out}");
+    let o = flexshape(&["model", "forward", "--params", p, "--values", "1,2,3"]);
+    assert!(!o.status.success() && text(&o).contains("3 displacements for a model with 4 tendons"));
+    std::fs::write(&params, "proximal_length = 1000.0\n").unwrap();
+    let o = flexshape(&["model", "forward", "--params", p, "--values", "1,2,3,4"]);
+    assert!(
+        !o.status.success() && text(&o).contains("m.toml"),
+        "{}",
+        text(&o)
+    );
+}

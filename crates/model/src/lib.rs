@@ -22,6 +22,11 @@ pub use estimate::{Estimate, Observation, estimate_stiffness};
 pub use mechanics::{Forward, Model};
 pub use params::{ManipulatorParams, Stiffness, Tendon};
 
+/// The nalgebra types in this crate's signatures.
+pub mod nalgebra_types {
+    pub use nalgebra::{DVector, Vector4};
+}
+
 /// Why the model cannot be built or evaluated.
 #[derive(Debug, Error, PartialEq)]
 pub enum ModelError {

@@ -63,19 +63,22 @@ impl ManipulatorParams {
     /// The paper's catheter shape (Section V): four tendons at 90° on a 1.5 mm radius, a 160 mm
     /// bending section, and stiffnesses of the order of Table I's.
     pub fn paper_like() -> Self {
-        let r = 1.5;
-        let tendon = |angle: f64| Tendon {
-            dx: r * angle.cos(),
-            dz: r * angle.sin(),
+        let tendon = |dx: f64, dz: f64| Tendon {
+            dx,
+            dz,
             length: 1200.0,
             stiffness: 1.4e4,
         };
         ManipulatorParams {
             proximal_length: 1000.0,
             distal_length: 160.0,
-            tendons: (0..4)
-                .map(|i| tendon(i as f64 * std::f64::consts::FRAC_PI_2))
-                .collect(),
+            // At 90° on a 1.5 mm radius.
+            tendons: vec![
+                tendon(1.5, 0.0),
+                tendon(0.0, 1.5),
+                tendon(-1.5, 0.0),
+                tendon(0.0, -1.5),
+            ],
             stiffness: Stiffness {
                 kx: 352.0,
                 kz: 611.0,

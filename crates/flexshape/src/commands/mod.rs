@@ -3,6 +3,7 @@
 mod background;
 mod bench;
 mod demo;
+mod model;
 mod rig_check;
 mod silhouettes;
 mod simulate;
@@ -10,7 +11,7 @@ mod track;
 
 use flexshape_sim::{Catheter, RenderSettings, SimConfig, SimRigConfig};
 
-use crate::cli::{Cli, Command, RigCommand, SimArgs};
+use crate::cli::{Cli, Command, ModelCommand, RigCommand, SimArgs};
 
 /// Runs the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -21,6 +22,11 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Silhouettes(args) => silhouettes::run(&args),
         Command::Track(args) => track::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Model { command } => match command {
+            ModelCommand::Template => model::template(),
+            ModelCommand::Forward(args) => model::forward(&args),
+            ModelCommand::Inverse(args) => model::inverse(&args),
+        },
         Command::Rig {
             command: RigCommand::Check { path },
         } => rig_check::run(&path),

@@ -1,0 +1,134 @@
+//! `flexshape model`: the tendon-driven manipulator model from the command line.
+
+use std::path::Path;
+
+use anyhow::{Context, bail};
+use flexshape_model::nalgebra_types::{DVector, Vector4};
+use flexshape_model::{ManipulatorParams, Model};
+
+use crate::cli::ModelArgs;
+
+pub fn template() -> anyhow::Result<()> {
+    let text = toml::to_string_pretty(&ManipulatorParams::paper_like())
+        .context("cannot write the template")?;
+    println!(
+        "# flexshape manipulator model: lengths mm, forces N, Kx/Kz N·mm², Ka/Kt N per unit strain"
+    );
+    print!("{text}");
+    Ok(())
+}
+
+fn load(path: &Path) -> anyhow::Result<Model> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let params: ManipulatorParams = toml::from_str(&text)
+        .with_context(|| format!("{}: not a model parameter file", path.display()))?;
+    Model::new(params).with_context(|| path.display().to_string())
+}
+
+/// The input rows: `--values` or the CSV file's lines, each a list of numbers.
+fn rows(args: &ModelArgs) -> anyhow::Result<Vec<(String, Vec<f64>)>> {
+    let parse = |place: String, line: &str| -> anyhow::Result<(String, Vec<f64>)> {
+        let v = line
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<Vec<_>, _>>()
+            .with_context(|| format!("{place}: `{line}` is not a list of numbers"))?;
+        Ok((place, v))
+    };
+    match (&args.values, &args.csv) {
+        (Some(v), None) => Ok(vec![parse("--values".into(), v)?]),
+        (None, Some(path)) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            text.lines()
+                .enumerate()
+                .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+                .map(|(i, l)| parse(format!("{} line {}", path.display(), i + 1), l))
+                .collect()
+        }
+        _ => bail!("give the input with --values or --csv"),
+    }
+}
+
+pub fn forward(args: &ModelArgs) -> anyhow::Result<()> {
+    let model = load(&args.params)?;
+    let n = model.params().tendons.len();
+    let csv = args.csv.is_some();
+    if csv {
+        let t: Vec<String> = (0..n).map(|i| format!("tension{i}_n")).collect();
+        println!(
+            "kappa_x_per_mm,kappa_z_per_mm,eps0,eps1,{},slack",
+            t.join(",")
+        );
+    }
+    for (place, y) in rows(args)? {
+        if y.len() != n {
+            bail!(
+                "{place}: {} displacements for a model with {n} tendons",
+                y.len()
+            );
+        }
+        let f = model
+            .forward(&DVector::from_vec(y))
+            .with_context(|| place.clone())?;
+        let tensions: Vec<String> = f.tensions.iter().map(|t| format!("{t:.6}")).collect();
+        let slack: Vec<String> = f.slack.iter().map(|i| i.to_string()).collect();
+        if csv {
+            println!(
+                "{:.9},{:.9},{:.9},{:.9},{},{}",
+                f.q[0],
+                f.q[1],
+                f.q[2],
+                f.q[3],
+                tensions.join(","),
+                slack.join(" ")
+            );
+        } else {
+            println!(
+                "κx {:.6} 1/mm, κz {:.6} 1/mm, ε0 {:.6}, ε1 {:.6}\ntensions (N): {}\nslack tendons: {}",
+                f.q[0],
+                f.q[1],
+                f.q[2],
+                f.q[3],
+                tensions.join(", "),
+                if slack.is_empty() {
+                    "none".into()
+                } else {
+                    slack.join(", ")
+                }
+            );
+        }
+    }
+    Ok(())
+}
+
+pub fn inverse(args: &ModelArgs) -> anyhow::Result<()> {
+    let model = load(&args.params)?;
+    let n = model.params().tendons.len();
+    let csv = args.csv.is_some();
+    if csv {
+        let y: Vec<String> = (0..n).map(|i| format!("y{i}_mm")).collect();
+        println!("{}", y.join(","));
+    }
+    for (place, q) in rows(args)? {
+        if !(3..=4).contains(&q.len()) {
+            bail!("{place}: give κx, κz, ε0 (and optionally ε1, which follows from ε0)");
+        }
+        let y = model
+            .inverse(&Vector4::new(
+                q[0],
+                q[1],
+                q[2],
+                q.get(3).copied().unwrap_or(0.0),
+            ))
+            .with_context(|| place.clone())?;
+        let y: Vec<String> = y.iter().map(|v| format!("{v:.6}")).collect();
+        if csv {
+            println!("{}", y.join(","));
+        } else {
+            println!("tendon displacements (mm): {}", y.join(", "));
+        }
+    }
+    Ok(())
+}
