@@ -34,11 +34,36 @@ pub enum Command {
         #[command(subcommand)]
         command: ModelCommand,
     },
+    /// Validation experiments (paper, Section III).
+    Validate {
+        #[command(subcommand)]
+        command: ValidateCommand,
+    },
     /// Inspect rig files.
     Rig {
         #[command(subcommand)]
         command: RigCommand,
     },
+}
+
+#[derive(Debug, Subcommand)]
+pub enum ValidateCommand {
+    /// Accuracy against a reference instrument: register sensed points to reference points
+    /// (paired by line) and report per-axis RMS, 3-D RMS, max error and the transform.
+    Points(ValidatePointsArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ValidatePointsArgs {
+    /// Sensed points, CSV `x,y,z` per line (mm, world frame; `#` lines and a header are skipped).
+    #[arg(long)]
+    pub sensed: PathBuf,
+    /// Reference points in the instrument's frame, same format, same order.
+    #[arg(long)]
+    pub reference: PathBuf,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Debug, Subcommand)]

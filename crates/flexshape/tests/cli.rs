@@ -276,3 +276,75 @@ fn model_template_inverse_and_forward_agree() {
         text(&o)
     );
 }
+
+#[test]
+fn validate_points_registers_and_reports_per_axis_rms() {
+    let dir = tempfile::tempdir().unwrap();
+    // Reference points in an instrument frame; sensed = R·ref + t with ±0.2 mm wobble.
+    let (c, s) = (0.6f64.cos(), 0.6f64.sin());
+    let mut reference = String::from("x,y,z\n");
+    let mut sensed = String::from("# sensed tips\n");
+    for i in 0..12 {
+        let p = [
+            (i as f64 * 1.7).sin() * 60.0,
+            (i as f64 * 0.9).cos() * 50.0,
+            i as f64 * 8.0 - 40.0,
+        ];
+        let wobble = if i % 2 == 0 { 0.2 } else { -0.2 };
+        let q = [
+            c * p[0] - s * p[1] + 10.0 + wobble,
+            s * p[0] + c * p[1] - 5.0,
+            p[2] + 100.0 - wobble,
+        ];
+        reference += &format!("{},{},{}\n", p[0], p[1], p[2]);
+        sensed += &format!("{},{},{}\n", q[0], q[1], q[2]);
+    }
+    let (r, se) = (dir.path().join("ref.csv"), dir.path().join("sensed.csv"));
+    std::fs::write(&r, &reference).unwrap();
+    std::fs::write(&se, &sensed).unwrap();
+    let args = |extra: &[&str]| {
+        let mut a = vec![
+            "validate",
+            "points",
+            "--sensed",
+            se.to_str().unwrap(),
+            "--reference",
+            r.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        flexshape(&a)
+    };
+    let o = args(&["--json"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["points"], 12);
+    let rms = v["rms"].as_f64().unwrap();
+    assert!(rms > 0.15 && rms < 0.3, "rms {rms}");
+    assert!(v["rms_y"].as_f64().unwrap() < 0.1, "no wobble along y: {v}");
+    let t = v["translation"].as_array().unwrap();
+    assert!((t[2].as_f64().unwrap() - 100.0).abs() < 0.2, "{v}");
+    assert!(text(&args(&[])).contains("paper (Section III"));
+    // Bad input is named.
+    std::fs::write(&se, "1,2,3\n4,5,6\n").unwrap();
+    let o = args(&[]);
+    assert!(
+        !o.status.success() && text(&o).contains("pairs"),
+        "{}",
+        text(&o)
+    );
+    std::fs::write(&se, "1,2,3\n4,5\n").unwrap();
+    let o = args(&[]);
+    assert!(
+        !o.status.success() && text(&o).contains("sensed.csv line 2"),
+        "{}",
+        text(&o)
+    );
+    std::fs::write(&r, "0,0,0\n1,0,0\n2,0,0\n").unwrap();
+    std::fs::write(&se, "0,0,0\n1,0,0\n2,0,0\n").unwrap();
+    let o = args(&[]);
+    assert!(
+        !o.status.success() && text(&o).contains("on one line"),
+        "{}",
+        text(&o)
+    );
+}

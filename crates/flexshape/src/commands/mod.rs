@@ -8,10 +8,11 @@ mod rig_check;
 mod silhouettes;
 mod simulate;
 mod track;
+mod validate;
 
 use flexshape_sim::{Catheter, RenderSettings, SimConfig, SimRigConfig};
 
-use crate::cli::{Cli, Command, ModelCommand, RigCommand, SimArgs};
+use crate::cli::{Cli, Command, ModelCommand, RigCommand, SimArgs, ValidateCommand};
 
 /// Runs the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -27,6 +28,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             ModelCommand::Forward(args) => model::forward(&args),
             ModelCommand::Inverse(args) => model::inverse(&args),
         },
+        Command::Validate {
+            command: ValidateCommand::Points(args),
+        } => validate::points(&args),
         Command::Rig {
             command: RigCommand::Check { path },
         } => rig_check::run(&path),
