@@ -5,7 +5,8 @@
 //! cloud's outermost voxel centres sit half a voxel inside its surface. The curve therefore
 //! runs (continued straight beyond the last slices) from where it crosses the volume's
 //! boundary, when the tube enters there (a tube entering obliquely touches the boundary over
-//! a length of r·tan θ, so its outermost voxel is not the entry), to the tip. A free end (the
+//! a length of r·tan θ, so its outermost voxel is not the entry), to the tip — or to where it
+//! leaves the volume, when the tube runs out through the boundary. A free end (the
 //! tip, or a proximal end inside the volume) is placed at the mean of two estimates of where
 //! the centerline ends:
 //! - the apex (the far voxel centre plus half a voxel) less the cap (one radius for a rounded
@@ -89,11 +90,16 @@ impl Centerline {
             TipEnd::Flat => 0.0,
         };
         let start = if slices.enters_volume {
-            entry(&spline, volume, knots[0])
+            crossing(&spline, volume, knots[0], -1.0)
         } else {
             -end_param(&mirrored(slices), voxel, cap)
         };
-        let end = end_param(slices, voxel, cap).max(start + voxel);
+        let end = if slices.leaves_volume {
+            crossing(&spline, volume, knots[knots.len() - 1], 1.0)
+        } else {
+            end_param(slices, voxel, cap)
+        }
+        .max(start + voxel);
         let steps = ((end - start) / TABLE_STEP).ceil().max(1.0) as usize;
         let params: Vec<f64> = (0..=steps)
             .map(|i| start + (end - start) * i as f64 / steps as f64)
@@ -154,17 +160,19 @@ impl Centerline {
     }
 }
 
-/// Where the curve, near parameter `from` (its first knot) and continued straight beyond it,
-/// crosses into the volume's box: the tube's entry. The first slices of a tube entering
-/// obliquely are partial and their axis point can lie outside the box, so the search runs
-/// forward from there, or backward when that point is inside.
-fn entry(spline: &CubicSpline3, volume: &Volume, from: f64) -> f64 {
+/// Where the curve, near parameter `from` (an end knot) and continued straight beyond it,
+/// crosses the volume's box at that end: `outward` is −1 at the proximal end (the entry) and
+/// +1 at the distal one. The end slices of a tube crossing obliquely are partial and their axis
+/// point can lie outside the box, so the search runs inward from there, or outward when that
+/// point is inside.
+fn crossing(spline: &CubicSpline3, volume: &Volume, from: f64, outward: f64) -> f64 {
     let inside = |s: f64| volume.contains(&Point3::from(spline.eval(s).value));
-    let step = volume
-        .voxel_size
-        .iter()
-        .copied()
-        .fold(f64::INFINITY, f64::min)
+    let step = outward
+        * volume
+            .voxel_size
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min)
         / 4.0;
     let diagonal = volume
         .voxel_size
@@ -175,12 +183,12 @@ fn entry(spline: &CubicSpline3, volume: &Volume, from: f64) -> f64 {
         .sqrt();
     let (mut out, mut inn) = (from, from);
     if inside(from) {
-        while inside(out) && out > from - diagonal {
-            out -= step;
+        while inside(out) && (out - from).abs() < diagonal {
+            out += step;
         }
     } else {
-        while !inside(inn) && inn < from + diagonal {
-            inn += step;
+        while !inside(inn) && (inn - from).abs() < diagonal {
+            inn -= step;
         }
     }
     if out == inn {

@@ -108,7 +108,9 @@ impl ShapeEstimator {
         let t2 = Instant::now();
         record.bands = bands::locate(occupancy, bands, &slices, &curve, voxel);
         record.compression = bands::compression(&s.sections, &record.bands, length);
-        if record.bands.len() < s.expected_bands {
+        if slices.leaves_volume {
+            record.status = Status::LeavesVolume;
+        } else if record.bands.len() < s.expected_bands {
             record.status = Status::BandsMissing {
                 found: record.bands.len(),
                 expected: s.expected_bands,

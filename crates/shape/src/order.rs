@@ -36,6 +36,8 @@ pub(crate) struct Slices {
     pub spacing: f64,
     /// Whether the proximal end touches the volume's boundary.
     pub enters_volume: bool,
+    /// Whether the tip end touches the volume's boundary too (the tube leaves the volume).
+    pub leaves_volume: bool,
 }
 
 /// A polyline with cumulative chord lengths, for projecting voxels onto.
@@ -273,6 +275,7 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
         s_range: cut.range,
         spacing,
         enters_volume: false,
+        leaves_volume: false,
     };
     orient(occ, &mut slices, voxel, settings);
     Ok(slices)
@@ -351,6 +354,7 @@ fn orient(occ: &Occupancy, slices: &mut Slices, voxel: f64, settings: &ShapeSett
         },
     };
     slices.enters_volume = if flip { high } else { low };
+    slices.leaves_volume = low && high;
     if flip {
         let total = lo + hi;
         for v in slices.s.iter_mut().chain(slices.voxel_s.iter_mut()) {

@@ -19,6 +19,9 @@ pub enum Status {
         /// What was seen, for the operator.
         reason: String,
     },
+    /// The tube reaches the volume's boundary at both ends: its tip is outside the volume, so
+    /// the curve stops at the boundary and `tip` is not the instrument's tip.
+    LeavesVolume,
     /// A shape, but fewer bands than expected.
     BandsMissing {
         /// Bands found.

@@ -72,6 +72,12 @@ impl TrackRecord {
             Status::Ok => ("ok", None),
             Status::NoObject { voxels } => ("no_object", Some(format!("{voxels} voxels carved"))),
             Status::Ambiguous { reason } => ("ambiguous", Some(reason.clone())),
+            Status::LeavesVolume => (
+                "leaves_volume",
+                Some(
+                    "the tube leaves the volume: the tip is outside it; enlarge the volume".into(),
+                ),
+            ),
             Status::BandsMissing { found, expected } => (
                 "bands_missing",
                 Some(format!("{found} of {expected} bands found")),

@@ -190,6 +190,7 @@ fn status_text(status: &Status) -> String {
         Status::Ok => "ok".into(),
         Status::NoObject { .. } => "no object".into(),
         Status::Ambiguous { .. } => "ambiguous".into(),
+        Status::LeavesVolume => "leaves volume".into(),
         Status::BandsMissing { found, expected } => format!("{found}/{expected} bands"),
     }
 }
