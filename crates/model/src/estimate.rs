@@ -4,7 +4,7 @@
 //! the right-hand side `b`, and since `Km` is diagonal each stiffness is the least-squares
 //! ratio `K_j = Σ q_j b_j / Σ q_j²` over the data.
 
-use nalgebra::{DMatrix, DVector, Vector4};
+use nalgebra::{DVector, Vector4};
 
 use crate::{ManipulatorParams, Model, ModelError, Stiffness, geometry};
 
@@ -52,14 +52,7 @@ pub fn estimate_stiffness(
             problem: "NaN or infinite value".into(),
         });
     }
-    let d = DMatrix::from_fn(4, n, |r, c| {
-        let t = &params.tendons[c];
-        match r {
-            0 => t.dz,
-            1 => -t.dx,
-            _ => 1.0,
-        }
-    });
+    let d = params.moment_arms();
     let (l0, l1) = (params.proximal_length, params.distal_length);
     let l = Vector4::new(l1, l1, l0, l1);
     let kt_over_lt =

@@ -41,14 +41,7 @@ impl Model {
     pub fn new(params: ManipulatorParams) -> Result<Self, ModelError> {
         params.validate()?;
         let n = params.tendons.len();
-        let d = DMatrix::from_fn(4, n, |r, c| {
-            let t = &params.tendons[c];
-            match r {
-                0 => t.dz,
-                1 => -t.dx,
-                _ => 1.0,
-            }
-        });
+        let d = params.moment_arms();
         let (l0, l1) = (params.proximal_length, params.distal_length);
         let km = params.stiffness.diagonal();
         let model = Model {

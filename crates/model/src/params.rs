@@ -88,6 +88,19 @@ impl ManipulatorParams {
         }
     }
 
+    /// `D` (4 × n): per tendon the column `[dz, −dx, 1, 1]` — its moment arms about x and z and
+    /// its share of the axial load of each section.
+    pub fn moment_arms(&self) -> nalgebra::DMatrix<f64> {
+        nalgebra::DMatrix::from_fn(4, self.tendons.len(), |r, c| {
+            let t = &self.tendons[c];
+            match r {
+                0 => t.dz,
+                1 => -t.dx,
+                _ => 1.0,
+            }
+        })
+    }
+
     /// Checks every value; the error names the field.
     pub fn validate(&self) -> Result<(), ModelError> {
         let positive = |field: String, v: f64| {
