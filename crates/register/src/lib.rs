@@ -166,6 +166,56 @@ pub fn kabsch(
     })
 }
 
+/// The rotation best taking unit directions `source` onto `target` (Wahba's problem, weighted;
+/// an SVD with the reflection guard): e.g. a model frame's known bending directions onto the
+/// sensed ones, when only orientation is wanted (the paper's Section V-A registration). Needs
+/// two non-parallel directions; `weights` may be empty for all 1.
+pub fn rotation_between(
+    source: &[Vector3<f64>],
+    target: &[Vector3<f64>],
+    weights: &[f64],
+) -> Result<Rotation3<f64>, RegisterError> {
+    if source.len() != target.len() || (!weights.is_empty() && weights.len() != source.len()) {
+        return Err(RegisterError::Unpaired {
+            source_points: source.len(),
+            target_points: target.len(),
+        });
+    }
+    if let Some(index) = source
+        .iter()
+        .chain(target)
+        .position(|v| v.iter().any(|x| !x.is_finite()))
+    {
+        return Err(RegisterError::NotFinite {
+            index: index % source.len().max(1),
+        });
+    }
+    let mut b = Matrix3::zeros();
+    for (i, (s, t)) in source.iter().zip(target).enumerate() {
+        let w = weights.get(i).copied().unwrap_or(1.0);
+        b += w * t.normalize() * s.normalize().transpose();
+    }
+    let sv = b.singular_values();
+    let mut sorted = [sv[0], sv[1], sv[2]];
+    sorted.sort_by(f64::total_cmp);
+    // One direction, or all parallel: the rotation about them is free.
+    if sorted[1] <= 1e-9 * sorted[2].max(f64::MIN_POSITIVE) {
+        return Err(RegisterError::Degenerate {
+            points: source.len(),
+        });
+    }
+    let svd = b.svd(true, true);
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return Err(RegisterError::Degenerate {
+            points: source.len(),
+        });
+    };
+    let d = (u * v_t).determinant().signum();
+    Ok(Rotation3::from_matrix_unchecked(
+        u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t,
+    ))
+}
+
 /// Refines `initial` by weighted non-linear least squares over a rotation vector and a
 /// translation (the rotation stays orthonormal by construction). `weights` (one per pair, or
 /// empty for all 1) scale each pair's squared distance.
@@ -344,6 +394,42 @@ mod tests {
             assert!((t.rotation.matrix() - truth.rotation.matrix()).amax() < 1e-9);
             assert!((t.translation - truth.translation).amax() < 1e-7);
         }
+    }
+
+    #[test]
+    fn directions_give_the_rotation() {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
+        let noise = Normal::new(0.0, 0.01).unwrap();
+        for _ in 0..50 {
+            let truth = random_transform(&mut rng).rotation;
+            // Four bending directions 90° apart and the axis, as articulating each tendon gives.
+            let source = [
+                Vector3::x(),
+                Vector3::z(),
+                -Vector3::x(),
+                -Vector3::z(),
+                Vector3::y(),
+            ];
+            let target: Vec<Vector3<f64>> = source
+                .iter()
+                .map(|s| (truth * s + Vector3::from_fn(|_, _| noise.sample(&mut rng))).normalize())
+                .collect();
+            let r = rotation_between(&source, &target, &[]).unwrap();
+            assert!(r.angle_to(&truth) < 0.03, "{}", r.angle_to(&truth));
+            let exact: Vec<Vector3<f64>> = source.iter().map(|s| truth * s).collect();
+            let r = rotation_between(&source, &exact, &[]).unwrap();
+            // (angle_to is acos-limited near 0: compare the matrices.)
+            assert!((r.matrix() - truth.matrix()).amax() < 1e-12);
+        }
+        let parallel = [Vector3::x(), Vector3::x() * 2.0];
+        assert!(matches!(
+            rotation_between(&parallel, &parallel, &[]),
+            Err(RegisterError::Degenerate { .. })
+        ));
+        assert!(matches!(
+            rotation_between(&parallel, &parallel[..1], &[]),
+            Err(RegisterError::Unpaired { .. })
+        ));
     }
 
     #[test]
