@@ -380,49 +380,41 @@ impl Prepared {
         out
     }
 
-    /// Classifies a frame: the strict foreground and the loose candidates (equal for green
-    /// matting).
-    fn classify(&self, frame: &RgbImage) -> (BitMask, BitMask) {
+    /// A classifier with one test per pixel (`fg(pixel index, [r, g, b])`), run on the blocks
+    /// that are not plain backdrop; strict and loose foreground are the same mask.
+    fn single_test(
+        &self,
+        frame: &RgbImage,
+        fg: impl Fn(usize, &[u8]) -> bool,
+    ) -> (BitMask, BitMask) {
         let (w, h) = (frame.width() as usize, frame.height() as usize);
         let px = frame.as_raw();
         let mut strong = BitMask::new(w, h);
+        for y in 0..h {
+            let row = &px[y * w * 3..(y + 1) * w * 3];
+            let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
+            let words = strong.row_mut(y);
+            self.busy_blocks(row, bg_row, y, w, |x0, x1| {
+                let mut bits = 0u64;
+                for x in x0..x1 {
+                    bits |= (fg(y * w + x, &row[x * 3..x * 3 + 3]) as u64) << (x - x0);
+                }
+                words[x0 / 64] |= bits << (x0 % 64);
+            });
+        }
+        let weak = strong.clone();
+        (strong, weak)
+    }
+
+    /// Classifies a frame: the strict foreground and the loose candidates (equal for green
+    /// matting and plain difference).
+    fn classify(&self, frame: &RgbImage) -> (BitMask, BitMask) {
         match &self.kind {
-            Kind::Green { limit } => {
-                for y in 0..h {
-                    let row = &px[y * w * 3..(y + 1) * w * 3];
-                    let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
-                    let lim = &limit[y * w..(y + 1) * w];
-                    let words = strong.row_mut(y);
-                    self.busy_blocks(row, bg_row, y, w, |x0, x1| {
-                        let mut bits = 0u64;
-                        for x in x0..x1 {
-                            bits |= ((row[x * 3 + 1] < lim[x]) as u64) << (x - x0);
-                        }
-                        words[x0 / 64] |= bits << (x0 % 64);
-                    });
-                }
-                let weak = strong.clone();
-                (strong, weak)
-            }
-            Kind::Difference { bg, margin } => {
-                for y in 0..h {
-                    let row = &px[y * w * 3..(y + 1) * w * 3];
-                    let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
-                    let words = strong.row_mut(y);
-                    self.busy_blocks(row, bg_row, y, w, |x0, x1| {
-                        let mut bits = 0u64;
-                        for x in x0..x1 {
-                            let (e, m) = (bg[y * w + x], margin[y * w + x]);
-                            let p = &row[x * 3..x * 3 + 3];
-                            let fg = (0..3).any(|c| (p[c] as f32 - e[c]).abs() > m);
-                            bits |= (fg as u64) << (x - x0);
-                        }
-                        words[x0 / 64] |= bits << (x0 % 64);
-                    });
-                }
-                let weak = strong.clone();
-                (strong, weak)
-            }
+            Kind::Green { limit } => self.single_test(frame, |i, p| p[1] < limit[i]),
+            Kind::Difference { bg, margin } => self.single_test(frame, |i, p| {
+                let (e, m) = (bg[i], margin[i]);
+                (0..3).any(|c| (p[c] as f32 - e[c]).abs() > m)
+            }),
             Kind::Colour {
                 bg,
                 inv_e2,
@@ -431,6 +423,9 @@ impl Prepared {
                 dark_weak,
                 bright,
             } => {
+                let (w, h) = (frame.width() as usize, frame.height() as usize);
+                let px = frame.as_raw();
+                let mut strong = BitMask::new(w, h);
                 let mut weak = BitMask::new(w, h);
                 for y in 0..h {
                     let row = &px[y * w * 3..(y + 1) * w * 3];
