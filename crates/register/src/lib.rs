@@ -106,7 +106,12 @@ pub fn residuals(
     }
 }
 
-fn check(source: &[Point3<f64>], target: &[Point3<f64>]) -> Result<(), RegisterError> {
+/// Checks that `source` and `target` pair up and hold only finite coordinates (points or
+/// directions alike).
+fn check<P: std::ops::Index<usize, Output = f64>>(
+    source: &[P],
+    target: &[P],
+) -> Result<(), RegisterError> {
     if source.len() != target.len() {
         return Err(RegisterError::Unpaired {
             source_points: source.len(),
@@ -116,7 +121,7 @@ fn check(source: &[Point3<f64>], target: &[Point3<f64>]) -> Result<(), RegisterE
     if let Some(index) = source
         .iter()
         .chain(target)
-        .position(|p| p.iter().any(|v| !v.is_finite()))
+        .position(|p| (0..3).any(|a| !p[a].is_finite()))
     {
         return Err(RegisterError::NotFinite {
             index: index % source.len().max(1),
@@ -175,19 +180,11 @@ pub fn rotation_between(
     target: &[Vector3<f64>],
     weights: &[f64],
 ) -> Result<Rotation3<f64>, RegisterError> {
-    if source.len() != target.len() || (!weights.is_empty() && weights.len() != source.len()) {
+    check(source, target)?;
+    if !weights.is_empty() && weights.len() != source.len() {
         return Err(RegisterError::Unpaired {
             source_points: source.len(),
             target_points: target.len(),
-        });
-    }
-    if let Some(index) = source
-        .iter()
-        .chain(target)
-        .position(|v| v.iter().any(|x| !x.is_finite()))
-    {
-        return Err(RegisterError::NotFinite {
-            index: index % source.len().max(1),
         });
     }
     let mut b = Matrix3::zeros();
