@@ -74,6 +74,24 @@ pub enum ModelCommand {
     Forward(ModelArgs),
     /// Configuration [κx, κz, ε0] → minimum-norm tendon displacements.
     Inverse(ModelArgs),
+    /// Tensionless stiffness estimation (paper, Section V): register the model frame, turn the
+    /// tracked shapes into configurations and fit Km; prints a Table-I-style report.
+    Fit(ModelFitArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ModelFitArgs {
+    /// Model parameters (TOML); its stiffnesses are the nominal values the estimate is
+    /// compared with (and used to predict the registration poses' bending directions).
+    #[arg(long)]
+    pub params: PathBuf,
+    /// Tracking output (`flexshape track` JSON Lines) whose records carry
+    /// `tendon_displacements` (and optionally `role`).
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Debug, Args)]
@@ -158,6 +176,15 @@ pub struct SimulateArgs {
     /// Write into a non-empty folder, replacing files of the same names.
     #[arg(long)]
     pub overwrite: bool,
+    /// Pose the catheter by this manipulator model (TOML; see `flexshape model template`)
+    /// instead of the default sweep: the paper's experiment of a relaxed reference pose, one
+    /// pose toward each tendon and `--poses` poses filling the workspace, each commanded by
+    /// tendon displacements (written to `commands/`); `--frames` is then ignored.
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Workspace poses of the model experiment.
+    #[arg(long, default_value_t = 26, requires = "model")]
+    pub poses: usize,
     #[command(flatten)]
     pub sim: SimArgs,
 }

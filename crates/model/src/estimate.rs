@@ -3,111 +3,217 @@
 //! known, every data point (a sensed configuration `q` and its tendon displacements `y`) gives
 //! the right-hand side `b`, and since `Km` is diagonal each stiffness is the least-squares
 //! ratio `K_j = Σ q_j b_j / Σ q_j²` over the data.
+//!
+//! Beyond the paper: components of `q` a rig does not measure (e.g. `ε0` without a relaxed
+//! reference pose) are taken from the nominal model and their stiffness is not estimated;
+//! every estimate comes with its standard error from the fit's residuals; and the tip error
+//! is measured against the sensed tip when one is given (the paper's Table I), not against
+//! the arc approximation.
 
-use nalgebra::{DVector, Vector4};
+use nalgebra::{DMatrix, DVector, Point3, Vector4};
 
 use crate::{ManipulatorParams, Model, ModelError, Stiffness, geometry};
 
 /// One observation: a configuration `[κx, κz, ε0, ε1]` and the tendon displacements (mm).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observation {
-    /// Sensed configuration.
+    /// Sensed configuration (unmeasured components are ignored).
     pub q: Vector4<f64>,
+    /// Which components of `q` were measured.
+    pub measured: [bool; 4],
     /// Tendon displacements, mm.
     pub y: DVector<f64>,
+    /// The sensed tip in the bending section's base frame (mm), when known.
+    pub tip: Option<Point3<f64>>,
+}
+
+impl Observation {
+    /// A fully measured configuration without a separate tip.
+    pub fn new(q: Vector4<f64>, y: DVector<f64>) -> Self {
+        Observation {
+            q,
+            measured: [true; 4],
+            y,
+            tip: None,
+        }
+    }
 }
 
 /// What the estimation found: the paper's Table I, second column.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Estimate {
-    /// The estimated `Km`.
+    /// The estimated `Km` (entries not estimated keep the nominal value).
     pub stiffness: Stiffness,
+    /// Which of `[Kx, Kz, Ka0, Ka1]` were estimated from the data.
+    pub estimated: [bool; 4],
+    /// Standard error of each estimate from the fit's residuals, in its own unit (0 when not
+    /// estimated).
+    pub standard_error: [f64; 4],
+    /// How strongly each estimate reacts to errors in the sensed configuration: the relative
+    /// error of `K_j` per relative error of `q_j`, `1 + (D Kt Lt⁻¹ Dᵀ L0)_jj / K_j`. Large when
+    /// the tendons are stiff next to the manipulator (their stretch, which reveals the load, is
+    /// then a small difference of large path lengths): a 0.3 % curvature bias becomes a
+    /// 7.5 % stiffness bias at 25.
+    pub sensitivity: [f64; 4],
     /// Ka0 and Ka1 in series, N per unit strain.
     pub serial_axial: f64,
     /// Mean distance between the bending section's tip predicted by the fitted model from `y`
-    /// and the sensed one, as a percentage of `L1`.
+    /// and the sensed one (or, without one, the tip of the sensed `q`), as a percentage of
+    /// `L1`.
     pub tip_error_percent: f64,
+    /// The largest such distance, % of `L1`.
+    pub max_tip_error_percent: f64,
     /// Observations used.
     pub observations: usize,
 }
 
-/// Least squares for the diagonal of `Km` (the parameters' own `stiffness` is ignored).
+const NAMES: [&str; 4] = [
+    "Kx (no bending about x)",
+    "Kz (no bending about z)",
+    "Ka0 (no proximal compression)",
+    "Ka1 (no distal compression)",
+];
+
+/// Least squares for the diagonal of `Km`; `params.stiffness` is the nominal value, used only
+/// for components of `q` that are not measured.
 pub fn estimate_stiffness(
     params: &ManipulatorParams,
     data: &[Observation],
 ) -> Result<Estimate, ModelError> {
     let n = params.tendons.len();
-    if let Some(bad) = data.iter().position(|o| o.y.len() != n) {
-        return Err(ModelError::Observation {
-            index: bad,
-            problem: format!("{} tendon displacements for {n} tendons", data[bad].y.len()),
-        });
-    }
-    if let Some(bad) = data
-        .iter()
-        .position(|o| o.q.iter().chain(o.y.iter()).any(|v| !v.is_finite()))
-    {
-        return Err(ModelError::Observation {
-            index: bad,
-            problem: "NaN or infinite value".into(),
-        });
+    check(data, n)?;
+    let nominal = Model::new(params.clone())?;
+    let estimated: [bool; 4] = std::array::from_fn(|j| data.iter().all(|o| o.measured[j]));
+    // Complete each q with the nominal model where it was not measured.
+    let mut qs = Vec::with_capacity(data.len());
+    for o in data {
+        let mut q = o.q;
+        if o.measured.iter().any(|m| !m) {
+            let predicted = nominal.forward(&o.y)?.q;
+            for j in 0..4 {
+                if !o.measured[j] {
+                    q[j] = predicted[j];
+                }
+            }
+        }
+        qs.push(q);
     }
     let d = params.moment_arms();
     let (l0, l1) = (params.proximal_length, params.distal_length);
     let l = Vector4::new(l1, l1, l0, l1);
     let kt_over_lt =
         DVector::from_iterator(n, params.tendons.iter().map(|t| t.stiffness / t.length));
-    let (mut qb, mut qq) = (Vector4::<f64>::zeros(), Vector4::<f64>::zeros());
-    for o in data {
-        let stretch = &o.y - d.transpose() * l.component_mul(&o.q);
-        let b = &d * stretch.component_mul(&kt_over_lt);
-        for j in 0..4 {
-            qb[j] += o.q[j] * b[j];
-            qq[j] += o.q[j] * o.q[j];
-        }
-    }
-    let names = [
-        "Kx (no bending about x)",
-        "Kz (no bending about z)",
-        "Ka0 (no proximal compression)",
-        "Ka1 (no distal compression)",
-    ];
-    let mut k = [0.0; 4];
-    for j in 0..4 {
-        let scale = data.iter().map(|o| o.q[j].abs()).fold(0.0, f64::max);
-        if data.is_empty() || qq[j] <= (1e-12 * scale).powi(2) || scale == 0.0 {
+    let bs: Vec<Vector4<f64>> = data
+        .iter()
+        .zip(&qs)
+        .map(|(o, q)| {
+            let stretch = &o.y - d.transpose() * l.component_mul(q);
+            let b = &d * stretch.component_mul(&kt_over_lt);
+            Vector4::new(b[0], b[1], b[2], b[3])
+        })
+        .collect();
+    let mut k = params.stiffness.diagonal();
+    let mut standard_error = [0.0; 4];
+    for j in (0..4).filter(|&j| estimated[j]) {
+        let qq: f64 = qs.iter().map(|q| q[j] * q[j]).sum();
+        let qb: f64 = qs.iter().zip(&bs).map(|(q, b)| q[j] * b[j]).sum();
+        let scale = qs.iter().map(|q| q[j].abs()).fold(0.0, f64::max);
+        let kj = qb / qq;
+        if data.is_empty()
+            || scale == 0.0
+            || qq <= (1e-12 * scale).powi(2)
+            || kj.is_nan()
+            || kj <= 0.0
+        {
             return Err(ModelError::Unobservable {
-                what: names[j],
+                what: NAMES[j],
                 observations: data.len(),
             });
         }
-        k[j] = qb[j] / qq[j];
-        if k[j].is_nan() || k[j] <= 0.0 {
-            return Err(ModelError::Unobservable {
-                what: names[j],
-                observations: data.len(),
-            });
+        k[j] = kj;
+        if data.len() > 1 {
+            let rss: f64 = qs
+                .iter()
+                .zip(&bs)
+                .map(|(q, b)| (b[j] - kj * q[j]).powi(2))
+                .sum();
+            standard_error[j] = (rss / (data.len() - 1) as f64 / qq).sqrt();
         }
     }
+    let path_stiffness = &d * DMatrix::from_diagonal(&kt_over_lt) * d.transpose();
+    let sensitivity = std::array::from_fn(|j| 1.0 + path_stiffness[(j, j)] * l[j] / k[j]);
     let stiffness = Stiffness {
         kx: k[0],
         kz: k[1],
         ka0: k[2],
         ka1: k[3],
     };
-    let fitted = Model::new(ManipulatorParams {
+    let fitted = ManipulatorParams {
         stiffness,
         ..params.clone()
-    })?;
-    let mut error = 0.0;
-    for o in data {
-        let predicted = fitted.forward(&o.y)?.q;
-        error += (geometry::bend_tip(params, &predicted) - geometry::bend_tip(params, &o.q)).norm();
-    }
+    };
+    let completed: Vec<Observation> = data
+        .iter()
+        .zip(&qs)
+        .map(|(o, q)| Observation { q: *q, ..o.clone() })
+        .collect();
+    let (tip_error_percent, max_tip_error_percent) = tip_error(&fitted, &completed)?;
     Ok(Estimate {
         stiffness,
+        estimated,
+        standard_error,
+        sensitivity,
         serial_axial: stiffness.serial_axial(),
-        tip_error_percent: 100.0 * error / data.len() as f64 / l1,
+        tip_error_percent,
+        max_tip_error_percent,
         observations: data.len(),
     })
+}
+
+/// The Table I figure for a model: mean and largest distance between the bending section's tip
+/// predicted from each observation's `y` and the sensed tip (or, without one, the tip of the
+/// observation's `q`, which must then be fully measured), as percentages of `L1`.
+pub fn tip_error(
+    params: &ManipulatorParams,
+    data: &[Observation],
+) -> Result<(f64, f64), ModelError> {
+    check(data, params.tendons.len())?;
+    let model = Model::new(params.clone())?;
+    let (mut sum, mut max) = (0.0, 0.0f64);
+    for o in data {
+        let predicted = geometry::bend_tip(params, &model.forward(&o.y)?.q);
+        let sensed = o.tip.unwrap_or_else(|| geometry::bend_tip(params, &o.q));
+        let e = (predicted - sensed).norm();
+        sum += e;
+        max = max.max(e);
+    }
+    let l1 = params.distal_length;
+    Ok((100.0 * sum / data.len() as f64 / l1, 100.0 * max / l1))
+}
+
+fn check(data: &[Observation], n: usize) -> Result<(), ModelError> {
+    if data.is_empty() {
+        return Err(ModelError::Unobservable {
+            what: "any stiffness",
+            observations: 0,
+        });
+    }
+    for (index, o) in data.iter().enumerate() {
+        if o.y.len() != n {
+            return Err(ModelError::Observation {
+                index,
+                problem: format!("{} tendon displacements for {n} tendons", o.y.len()),
+            });
+        }
+        let finite = o.q.iter().zip(o.measured).all(|(v, m)| !m || v.is_finite())
+            && o.y.iter().all(|v| v.is_finite())
+            && o.tip.is_none_or(|t| t.iter().all(|v| v.is_finite()));
+        if !finite {
+            return Err(ModelError::Observation {
+                index,
+                problem: "NaN or infinite value".into(),
+            });
+        }
+    }
+    Ok(())
 }

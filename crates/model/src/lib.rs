@@ -6,25 +6,32 @@
 //! - [`Model`]: `Cm`, the forward map `q = A·y` with tensions and slack tendons, and the
 //!   minimum-norm inverse.
 //! - [`geometry`]: configuration → sections and tip (model frame: +y along the axis).
+//! - [`experiment`]: the commands of the paper's experiment (reference, registration and
+//!   workspace poses).
+//! - [`SensorFrame`]: sensed shapes → configurations in the model frame (Section V-A).
 //! - [`estimate_stiffness`]: the tensionless estimation of `Km` from sensed shapes and tendon
 //!   displacements (eq. 6), with the tip error of Table I.
 //!
 //! Units: mm, N, radians; curvature 1/mm; strains compression-positive.
 
 mod estimate;
+mod experiment;
 pub mod geometry;
 mod mechanics;
 mod params;
+mod sensing;
 
 use thiserror::Error;
 
-pub use estimate::{Estimate, Observation, estimate_stiffness};
+pub use estimate::{Estimate, Observation, estimate_stiffness, tip_error};
+pub use experiment::{CommandedPose, ExperimentPlan, Role, experiment};
 pub use mechanics::{Forward, Model};
 pub use params::{ManipulatorParams, Stiffness, Tendon};
+pub use sensing::{SensedPose, SensorFrame};
 
 /// The nalgebra types in this crate's signatures.
 pub mod nalgebra_types {
-    pub use nalgebra::{DVector, Vector4};
+    pub use nalgebra::{DVector, Point3, Rotation3, Vector3, Vector4};
 }
 
 /// Why the model cannot be built or evaluated.
@@ -65,6 +72,9 @@ pub enum ModelError {
         /// What is wrong.
         problem: String,
     },
+    /// The sensor-to-model registration is not determined.
+    #[error("cannot register the model frame: {0}")]
+    Registration(String),
     /// The data do not determine a stiffness.
     #[error("cannot estimate {what} from {observations} observations; add poses that exercise it")]
     Unobservable {

@@ -105,7 +105,7 @@ fn observations(m: &Model, n: usize, rng: &mut Xoshiro256PlusPlus) -> Vec<Observ
                 f.slack.is_empty(),
                 "pose {i} has slack tendons: the estimate assumes none"
             );
-            Observation { q: f.q, y }
+            Observation::new(f.q, y)
         })
         .collect()
 }
@@ -136,7 +136,7 @@ fn stiffnesses_are_recovered_exactly_and_within_bounds_from_noise() {
             q[1] += 0.003 * k * noise.sample(&mut rng);
             q[2] += 2e-5 * noise.sample(&mut rng);
             q[3] += 2e-5 * noise.sample(&mut rng);
-            Observation { q, y: o.y.clone() }
+            Observation::new(q, o.y.clone())
         })
         .collect();
     let e = estimate_stiffness(m.params(), &noisy).unwrap();
@@ -197,10 +197,7 @@ fn bad_input_gets_clear_errors() {
     // Data that never bends about z cannot give Kz.
     let y = m.inverse(&Vector4::new(0.01, 0.0, 0.002, 0.0)).unwrap();
     let q = m.forward(&y).unwrap().q;
-    let only_x = vec![Observation {
-        q: Vector4::new(q[0], 0.0, q[2], q[3]),
-        y,
-    }];
+    let only_x = vec![Observation::new(Vector4::new(q[0], 0.0, q[2], q[3]), y)];
     let e = estimate_stiffness(m.params(), &only_x)
         .unwrap_err()
         .to_string();
@@ -209,10 +206,7 @@ fn bad_input_gets_clear_errors() {
         estimate_stiffness(m.params(), &[]),
         Err(ModelError::Unobservable { .. })
     ));
-    let wrong = vec![Observation {
-        q,
-        y: DVector::zeros(2),
-    }];
+    let wrong = vec![Observation::new(q, DVector::zeros(2))];
     assert!(
         estimate_stiffness(m.params(), &wrong)
             .unwrap_err()

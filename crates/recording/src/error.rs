@@ -54,6 +54,14 @@ pub enum RecordingError {
         /// Parser message.
         message: String,
     },
+    /// A command file is not valid JSON of the expected shape.
+    #[error("{}: invalid command file: {message}", path.display())]
+    Command {
+        /// The JSON file.
+        path: PathBuf,
+        /// Parser message.
+        message: String,
+    },
     /// The recording's structure is inconsistent (e.g. cameras with different frame counts).
     #[error("{}: {problem}", path.display())]
     Layout {

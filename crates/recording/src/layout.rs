@@ -70,4 +70,9 @@ impl Layout {
             .join(cam)
             .join(format!("{frame:06}.png"))
     }
+
+    /// `DIR/commands/<frame:06>.json`.
+    pub fn command(&self, frame: u64) -> PathBuf {
+        self.root.join("commands").join(format!("{frame:06}.json"))
+    }
 }

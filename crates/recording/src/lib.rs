@@ -9,14 +9,17 @@
 //! DIR/truth/000000.json …               ground truth (simulated recordings only)
 //! DIR/truth/masks/cam0/000000.png       exact object mask per camera (simulated only)
 //! DIR/truth/markers/cam0/000000.png     exact marker-band mask per camera (simulated only)
+//! DIR/commands/000000.json …            commanded tendon displacements (model experiments)
 //! ```
 
+mod command;
 mod error;
 mod layout;
 mod reader;
 mod truth;
 mod writer;
 
+pub use command::{Command, PoseRole};
 pub use error::RecordingError;
 pub use layout::Layout;
 pub use reader::RecordingReader;

@@ -6,6 +6,7 @@ use std::path::Path;
 use flexshape_rig::{Rig, Volume};
 use image::{GrayImage, RgbImage};
 
+use crate::command::Command;
 use crate::error::RecordingError;
 use crate::layout::Layout;
 use crate::truth::Truth;
@@ -153,6 +154,21 @@ impl RecordingReader {
         serde_json::from_slice(&text)
             .map(Some)
             .map_err(|e| RecordingError::Truth {
+                path,
+                message: e.to_string(),
+            })
+    }
+
+    /// Reads `commands/<frame>.json`, if present (model experiments).
+    pub fn read_command(&self, frame: u64) -> Result<Option<Command>, RecordingError> {
+        let path = self.layout.command(frame);
+        if !path.is_file() {
+            return Ok(None);
+        }
+        let text = std::fs::read(&path).map_err(|e| RecordingError::io(&path, e))?;
+        serde_json::from_slice(&text)
+            .map(Some)
+            .map_err(|e| RecordingError::Command {
                 path,
                 message: e.to_string(),
             })

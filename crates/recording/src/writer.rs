@@ -8,6 +8,7 @@ use flexshape_rig::{Rig, RigCamera};
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::{ExtendedColorType, GrayImage, ImageEncoder, RgbImage};
 
+use crate::command::Command;
 use crate::error::RecordingError;
 use crate::layout::Layout;
 use crate::truth::Truth;
@@ -22,7 +23,8 @@ impl RecordingWriter {
     /// Creates the folder tree at `root` and writes `rig.toml` and `calibration/<cam>.yml`
     /// for every camera of `rig`. A non-empty `root` is refused unless `overwrite` is set, so
     /// an earlier recording is never clobbered by accident; with `overwrite`, the parts of a
-    /// recording (`rig.toml`, `calibration/`, `background/`, `frames/`, `truth/`) are removed
+    /// recording (`rig.toml`, `calibration/`, `background/`, `frames/`, `truth/`,
+    /// `commands/`) are removed
     /// first so no stale frame of the old recording survives, and nothing else is touched.
     pub fn create(root: &Path, rig: &Rig, overwrite: bool) -> Result<Self, RecordingError> {
         let layout = Layout::new(root);
@@ -37,7 +39,7 @@ impl RecordingWriter {
                             .into(),
                 });
             }
-            for part in ["calibration", "background", "frames", "truth"] {
+            for part in ["calibration", "background", "frames", "truth", "commands"] {
                 let dir = root.join(part);
                 if dir.is_dir() {
                     std::fs::remove_dir_all(&dir).map_err(|e| RecordingError::io(&dir, e))?;
@@ -98,6 +100,19 @@ impl RecordingWriter {
     pub fn write_truth(&self, truth: &Truth) -> Result<(), RecordingError> {
         let path = self.layout.truth(truth.frame);
         let text = serde_json::to_vec(truth).map_err(|e| RecordingError::Truth {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        write_atomic(&path, &text)
+    }
+
+    /// Writes `commands/<frame:06>.json`.
+    pub fn write_command(&self, command: &Command) -> Result<(), RecordingError> {
+        let path = self.layout.command(command.frame);
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| RecordingError::io(dir, e))?;
+        }
+        let text = serde_json::to_vec(command).map_err(|e| RecordingError::Command {
             path: path.clone(),
             message: e.to_string(),
         })?;

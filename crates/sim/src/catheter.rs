@@ -188,6 +188,35 @@ impl Catheter {
         Ok(())
     }
 
+    /// Material positions of the band centres, mm from the bending section's base, proximal
+    /// first.
+    pub fn band_centres(&self) -> Vec<f64> {
+        let mut centres = vec![0.0, self.bend_length - self.band_width / 2.0];
+        centres.extend(self.extra_bands.iter().copied());
+        centres.sort_by(f64::total_cmp);
+        centres
+    }
+
+    /// The `[processing.shape]` table that describes this catheter to the shape stage
+    /// (`docs/formats.md`): its bands, and the bending section's compression measured between
+    /// the first and last band's centres.
+    pub fn shape_settings(&self) -> toml::Table {
+        let centres = self.band_centres();
+        let last = centres.len() - 1;
+        let mut section = toml::Table::new();
+        section.insert("name".into(), "bending".into());
+        section.insert("from_band".into(), 0.into());
+        section.insert("to_band".into(), (last as i64).into());
+        section.insert("nominal_mm".into(), (centres[last] - centres[0]).into());
+        let mut shape = toml::Table::new();
+        shape.insert("expected_bands".into(), (centres.len() as i64).into());
+        shape.insert(
+            "sections".into(),
+            toml::Value::Array(vec![toml::Value::Table(section)]),
+        );
+        shape
+    }
+
     /// The centerline and bands of `pose`.
     pub fn state(&self, pose: &CatheterPose) -> Result<CatheterState, SimError> {
         self.validate(pose)?;
@@ -203,9 +232,7 @@ impl Catheter {
         sections.extend_from_slice(&pose.bend);
         let chain = SectionChain { base, sections };
         let half = self.band_width / 2.0;
-        let mut centres = vec![0.0, self.bend_length - half];
-        centres.extend(self.extra_bands.iter().copied());
-        centres.sort_by(f64::total_cmp);
+        let centres = self.band_centres();
         let material = |sigma: f64| chain.arc_of_material(self.proximal_length + sigma);
         let bands = centres
             .iter()

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use flexshape_camera::Camera;
 use flexshape_camera::nalgebra::Point3;
-use flexshape_recording::{RecordingWriter, Truth};
+use flexshape_recording::{Command, PoseRole, RecordingWriter, Truth};
 use flexshape_rig::Rig;
 use image::RgbImage;
 use rand::rngs::Xoshiro256PlusPlus;
@@ -56,7 +56,9 @@ pub struct Simulator {
 impl Simulator {
     /// Builds the rig and precomputes the renderer.
     pub fn new(config: SimConfig) -> Result<Self, SimError> {
-        let rig = config.rig.rig()?;
+        let mut rig = config.rig.rig()?;
+        rig.processing
+            .insert("shape".into(), config.catheter.shape_settings().into());
         let cameras: Vec<Camera> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
         let renderer = Renderer::new(&cameras, config.render.clone())?;
         let occluders = place_occluders(&cameras, config.occluders, config.seed);
@@ -136,8 +138,28 @@ impl Simulator {
         dir: &Path,
         poses: &[CatheterPose],
         overwrite: bool,
+        on_frame: impl FnMut(&SimFrame) -> ControlFlow<()>,
+    ) -> Result<u64, SimError> {
+        self.write_commanded_recording(dir, poses, &[], overwrite, on_frame)
+    }
+
+    /// As [`Simulator::write_recording`], also writing `commands[i]` (the tendon displacements
+    /// that put the catheter in `poses[i]`) as `commands/<frame:06>.json`; `commands` is
+    /// empty or one per pose.
+    pub fn write_commanded_recording(
+        &self,
+        dir: &Path,
+        poses: &[CatheterPose],
+        commands: &[(Vec<f64>, PoseRole)],
+        overwrite: bool,
         mut on_frame: impl FnMut(&SimFrame) -> ControlFlow<()>,
     ) -> Result<u64, SimError> {
+        if !commands.is_empty() && commands.len() != poses.len() {
+            return Err(crate::error::config_error(
+                "commands",
+                format!("{} commands for {} poses", commands.len(), poses.len()),
+            ));
+        }
         let writer = RecordingWriter::create(dir, &self.rig, overwrite)?;
         let names: Vec<&str> = self.rig.cameras.iter().map(|c| c.name.as_str()).collect();
         for (name, bg) in names.iter().zip(self.backgrounds()) {
@@ -152,6 +174,13 @@ impl Simulator {
                 writer.write_truth_markers(name, frame, &view.markers)?;
             }
             writer.write_truth(&sim.truth)?;
+            if let Some((y, role)) = commands.get(i) {
+                writer.write_command(&Command {
+                    frame,
+                    tendon_displacements: y.clone(),
+                    role: *role,
+                })?;
+            }
             if on_frame(&sim).is_break() {
                 return Ok(frame + 1);
             }

@@ -11,8 +11,8 @@ use thiserror::Error;
 
 pub use pipeline::{Pipeline, StageTimings, Tracked};
 pub use record::{
-    StageSummary, SummaryLine, TrackArcFit, TrackBand, TrackRecord, TrackSummary, quantile,
-    stage_summaries,
+    StageSummary, SummaryLine, TrackArcFit, TrackBand, TrackCompression, TrackRecord, TrackSummary,
+    quantile, stage_summaries,
 };
 
 /// Why a frame (or the pipeline's setup) failed.

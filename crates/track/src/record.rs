@@ -2,6 +2,7 @@
 //! documented in `docs/formats.md` are a stable contract; others may be added. World frame,
 //! mm, radians.
 
+use flexshape_recording::{Command, PoseRole};
 use flexshape_shape::Status;
 use serde::{Deserialize, Serialize};
 
@@ -62,6 +63,28 @@ pub struct TrackRecord {
     /// Curvature at each centerline point, 1/mm (additive).
     #[serde(default)]
     pub curvature: Vec<f64>,
+    /// Axial strains of the sections named in `[processing.shape]` (e.g. the bending
+    /// section's, between its bands).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub compression: Vec<TrackCompression>,
+    /// The tendon displacements commanded for this frame (mm), when the recording has them
+    /// (`commands/`): what `flexshape model fit` pairs with the shape.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tendon_displacements: Option<Vec<f64>>,
+    /// The frame's role in a model experiment, with `tendon_displacements`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub role: Option<PoseRole>,
+}
+
+/// A measured axial strain.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrackCompression {
+    /// The section's name.
+    pub name: String,
+    /// `1 − length / nominal` (compression positive).
+    pub strain: f64,
+    /// Measured length, mm.
+    pub length: f64,
 }
 
 impl TrackRecord {
@@ -118,7 +141,27 @@ impl TrackRecord {
             voxels: t.occupancy.len(),
             timings_ms: t.timings,
             curvature: s.curvature.clone(),
+            compression: s
+                .compression
+                .iter()
+                .map(|c| TrackCompression {
+                    name: c.name.clone(),
+                    strain: c.strain,
+                    length: c.length,
+                })
+                .collect(),
+            tendon_displacements: None,
+            role: None,
         }
+    }
+
+    /// Attaches the frame's commanded tendon displacements.
+    pub fn with_command(mut self, command: Option<Command>) -> Self {
+        if let Some(c) = command {
+            self.tendon_displacements = Some(c.tendon_displacements);
+            self.role = Some(c.role);
+        }
+        self
     }
 
     /// The record of a frame that could not be processed.
@@ -136,6 +179,9 @@ impl TrackRecord {
             voxels: 0,
             timings_ms: StageTimings::default(),
             curvature: Vec::new(),
+            compression: Vec::new(),
+            tendon_displacements: None,
+            role: None,
         }
     }
 }

@@ -4,6 +4,7 @@ mod background;
 mod bench;
 mod demo;
 mod model;
+mod model_fit;
 mod rig_check;
 mod silhouettes;
 mod simulate;
@@ -27,6 +28,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             ModelCommand::Template => model::template(),
             ModelCommand::Forward(args) => model::forward(&args),
             ModelCommand::Inverse(args) => model::inverse(&args),
+            ModelCommand::Fit(args) => model_fit::run(&args),
         },
         Command::Validate {
             command: ValidateCommand::Points(args),

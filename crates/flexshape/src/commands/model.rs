@@ -18,7 +18,7 @@ pub fn template() -> anyhow::Result<()> {
     Ok(())
 }
 
-fn load(path: &Path) -> anyhow::Result<Model> {
+pub fn load(path: &Path) -> anyhow::Result<Model> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let params: ManipulatorParams = toml::from_str(&text)

@@ -75,6 +75,13 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
                 Err(e) => TrackRecord::error(frame, e.to_string()),
             },
         };
+        let record = match rec.read_command(frame) {
+            Ok(command) => record.with_command(command),
+            Err(e) => {
+                bar.suspend(|| eprintln!("frame {frame:06}: {e}; its command is left out"));
+                record
+            }
+        };
         match record.status.as_str() {
             "ok" => ok += 1,
             "error" => {
