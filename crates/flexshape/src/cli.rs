@@ -89,6 +89,11 @@ pub struct ModelFitArgs {
     /// `tendon_displacements` (and optionally `role`).
     #[arg(long)]
     pub data: PathBuf,
+    /// Also estimate where the tendons are (the paper's future work): their `(dx, dz)` by
+    /// non-linear least squares with Km fixed at the estimate; reported, or why the data do
+    /// not determine them.
+    #[arg(long)]
+    pub tendons: bool,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,

@@ -9,6 +9,8 @@
 //! - [`experiment`]: the commands of the paper's experiment (reference, registration and
 //!   workspace poses).
 //! - [`SensorFrame`]: sensed shapes → configurations in the model frame (Section V-A).
+//! - [`estimate_tendons`]: the tendons' positions (and optionally `Km`) by non-linear least
+//!   squares, refused when the data do not determine them.
 //! - [`estimate_stiffness`]: the tensionless estimation of `Km` from sensed shapes and tendon
 //!   displacements (eq. 6), with the tip error of Table I.
 //!
@@ -20,6 +22,7 @@ pub mod geometry;
 mod mechanics;
 mod params;
 mod sensing;
+mod tendons;
 
 use thiserror::Error;
 
@@ -28,6 +31,7 @@ pub use experiment::{CommandedPose, ExperimentPlan, Role, experiment};
 pub use mechanics::{Forward, Model};
 pub use params::{ManipulatorParams, Stiffness, Tendon};
 pub use sensing::{SensedPose, SensorFrame};
+pub use tendons::{TendonEstimate, estimate_tendons};
 
 /// The nalgebra types in this crate's signatures.
 pub mod nalgebra_types {

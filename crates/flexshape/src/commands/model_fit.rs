@@ -3,7 +3,10 @@
 
 use anyhow::{Context, bail};
 use flexshape_model::nalgebra_types::{DVector, Point3, Vector3};
-use flexshape_model::{Model, Observation, SensedPose, SensorFrame, estimate_stiffness, tip_error};
+use flexshape_model::{
+    ManipulatorParams, Model, Observation, SensedPose, SensorFrame, estimate_stiffness,
+    estimate_tendons, tip_error,
+};
 use flexshape_recording::PoseRole;
 use flexshape_track::TrackRecord;
 use serde::Serialize;
@@ -41,6 +44,25 @@ struct Report {
     registration_residual_deg: [f64; 2],
     /// Model frame → world rotation (rows).
     rotation: [[f64; 3]; 3],
+    /// With `--tendons`: the estimated tendon positions, or why they are not determined.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tendons: Option<TendonReport>,
+}
+
+/// The tendon-position estimate.
+#[derive(Debug, Serialize)]
+struct TendonReport {
+    /// `[dx, dz]` per tendon, mm (absent when not determined).
+    positions: Vec<[f64; 2]>,
+    /// Their standard errors, mm.
+    standard_error: Vec<[f64; 2]>,
+    /// Column-scaled Jacobian condition.
+    condition: f64,
+    /// RMS residual, mm.
+    rms_mm: f64,
+    /// Why they could not be estimated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    refused: Option<String>,
 }
 
 pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
@@ -87,7 +109,7 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
             args.data.display()
         );
     }
-    let report = fit(&model, &poses, skipped)?;
+    let report = fit(&model, &poses, skipped, args.tendons)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -126,6 +148,7 @@ fn fit(
     model: &Model,
     poses: &[(u64, DVector<f64>, Option<PoseRole>, SensedPose)],
     skipped: Vec<String>,
+    with_tendons: bool,
 ) -> anyhow::Result<Report> {
     let is_reference = |y: &DVector<f64>, role: &Option<PoseRole>| match role {
         Some(r) => *r == PoseRole::Reference,
@@ -162,6 +185,33 @@ fn fit(
     // every observation here has one.
     let (nominal_mean, nominal_max) = tip_error(model.params(), &observations)?;
     let nominal = model.params().stiffness;
+    let tendons = with_tendons.then(|| {
+        let fitted = ManipulatorParams {
+            stiffness: estimate.stiffness,
+            ..model.params().clone()
+        };
+        let complete: Vec<Observation> = observations
+            .iter()
+            .filter(|o| o.measured.iter().all(|m| *m))
+            .cloned()
+            .collect();
+        match estimate_tendons(&fitted, &complete, false) {
+            Ok(t) => TendonReport {
+                positions: t.params.tendons.iter().map(|t| [t.dx, t.dz]).collect(),
+                standard_error: t.standard_error,
+                condition: t.condition,
+                rms_mm: t.rms_mm,
+                refused: None,
+            },
+            Err(e) => TendonReport {
+                positions: Vec::new(),
+                standard_error: Vec::new(),
+                condition: f64::INFINITY,
+                rms_mm: f64::NAN,
+                refused: Some(e.to_string()),
+            },
+        }
+    });
     let m = frame.rotation.matrix();
     Ok(Report {
         nominal: nominal.diagonal(),
@@ -181,6 +231,7 @@ fn fit(
             frame.direction_residual.to_degrees(),
         ],
         rotation: std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)])),
+        tendons,
     })
 }
 
@@ -236,6 +287,23 @@ fn print_table(r: &Report) {
         "\nsensitivity: relative stiffness error per relative error of the sensed κ or ε (stiff \
          tendons amplify sensing bias)"
     );
+    if let Some(t) = &r.tendons {
+        match &t.refused {
+            Some(why) => println!("tendon positions: not estimated: {why}"),
+            None => {
+                println!(
+                    "tendon positions (mm, section frame; condition {:.1e}, rms {:.3} mm):",
+                    t.condition, t.rms_mm
+                );
+                for (i, (p, e)) in t.positions.iter().zip(&t.standard_error).enumerate() {
+                    println!(
+                        "  tendon {i}: dx {:.3} ± {:.3}, dz {:.3} ± {:.3}",
+                        p[0], e[0], p[1], e[1]
+                    );
+                }
+            }
+        }
+    }
     for s in &r.skipped {
         println!("skipped {s}");
     }
