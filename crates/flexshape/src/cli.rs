@@ -34,11 +34,12 @@ pub enum Command {
         #[command(subcommand)]
         command: ModelCommand,
     },
-    /// Validation experiments (paper, Section III).
-    Validate {
-        #[command(subcommand)]
-        command: ValidateCommand,
-    },
+    /// Validation experiments (paper, Section III): `points`, `shape`, or `--simulate` to run
+    /// both on the simulated rig and compare with the paper's figures.
+    Validate(ValidateArgs),
+    /// Figures of a tracking output (PNG + SVG): all shapes in three views with bands and
+    /// tips, the circular-arc fits against the curves, and per-stage time histograms.
+    Report(ReportArgs),
     /// Inspect rig files.
     Rig {
         #[command(subcommand)]
@@ -46,24 +47,92 @@ pub enum Command {
     },
 }
 
+#[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true)]
+pub struct ValidateArgs {
+    /// Run the accuracy (stylus) and precision (machined S-bend) experiments on the simulated
+    /// rig and print them beside the paper's figures.
+    #[arg(long)]
+    pub simulate: bool,
+    /// Seed of the simulated experiments.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write the experiments' figures (PNG + SVG) to this folder.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    #[command(subcommand)]
+    pub command: Option<ValidateCommand>,
+}
+
 #[derive(Debug, Subcommand)]
 pub enum ValidateCommand {
     /// Accuracy against a reference instrument: register sensed points to reference points
     /// (paired by line) and report per-axis RMS, 3-D RMS, max error and the transform.
     Points(ValidatePointsArgs),
+    /// Precision against a known shape: pair each tracked shape with the object's known
+    /// centerline along the length, register per pose, and report per-axis RMS along the
+    /// length and at the marked points.
+    Shape(ValidateShapeArgs),
 }
 
 #[derive(Debug, Args)]
 pub struct ValidatePointsArgs {
     /// Sensed points, CSV `x,y,z` per line (mm, world frame; `#` lines and a header are skipped).
+    #[arg(
+        long,
+        required_unless_present = "sensed_from",
+        conflicts_with = "sensed_from"
+    )]
+    pub sensed: Option<PathBuf>,
+    /// Or: a tracking output (JSON Lines), one sensed point per frame picked by `--extract`.
     #[arg(long)]
-    pub sensed: PathBuf,
+    pub sensed_from: Option<PathBuf>,
+    /// Which point of each tracked frame: `tip`, `band:K` (0 = most proximal) or
+    /// `extreme:X,Y,Z` (the centerline point furthest along that direction).
+    #[arg(long, default_value = "tip", requires = "sensed_from")]
+    pub extract: String,
     /// Reference points in the instrument's frame, same format, same order.
     #[arg(long)]
     pub reference: PathBuf,
+    /// Write a figure of both point sets after registration (PNG + SVG) to this folder.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct ValidateShapeArgs {
+    /// Tracking output (JSON Lines): every record with status `ok` is one pose of the object.
+    #[arg(long)]
+    pub records: PathBuf,
+    /// The object's known centerline, CSV `x,y,z` (mm, its own frame, proximal to distal,
+    /// e.g. sampled from its CAD file).
+    #[arg(long)]
+    pub known: PathBuf,
+    /// Its marked points (band centres), CSV `x,y,z`, proximal to distal.
+    #[arg(long)]
+    pub marks: Option<PathBuf>,
+    /// Write figures (PNG + SVG) to this folder.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct ReportArgs {
+    /// Tracking output (JSON Lines).
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Folder for the figures.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 #[derive(Debug, Subcommand)]
@@ -94,6 +163,10 @@ pub struct ModelFitArgs {
     /// not determine them.
     #[arg(long)]
     pub tendons: bool,
+    /// Write the sensed shapes against the fitted model's (PNG + SVG, the paper's Fig. 10)
+    /// to this folder.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,

@@ -51,10 +51,28 @@ fn simulated_experiment_recovers_the_stiffnesses() {
     let shapes = dir.path().join("shapes.jsonl");
     let shapes = shapes.to_str().unwrap();
     run(&["track", rec, "--out", shapes]);
+    let plots = dir.path().join("plots");
     let report: serde_json::Value = serde_json::from_str(&run(&[
-        "model", "fit", "--params", &params, "--data", shapes, "--json",
+        "model",
+        "fit",
+        "--params",
+        &params,
+        "--data",
+        shapes,
+        "--json",
+        "--plots",
+        plots.to_str().unwrap(),
     ]))
     .unwrap();
+    // Fig. 10: sensed against model, drawn and not blank.
+    let img = image::open(plots.join("model_vs_sensed.png"))
+        .unwrap()
+        .to_rgb8();
+    let inked = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+    assert!(
+        inked * 20 > (img.width() * img.height()) as usize,
+        "{inked}"
+    );
     println!("{report:#}");
     let get = |key: &str, i: usize| report[key][i].as_f64().unwrap();
     assert_eq!(report["observations"], 30);

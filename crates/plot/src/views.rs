@@ -109,7 +109,7 @@ fn draw<DB: DrawingBackend>(
                     chart.draw_series(DashedLineSeries::new(xy, 6, 4, colour.stroke_width(2)))?
                 }
             };
-            if a == 0 && b == 1 {
+            if a == 0 && b == 1 && !s.label.is_empty() {
                 drawn.label(s.label.as_str()).legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(3))
                 });

@@ -3,8 +3,10 @@
 mod background;
 mod bench;
 mod demo;
+mod figures;
 mod model;
 mod model_fit;
+mod report;
 mod rig_check;
 mod silhouettes;
 mod simulate;
@@ -30,9 +32,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             ModelCommand::Inverse(args) => model::inverse(&args),
             ModelCommand::Fit(args) => model_fit::run(&args),
         },
-        Command::Validate {
-            command: ValidateCommand::Points(args),
-        } => validate::points(&args),
+        Command::Validate(args) => match &args.command {
+            Some(ValidateCommand::Points(a)) => validate::points(a),
+            Some(ValidateCommand::Shape(a)) => validate::shape(a),
+            None if args.simulate => validate::simulate(&args),
+            None => anyhow::bail!("give `--simulate`, or a subcommand: `points` or `shape`"),
+        },
+        Command::Report(args) => report::run(&args),
         Command::Rig {
             command: RigCommand::Check { path },
         } => rig_check::run(&path),

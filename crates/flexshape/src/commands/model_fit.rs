@@ -1,12 +1,16 @@
 //! `flexshape model fit`: the paper's tensionless stiffness estimation from a tracking output
 //! whose records carry the commanded tendon displacements.
 
+use std::path::Path;
+
 use anyhow::{Context, bail};
+use flexshape_curve::Section;
 use flexshape_model::nalgebra_types::{DVector, Point3, Vector3};
 use flexshape_model::{
     ManipulatorParams, Model, Observation, SensedPose, SensorFrame, estimate_stiffness,
     estimate_tendons, tip_error,
 };
+use flexshape_plot::{Mark, PALETTE, Series3, orthographic_views};
 use flexshape_recording::PoseRole;
 use flexshape_track::TrackRecord;
 use serde::Serialize;
@@ -67,23 +71,11 @@ struct TendonReport {
 
 pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
     let model = super::model::load(&args.params)?;
-    let text = std::fs::read_to_string(&args.data)
-        .with_context(|| format!("cannot read {}", args.data.display()))?;
-    let mut poses: Vec<(u64, DVector<f64>, Option<PoseRole>, SensedPose)> = Vec::new();
+    let mut poses: Vec<Pose> = Vec::new();
     let mut skipped = Vec::new();
     let mut commanded = 0;
-    for (i, line) in text.lines().enumerate() {
-        let place = || format!("{} line {}", args.data.display(), i + 1);
-        let value: serde_json::Value = match serde_json::from_str(line) {
-            Ok(v) => v,
-            Err(_) if line.trim().is_empty() => continue,
-            Err(e) => bail!("{}: not JSON ({e})", place()),
-        };
-        if value.get("summary").is_some() {
-            continue;
-        }
-        let record: TrackRecord = serde_json::from_value(value)
-            .with_context(|| format!("{}: not a tracking record", place()))?;
+    for (line, record) in super::figures::read_records(&args.data)? {
+        let place = || format!("{} line {line}", args.data.display());
         let Some(y) = record.tendon_displacements.clone() else {
             continue;
         };
@@ -98,7 +90,12 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
             );
         }
         match sensed(&record) {
-            Ok(s) => poses.push((record.frame, DVector::from_vec(y), record.role, s)),
+            Ok(s) => poses.push(Pose {
+                y: DVector::from_vec(y),
+                role: record.role,
+                sensed: s,
+                centerline: record.centerline,
+            }),
             Err(why) => skipped.push(format!("frame {}: {why}", record.frame)),
         }
     }
@@ -109,7 +106,7 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
             args.data.display()
         );
     }
-    let report = fit(&model, &poses, skipped, args.tendons)?;
+    let report = fit(&model, &poses, skipped, args.tendons, args.plots.as_deref())?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -144,11 +141,68 @@ fn sensed(r: &TrackRecord) -> Result<SensedPose, String> {
     })
 }
 
+/// A commanded, sensed pose.
+struct Pose {
+    y: DVector<f64>,
+    role: Option<PoseRole>,
+    sensed: SensedPose,
+    /// The tracked centerline, world mm.
+    centerline: Vec<[f64; 3]>,
+}
+
+/// Fig. 10: the sensed curves against the fitted model's bending sections, placed by the
+/// registration (base at each frame's proximal band, orientation fixed).
+fn model_figure(
+    dir: &Path,
+    model: &Model,
+    frame: &SensorFrame,
+    data: &[&Pose],
+) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let p = model.params();
+    let mut series = Vec::new();
+    for (k, pose) in data.iter().enumerate() {
+        let q = model.forward(&pose.y)?.q;
+        let section = Section {
+            length: p.distal_length,
+            kappa: [q[0], q[1]],
+            strain: q[3],
+        };
+        let length = section.arc_length();
+        let predicted: Vec<[f64; 3]> = (0..=length.ceil() as usize)
+            .map(|i| {
+                let local = section.local_frame((i as f64).min(length)).position;
+                (pose.sensed.base + frame.rotation * local.coords).into()
+            })
+            .collect();
+        let label = |s: &str| if k == 0 { s.to_string() } else { String::new() };
+        series.push(Series3 {
+            label: label("sensed"),
+            points: pose.centerline.clone(),
+            mark: Mark::Line,
+            colour: PALETTE[0],
+        });
+        series.push(Series3 {
+            label: label("model (fitted Km)"),
+            points: predicted,
+            mark: Mark::Dashed,
+            colour: PALETTE[1],
+        });
+    }
+    orthographic_views(
+        "Sensed shapes against the model's prediction from the tendon displacements",
+        &series,
+        &dir.join("model_vs_sensed"),
+    )?;
+    Ok(())
+}
+
 fn fit(
     model: &Model,
-    poses: &[(u64, DVector<f64>, Option<PoseRole>, SensedPose)],
+    poses: &[Pose],
     skipped: Vec<String>,
     with_tendons: bool,
+    plots: Option<&Path>,
 ) -> anyhow::Result<Report> {
     let is_reference = |y: &DVector<f64>, role: &Option<PoseRole>| match role {
         Some(r) => *r == PoseRole::Reference,
@@ -156,20 +210,22 @@ fn fit(
     };
     let reference = poses
         .iter()
-        .find(|(_, y, role, _)| is_reference(y, role))
-        .map(|p| &p.3);
-    let data: Vec<_> = poses
+        .find(|p| is_reference(&p.y, &p.role))
+        .map(|p| &p.sensed);
+    let data: Vec<&Pose> = poses
         .iter()
-        .filter(|(_, y, role, _)| !is_reference(y, role))
+        .filter(|p| !is_reference(&p.y, &p.role))
         .collect();
     let marked: Vec<(DVector<f64>, SensedPose)> = data
         .iter()
-        .filter(|p| p.2 == Some(PoseRole::Register))
-        .map(|p| (p.1.clone(), p.3.clone()))
+        .filter(|p| p.role == Some(PoseRole::Register))
+        .map(|p| (p.y.clone(), p.sensed.clone()))
         .collect();
     // Without marked registration poses, every pose registers (by the nominal model).
     let articulated = if marked.is_empty() {
-        data.iter().map(|p| (p.1.clone(), p.3.clone())).collect()
+        data.iter()
+            .map(|p| (p.y.clone(), p.sensed.clone()))
+            .collect()
     } else {
         marked
     };
@@ -177,10 +233,17 @@ fn fit(
         .context("cannot register the model frame to the sensor")?;
     let observations: Vec<Observation> = data
         .iter()
-        .map(|(_, y, _, s)| frame.observation(model, s, y.clone()))
+        .map(|p| frame.observation(model, &p.sensed, p.y.clone()))
         .collect();
     let estimate = estimate_stiffness(model.params(), &observations)
         .context("cannot estimate the stiffnesses")?;
+    if let Some(dir) = plots {
+        let fitted = Model::new(ManipulatorParams {
+            stiffness: estimate.stiffness,
+            ..model.params().clone()
+        })?;
+        model_figure(dir, &fitted, &frame, &data)?;
+    }
     // The nominal model's tip error needs complete configurations only where no tip is sensed;
     // every observation here has one.
     let (nominal_mean, nominal_max) = tip_error(model.params(), &observations)?;

@@ -1,0 +1,15 @@
+//! `flexshape report`: figures of a tracking output.
+
+use crate::cli::ReportArgs;
+
+pub fn run(args: &ReportArgs) -> anyhow::Result<()> {
+    let records: Vec<_> = super::figures::read_records(&args.data)?
+        .into_iter()
+        .map(|(_, r)| r)
+        .collect();
+    let files = super::figures::report(&args.out, &records)?;
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
