@@ -1,1 +1,57 @@
-//! Camera calibration: chessboard detection, intrinsics and multi-camera extrinsics (issue 7; not yet built).
+//! Camera calibration from images of a planar chessboard (paper, Section II, step 1):
+//!
+//! - [`Board`]: the target (inner corners, square size in mm) and its corner coordinates.
+//! - [`detect`]: corners in an 8-bit image (calib-targets' ChESS detector with its saddle-point
+//!   refiner), checked to be the whole board and labelled in the board's own frame.
+//! - [`homography`] and [`zhang`]: the closed-form start (Zhang 2000).
+//! - [`calibrate`]: Levenberg–Marquardt over fx, fy, cx, cy, k1, k2, p1, p2, k3 and every
+//!   view's pose; per-view and overall reprojection RMS, outlier views, standard deviations.
+//!
+//! Conventions: OpenCV's (x_cam = R·X_board + t, pixel (0, 0) the centre of the top-left
+//! pixel, distortion k1 k2 p1 p2 k3); board frame: origin at the first inner corner, x along
+//! the `cols` direction, y along `rows`, z = 0 on the board, mm.
+
+mod board;
+mod detect;
+pub mod homography;
+mod intrinsics;
+pub mod zhang;
+
+use thiserror::Error;
+
+pub use board::Board;
+pub use detect::{Detection, detect};
+pub use intrinsics::{Calibration, CalibrationSettings, ViewResult, calibrate};
+
+/// Why a calibration step failed.
+#[derive(Debug, Error, PartialEq)]
+pub enum CalibError {
+    /// The board was not found, or only part of it.
+    #[error("board not detected: {0}")]
+    NotDetected(String),
+    /// Too few usable views.
+    #[error("{found} usable views; calibration needs at least {needed}")]
+    TooFewViews {
+        /// Views with a whole board.
+        found: usize,
+        /// Needed.
+        needed: usize,
+    },
+    /// The closed-form start failed (degenerate views, e.g. all parallel to the image).
+    #[error("closed-form initialisation failed: {0}")]
+    Degenerate(String),
+    /// Views of different sizes.
+    #[error("view {view} is {found_w}×{found_h} but the first is {width}×{height}")]
+    ImageSize {
+        /// The view.
+        view: String,
+        /// Its size.
+        found_w: u32,
+        /// See `found_w`.
+        found_h: u32,
+        /// The first view's size.
+        width: u32,
+        /// See `width`.
+        height: u32,
+    },
+}

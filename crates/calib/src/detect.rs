@@ -1,0 +1,134 @@
+//! Chessboard corners in an image, labelled in the board's frame.
+//!
+//! calib-targets finds the ChESS corners (refined by its saddle-point fit) and grows a grid
+//! with labels relative to the image. A detection is accepted only when its labels form the
+//! whole `cols × rows` rectangle; it is then turned (never mirrored) so the grid's long side
+//! is the board's `cols`, and turned by 180° when needed so the origin is the inner corner
+//! whose outer corner square is dark — the board's own corner, the same in every camera
+//! that sees its front.
+
+use calib_targets::chessboard::ChessboardParams;
+use calib_targets::core::ImageRefiner;
+use calib_targets::detect as ct;
+use image::GrayImage;
+use nalgebra::{Point2, Vector2};
+
+use crate::{Board, CalibError};
+
+/// A whole board found in an image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Detection {
+    /// Pixel positions (OpenCV convention), row by row (`c` fastest), as
+    /// [`Board::points`] orders the board's corners.
+    pub corners: Vec<Point2<f64>>,
+}
+
+/// Finds `board` in `image`, or says why not.
+pub fn detect(image: &GrayImage, board: &Board) -> Result<Detection, CalibError> {
+    let chess = ct::default_chess_config().with_refiner(ImageRefiner::saddle_point());
+    let mut configs = vec![ChessboardParams::default()];
+    configs.extend(ChessboardParams::sweep_default());
+    let mut why = String::from("no chessboard grid found");
+    for params in configs {
+        let Ok(found) = ct::detect_chessboard(image, &chess, &params) else {
+            continue;
+        };
+        let labelled: Vec<([i32; 2], Point2<f64>)> = found
+            .corners
+            .iter()
+            .map(|c| {
+                (
+                    [c.grid.u, c.grid.v],
+                    Point2::new(c.position.x as f64, c.position.y as f64),
+                )
+            })
+            .collect();
+        match label(&labelled, board, image) {
+            Ok(d) => return Ok(d),
+            Err(e) => why = e,
+        }
+    }
+    Err(CalibError::NotDetected(why))
+}
+
+/// The board-frame order of a detection whose grid labels are `(u, v)` (u rightward, v
+/// downward in the image), or why it is not the whole board.
+fn label(
+    found: &[([i32; 2], Point2<f64>)],
+    board: &Board,
+    image: &GrayImage,
+) -> Result<Detection, String> {
+    let (mut lo, mut hi) = ([i32::MAX; 2], [i32::MIN; 2]);
+    for (g, _) in found {
+        for a in 0..2 {
+            lo[a] = lo[a].min(g[a]);
+            hi[a] = hi[a].max(g[a]);
+        }
+    }
+    let (w, h) = ((hi[0] - lo[0] + 1) as usize, (hi[1] - lo[1] + 1) as usize);
+    let whole = found.len() == board.corners()
+        && ((w, h) == (board.cols, board.rows) || (w, h) == (board.rows, board.cols));
+    if !whole {
+        return Err(format!(
+            "{} corners spanning {w}×{h}, expected the whole {}×{} board (partial or ambiguous view)",
+            found.len(),
+            board.cols,
+            board.rows
+        ));
+    }
+    let mut grid = vec![None; board.corners()];
+    // Turn the image-relative labels into board labels without mirroring: the long side is
+    // `cols`; on a square board the image's u is.
+    let turned = w != board.cols;
+    for &(g, p) in found {
+        let (u, v) = ((g[0] - lo[0]) as usize, (g[1] - lo[1]) as usize);
+        let (c, r) = if turned { (v, w - 1 - u) } else { (u, v) };
+        let slot = &mut grid[r * board.cols + c];
+        if slot.is_some() {
+            return Err("two corners with the same grid label".into());
+        }
+        *slot = Some(p);
+    }
+    let mut corners: Vec<Point2<f64>> = grid
+        .into_iter()
+        .collect::<Option<Vec<_>>>()
+        .ok_or("a grid label is missing")?;
+    // The outer corner square at the origin, half a square diagonally out from it.
+    let outside = |origin: usize, along_c: usize, along_r: usize| -> Option<f64> {
+        let o = corners[origin];
+        let dc: Vector2<f64> = corners[along_c] - o;
+        let dr: Vector2<f64> = corners[along_r] - o;
+        mean_grey(
+            image,
+            o - (dc + dr) * 0.5,
+            (dc.norm().min(dr.norm()) * 0.25).max(1.0),
+        )
+    };
+    let (cols, rows) = (board.cols, board.rows);
+    let here = outside(0, 1, cols);
+    let last = cols * rows - 1;
+    let there = outside(last, last - 1, last - cols);
+    if let (Some(a), Some(b)) = (here, there)
+        && b < a
+    {
+        corners.reverse();
+    }
+    Ok(Detection { corners })
+}
+
+/// Mean grey level in a square of half-width `radius` around `centre`, if inside the image.
+fn mean_grey(image: &GrayImage, centre: Point2<f64>, radius: f64) -> Option<f64> {
+    let (x0, x1) = ((centre.x - radius).round(), (centre.x + radius).round());
+    let (y0, y1) = ((centre.y - radius).round(), (centre.y + radius).round());
+    if x0 < 0.0 || y0 < 0.0 || x1 >= image.width() as f64 || y1 >= image.height() as f64 {
+        return None;
+    }
+    let (mut sum, mut n) = (0.0, 0.0);
+    for y in y0 as u32..=y1 as u32 {
+        for x in x0 as u32..=x1 as u32 {
+            sum += image.get_pixel(x, y).0[0] as f64;
+            n += 1.0;
+        }
+    }
+    Some(sum / n)
+}
