@@ -43,5 +43,5 @@ pub fn pose(h: &Matrix3<f64>, k: &Matrix3<f64>) -> Option<(Rotation3<f64>, Vecto
     if rot.determinant() < 0.0 {
         rot = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0)) * v_t;
     }
-    Some((Rotation3::from_matrix_unchecked(rot), t.into()))
+    Some((Rotation3::from_matrix_unchecked(rot), t))
 }
