@@ -23,12 +23,11 @@ fn reference(dir: &Path) -> serde_json::Value {
         .unwrap()
 }
 
+/// Named detections, the images without a whole board, and the image size.
+type Found = (Vec<(String, Detection)>, Vec<String>, (u32, u32));
+
 /// Detections of every `prefix*.jpg`, and the names of the images without a whole board.
-fn detections(
-    dir: &Path,
-    prefix: &str,
-    board: &Board,
-) -> (Vec<(String, Detection)>, Vec<String>, (u32, u32)) {
+fn detections(dir: &Path, prefix: &str, board: &Board) -> Found {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().path())
