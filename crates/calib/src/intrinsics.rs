@@ -21,6 +21,16 @@ pub struct CalibrationSettings {
     pub fix_k3: bool,
 }
 
+impl ViewResult {
+    /// The board's pose in the camera.
+    pub fn board_pose(&self) -> crate::BoardPose {
+        crate::BoardPose {
+            rotation: Rotation3::from_scaled_axis(Vector3::from(self.rvec)),
+            translation: Vector3::from(self.tvec),
+        }
+    }
+}
+
 impl Default for CalibrationSettings {
     fn default() -> Self {
         CalibrationSettings {

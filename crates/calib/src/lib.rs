@@ -4,6 +4,8 @@
 //! - [`detect`]: corners in an 8-bit image (calib-targets' ChESS detector with its saddle-point
 //!   refiner), checked to be the whole board and labelled in the board's own frame.
 //! - [`homography`] and [`zhang`]: the closed-form start (Zhang 2000).
+//! - [`relative_pose`]: a camera's pose relative to the rig's reference camera from views
+//!   of the board both saw at the same instant.
 //! - [`calibrate`]: Levenberg–Marquardt over fx, fy, cx, cy, k1, k2, p1, p2, k3 and every
 //!   view's pose; per-view and overall reprojection RMS, outlier views, standard deviations.
 //!
@@ -13,6 +15,7 @@
 
 mod board;
 mod detect;
+mod extrinsics;
 pub mod homography;
 mod intrinsics;
 pub mod zhang;
@@ -21,6 +24,7 @@ use thiserror::Error;
 
 pub use board::Board;
 pub use detect::{Detection, detect};
+pub use extrinsics::{BoardPose, RelativePose, relative_pose};
 pub use intrinsics::{Calibration, CalibrationSettings, ViewResult, calibrate};
 
 /// Why a calibration step failed.

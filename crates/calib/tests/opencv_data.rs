@@ -129,3 +129,54 @@ fn stereo_rig_cameras_calibrate_like_opencv() {
     compare("stereo-9x6", "left", None, None, 0);
     compare("stereo-9x6", "right", None, Some("right"), 0);
 }
+
+#[test]
+fn stereo_rig_relative_pose_matches_opencv() {
+    let Some(dir) = data("stereo-9x6") else {
+        return;
+    };
+    let board = Board::parse("9x6", 1.0).unwrap();
+    let settings = CalibrationSettings::default();
+    let (left, _, (w, h)) = detections(&dir, "left", &board);
+    let (right, _, _) = detections(&dir, "right", &board);
+    let l = calibrate(&board, &left, w, h, &settings).unwrap();
+    let r = calibrate(&board, &right, w, h, &settings).unwrap();
+    let pairs: Vec<_> = l
+        .views
+        .iter()
+        .filter_map(|a| {
+            let twin = a.name.replacen("left", "right", 1);
+            r.views
+                .iter()
+                .find(|b| b.name == twin)
+                .map(|b| (a.board_pose(), b.board_pose()))
+        })
+        .collect();
+    let rel = flexshape_calib::relative_pose(&pairs).unwrap();
+    let want = &reference(&dir)["stereo"];
+    let t: Vec<f64> = (0..3)
+        .map(|i| want["T_squares"][i].as_f64().unwrap())
+        .collect();
+    let baseline = rel.translation.iter().map(|v| v * v).sum::<f64>().sqrt();
+    println!(
+        "relative pose from {} views: t {:?} (OpenCV {t:?}), baseline {baseline:.4} ({:.4}); spread {:.3}°, {:.4} squares",
+        rel.shared_views,
+        rel.translation,
+        want["baseline_squares"],
+        rel.rotation_spread_deg,
+        rel.translation_spread_mm
+    );
+    assert_eq!(rel.shared_views, 15);
+    let d = (0..3)
+        .map(|i| (rel.translation[i] - t[i]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(d < 0.02 * baseline, "translation off by {d} squares");
+    let mut angle: f64 = 0.0;
+    for i in 0..3 {
+        for j in 0..3 {
+            angle = angle.max((rel.rotation[i][j] - want["R"][i][j].as_f64().unwrap()).abs());
+        }
+    }
+    assert!(angle < 0.005, "rotation entries off by {angle}");
+}
