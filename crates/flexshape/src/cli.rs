@@ -40,6 +40,10 @@ pub enum Command {
     /// Figures of a tracking output (PNG + SVG): all shapes in three views with bands and
     /// tips, the circular-arc fits against the curves, and per-stage time histograms.
     Report(ReportArgs),
+    /// Calibrate cameras from chessboard images: intrinsics with distortion per camera and,
+    /// for several cameras, their poses in one world frame from views they share (images with
+    /// the same file name in different camera folders were taken at the same instant).
+    Calibrate(CalibrateArgs),
     /// Inspect rig files.
     Rig {
         #[command(subcommand)]
@@ -123,6 +127,34 @@ pub struct ValidateShapeArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct CalibrateArgs {
+    /// Inner corners of the chessboard, COLSxROWS (e.g. 9x6).
+    #[arg(long)]
+    pub board: String,
+    /// Square size, mm.
+    #[arg(long)]
+    pub square: f64,
+    /// A camera and its image folder, NAME=DIR; repeat for every camera (the first is the
+    /// reference).
+    #[arg(long = "images", value_name = "NAME=DIR", required = true)]
+    pub images: Vec<String>,
+    /// Output folder: NAME.yml per camera (OpenCV FileStorage), rig.toml, calibration.json,
+    /// residuals.png/svg.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The world frame: a camera's name (default: the first), or `board:IMAGE` for the board
+    /// in that image of the first camera (file name without extension).
+    #[arg(long)]
+    pub world: Option<String>,
+    /// Drop views whose RMS exceeds 3× the median view's and solve again.
+    #[arg(long)]
+    pub drop_outliers: bool,
+    /// Keep k3 at zero.
+    #[arg(long)]
+    pub fix_k3: bool,
 }
 
 #[derive(Debug, Args)]

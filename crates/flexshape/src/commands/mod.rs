@@ -2,6 +2,7 @@
 
 mod background;
 mod bench;
+mod calibrate;
 mod demo;
 mod figures;
 mod model;
@@ -39,6 +40,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             None => anyhow::bail!("give `--simulate`, or a subcommand: `points` or `shape`"),
         },
         Command::Report(args) => report::run(&args),
+        Command::Calibrate(args) => calibrate::run(&args),
         Command::Rig {
             command: RigCommand::Check { path },
         } => rig_check::run(&path),

@@ -1,0 +1,362 @@
+//! `flexshape calibrate`: cameras from chessboard images, written as OpenCV files and a rig.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use flexshape_calib::{
+    Board, BoardPose, Calibration, CalibrationSettings, Detection, RelativePose, calibrate, detect,
+    relative_pose,
+};
+use flexshape_camera::nalgebra::{Matrix3, Rotation3, Vector3};
+use flexshape_camera::{Camera, Pose};
+use flexshape_plot::{HistogramSeries, PALETTE, histograms};
+use flexshape_rig::{ProcessingTable, Rig, RigCamera, Volume};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use crate::cli::CalibrateArgs;
+
+/// One camera's images.
+struct CameraImages {
+    name: String,
+    files: Vec<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct CameraReport {
+    name: String,
+    rms_px: f64,
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    distortion_k1_k2_p1_p2_k3: Vec<f64>,
+    /// Standard deviations of fx, fy, cx, cy, k1, k2, p1, p2, k3.
+    std_dev: [f64; 9],
+    views: Vec<ViewReport>,
+    rejected: Vec<String>,
+    dropped: Vec<String>,
+    /// Pose relative to the reference camera (absent for the reference).
+    relative_to_reference: Option<RelativePose>,
+}
+
+#[derive(Serialize)]
+struct ViewReport {
+    image: String,
+    rms_px: f64,
+    outlier: bool,
+}
+
+pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
+    let board =
+        Board::parse(&args.board, args.square).map_err(|e| anyhow::anyhow!("--board: {e}"))?;
+    let cameras = cameras(&args.images)?;
+    let total: usize = cameras.iter().map(|c| c.files.len()).sum();
+    let bar = ProgressBar::new(total as u64).with_style(
+        ProgressStyle::with_template("detecting boards [{bar:40}] {pos}/{len} images, eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let settings = CalibrationSettings {
+        drop_outliers: args.drop_outliers,
+        fix_k3: args.fix_k3,
+        ..CalibrationSettings::default()
+    };
+    let mut results: Vec<(Calibration, Vec<String>)> = Vec::new();
+    for cam in &cameras {
+        let (views, rejected, size) = detect_all(cam, &board, &bar)?;
+        let cal = calibrate(&board, &views, size.0, size.1, &settings)
+            .with_context(|| format!("camera {}", cam.name))?;
+        results.push((cal, rejected));
+    }
+    bar.finish_and_clear();
+    // Poses: each camera relative to the reference from the views both saw.
+    let reference = &results[0].0;
+    let mut relative = vec![None];
+    let mut poses = vec![Pose::identity()];
+    for (k, (cal, _)) in results.iter().enumerate().skip(1) {
+        let pairs: Vec<(BoardPose, BoardPose)> = reference
+            .views
+            .iter()
+            .filter_map(|a| {
+                cal.views
+                    .iter()
+                    .find(|b| stem(&b.name) == stem(&a.name))
+                    .map(|b| (a.board_pose(), b.board_pose()))
+            })
+            .collect();
+        let rel = relative_pose(&pairs).with_context(|| {
+            format!(
+                "cameras {} and {}: images with the same file name in both folders are views of the same instant",
+                cameras[0].name, cameras[k].name
+            )
+        })?;
+        poses.push(pose_of(&rel));
+        relative.push(Some(rel));
+    }
+    let world = world_frame(args.world.as_deref(), &cameras, reference)?;
+    // x_cam = R_c·x_ref + t_c and x_ref = R_w·x_world + t_w.
+    let poses: Vec<Pose> = poses
+        .iter()
+        .map(|p| Pose {
+            rotation: p.rotation * world.rotation,
+            translation: p.rotation * world.translation + p.translation,
+        })
+        .collect();
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let rig = Rig {
+        cameras: cameras
+            .iter()
+            .zip(&results)
+            .zip(&poses)
+            .map(|((c, (cal, _)), pose)| RigCamera {
+                name: c.name.clone(),
+                file: PathBuf::from(format!("{}.yml", c.name)),
+                camera: Camera::new(cal.intrinsics.clone(), *pose),
+            })
+            .collect(),
+        volume: Volume::default(),
+        processing: ProcessingTable::new(),
+    };
+    let rig_path = args.out.join("rig.toml");
+    rig.save(&rig_path)
+        .with_context(|| format!("cannot write {}", rig_path.display()))?;
+    let reports: Vec<CameraReport> = cameras
+        .iter()
+        .zip(&results)
+        .zip(relative)
+        .map(|((c, (cal, rejected)), rel)| report(c, cal, rejected, rel))
+        .collect();
+    let json = args.out.join("calibration.json");
+    std::fs::write(&json, serde_json::to_string_pretty(&reports)?)
+        .with_context(|| format!("cannot write {}", json.display()))?;
+    let series: Vec<HistogramSeries> = reports
+        .iter()
+        .zip(&results)
+        .enumerate()
+        .map(|(k, (r, (cal, _)))| HistogramSeries {
+            label: format!("{} residuals (x and y)", r.name),
+            values: cal
+                .views
+                .iter()
+                .flat_map(|v| v.residuals.iter().flat_map(|e| [e[0], e[1]]))
+                .collect(),
+            colour: PALETTE[k % PALETTE.len()],
+        })
+        .collect();
+    histograms(
+        "Reprojection residuals per camera",
+        "px",
+        &series,
+        &args.out.join("residuals"),
+    )?;
+    print_summary(&reports, &args.out);
+    Ok(())
+}
+
+/// `NAME=DIR` arguments → cameras and their image files (sorted by name).
+fn cameras(specs: &[String]) -> anyhow::Result<Vec<CameraImages>> {
+    let mut seen = BTreeMap::new();
+    let mut out = Vec::new();
+    for spec in specs {
+        let Some((name, dir)) = spec.split_once('=') else {
+            bail!("--images {spec}: give NAME=DIR, e.g. cam0=images/cam0");
+        };
+        if seen.insert(name.to_string(), ()).is_some() {
+            bail!("--images: camera {name} is given twice");
+        }
+        let dir = Path::new(dir);
+        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+            .with_context(|| format!("camera {name}: cannot read the folder {}", dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                    matches!(
+                        e.to_ascii_lowercase().as_str(),
+                        "png" | "jpg" | "jpeg" | "bmp" | "tif" | "tiff"
+                    )
+                })
+            })
+            .collect();
+        files.sort();
+        if files.is_empty() {
+            bail!(
+                "camera {name}: no images (png, jpg, bmp, tif) in {}",
+                dir.display()
+            );
+        }
+        out.push(CameraImages {
+            name: name.to_string(),
+            files,
+        });
+    }
+    Ok(out)
+}
+
+type Detected = (Vec<(String, Detection)>, Vec<String>, (u32, u32));
+
+fn detect_all(cam: &CameraImages, board: &Board, bar: &ProgressBar) -> anyhow::Result<Detected> {
+    let (mut views, mut rejected, mut size) = (Vec::new(), Vec::new(), None);
+    for f in &cam.files {
+        bar.inc(1);
+        let name = f
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default();
+        let img = match image::open(f) {
+            Ok(i) => i.to_luma8(),
+            Err(e) => {
+                rejected.push(format!("{name}: cannot read the image ({e})"));
+                continue;
+            }
+        };
+        match size {
+            None => size = Some(img.dimensions()),
+            Some(s) if s != img.dimensions() => bail!(
+                "camera {}: {} is {}×{} but the camera's first image is {}×{}; one camera's images must share a size",
+                cam.name,
+                f.display(),
+                img.width(),
+                img.height(),
+                s.0,
+                s.1
+            ),
+            Some(_) => {}
+        }
+        match detect(&img, board) {
+            Ok(d) => views.push((name, d)),
+            Err(e) => rejected.push(format!("{name}: {e}")),
+        }
+    }
+    let size = size.unwrap_or((0, 0));
+    Ok((views, rejected, size))
+}
+
+fn stem(name: &str) -> &str {
+    name.rsplit_once('.').map_or(name, |(s, _)| s)
+}
+
+fn pose_of(rel: &RelativePose) -> Pose {
+    Pose {
+        rotation: Rotation3::from_matrix_unchecked(Matrix3::from_fn(|r, c| rel.rotation[r][c])),
+        translation: Vector3::from(rel.translation),
+    }
+}
+
+/// The world frame as the reference camera sees it (`x_ref = R·x_world + t`).
+fn world_frame(
+    world: Option<&str>,
+    cameras: &[CameraImages],
+    reference: &Calibration,
+) -> anyhow::Result<Pose> {
+    match world {
+        None => Ok(Pose::identity()),
+        Some(w) if w == cameras[0].name => Ok(Pose::identity()),
+        Some(w) => match w.strip_prefix("board:") {
+            Some(image) => {
+                let view = reference
+                    .views
+                    .iter()
+                    .find(|v| stem(&v.name) == image)
+                    .with_context(|| {
+                        format!(
+                            "--world {w}: camera {} has no detected board in an image named {image}",
+                            cameras[0].name
+                        )
+                    })?;
+                let b = view.board_pose();
+                Ok(Pose {
+                    rotation: b.rotation,
+                    translation: b.translation,
+                })
+            }
+            None => bail!(
+                "--world {w}: give the reference camera ({}) or board:IMAGE; other cameras as the world frame are not supported yet",
+                cameras[0].name
+            ),
+        },
+    }
+}
+
+fn report(
+    c: &CameraImages,
+    cal: &Calibration,
+    rejected: &[String],
+    rel: Option<RelativePose>,
+) -> CameraReport {
+    let k = &cal.intrinsics;
+    CameraReport {
+        name: c.name.clone(),
+        rms_px: cal.rms_px,
+        fx: k.fx,
+        fy: k.fy,
+        cx: k.cx,
+        cy: k.cy,
+        distortion_k1_k2_p1_p2_k3: k.distortion.to_opencv().into_iter().take(5).collect(),
+        std_dev: cal.std_dev,
+        views: cal
+            .views
+            .iter()
+            .map(|v| ViewReport {
+                image: v.name.clone(),
+                rms_px: v.rms_px,
+                outlier: v.outlier,
+            })
+            .collect(),
+        rejected: rejected.to_vec(),
+        dropped: cal.dropped.clone(),
+        relative_to_reference: rel,
+    }
+}
+
+fn print_summary(reports: &[CameraReport], out: &Path) {
+    for r in reports {
+        println!(
+            "{}: {} views, rms {:.3} px; fx {:.2} ± {:.2}, fy {:.2} ± {:.2}, cx {:.2} ± {:.2}, cy {:.2} ± {:.2}; k1..k3 {:?}",
+            r.name,
+            r.views.len(),
+            r.rms_px,
+            r.fx,
+            r.std_dev[0],
+            r.fy,
+            r.std_dev[1],
+            r.cx,
+            r.std_dev[2],
+            r.cy,
+            r.std_dev[3],
+            r.distortion_k1_k2_p1_p2_k3
+                .iter()
+                .map(|v| (v * 1e5).round() / 1e5)
+                .collect::<Vec<_>>()
+        );
+        for v in r.views.iter().filter(|v| v.outlier) {
+            println!(
+                "  outlier view {} (rms {:.3} px); --drop-outliers leaves it out",
+                v.image, v.rms_px
+            );
+        }
+        for d in &r.dropped {
+            println!("  dropped outlier view {d}");
+        }
+        for why in &r.rejected {
+            println!("  rejected {why}");
+        }
+        if let Some(rel) = &r.relative_to_reference {
+            println!(
+                "  pose relative to the reference: t [{:.2}, {:.2}, {:.2}] mm from {} shared views (spread {:.3}°, {:.2} mm)",
+                rel.translation[0],
+                rel.translation[1],
+                rel.translation[2],
+                rel.shared_views,
+                rel.rotation_spread_deg,
+                rel.translation_spread_mm
+            );
+        }
+    }
+    println!(
+        "wrote {} (rig.toml, one .yml per camera, calibration.json, residuals.png/svg)",
+        out.display()
+    );
+}

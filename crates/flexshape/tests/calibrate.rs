@@ -1,0 +1,117 @@
+//! `flexshape calibrate` on the real stereo photographs in `../shared/data/stereo-9x6` (skipped
+//! with a message when absent): intrinsics per camera, the right camera's pose, files that load
+//! back as a rig.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn flexshape(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_flexshape"))
+        .args(args)
+        .output()
+        .expect("flexshape runs")
+}
+
+#[test]
+fn stereo_photographs_calibrate_into_a_rig() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stereo-9x6");
+    if !data.is_dir() {
+        println!("SKIPPED: {} not found", data.display());
+        return;
+    }
+    // One folder per camera; the same file name means the same instant.
+    let dir = tempfile::tempdir().unwrap();
+    for cam in ["left", "right"] {
+        let folder = dir.path().join(cam);
+        std::fs::create_dir_all(&folder).unwrap();
+        for i in 1..=15 {
+            std::fs::copy(
+                data.join(format!("{cam}{i:02}.jpg")),
+                folder.join(format!("{i:02}.jpg")),
+            )
+            .unwrap();
+        }
+    }
+    // A corrupt image is reported and left out, not fatal.
+    std::fs::write(dir.path().join("left/99.jpg"), b"not a jpeg").unwrap();
+    let out = dir.path().join("calibration");
+    let arg = |cam: &str| format!("{cam}={}", dir.path().join(cam).display());
+    let o = flexshape(&[
+        "calibrate",
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--images",
+        &arg("left"),
+        "--images",
+        &arg("right"),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{text}");
+    assert!(
+        text.contains("rejected 99.jpg: cannot read the image"),
+        "{text}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("calibration.json")).unwrap())
+            .unwrap();
+    // OpenCV on the same images: rms 0.128 / 0.131 px, fx 516.55 / 518.25; baseline 3.87
+    // squares = 96.8 mm.
+    for (k, fx) in [(0, 516.55), (1, 518.25)] {
+        let cam = &report[k];
+        assert!(cam["rms_px"].as_f64().unwrap() < 0.131, "{cam}");
+        assert!(
+            (cam["fx"].as_f64().unwrap() - fx).abs() < 0.005 * fx,
+            "{cam}"
+        );
+        assert_eq!(cam["views"].as_array().unwrap().len(), 15);
+    }
+    let t = &report[1]["relative_to_reference"]["translation"];
+    let baseline = (0..3)
+        .map(|i| t[i].as_f64().unwrap().powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(
+        (baseline - 96.79).abs() < 0.02 * 96.79,
+        "baseline {baseline}"
+    );
+    // The rig loads back, with both cameras.
+    let o = flexshape(&["rig", "check", out.join("rig.toml").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("2 cameras"));
+    for f in ["left.yml", "right.yml", "residuals.png", "residuals.svg"] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    // No shared views between the cameras: a clear error.
+    let lone = dir.path().join("lone");
+    std::fs::create_dir_all(&lone).unwrap();
+    for i in 1..=4 {
+        std::fs::copy(
+            data.join(format!("right{i:02}.jpg")),
+            lone.join(format!("r{i}.jpg")),
+        )
+        .unwrap();
+    }
+    let o = flexshape(&[
+        "calibrate",
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--images",
+        &arg("left"),
+        "--images",
+        &format!("lone={}", lone.display()),
+        "--out",
+        dir.path().join("x").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("same file name"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
