@@ -104,14 +104,34 @@ fn label(
             (dc.norm().min(dr.norm()) * 0.25).max(1.0),
         )
     };
+    // The four outer corner squares: dark where their square's parity is even (the origin's
+    // always). A 180° turn swaps opposite corners; keep the labelling whose expected shades
+    // agree better with the image's.
     let (cols, rows) = (board.cols, board.rows);
-    let here = outside(0, 1, cols);
     let last = cols * rows - 1;
-    let there = outside(last, last - 1, last - cols);
-    if let (Some(a), Some(b)) = (here, there)
-        && b < a
-    {
-        corners.reverse();
+    let samples = [
+        (outside(0, 1, cols), true),
+        (outside(cols - 1, cols - 2, 2 * cols - 1), cols % 2 == 0),
+        (outside(last, last - 1, last - cols), (cols + rows) % 2 == 0),
+        (
+            outside(last + 1 - cols, last + 2 - cols, last + 1 - 2 * cols),
+            rows % 2 == 0,
+        ),
+    ];
+    let seen: Vec<f64> = samples.iter().filter_map(|(g, _)| *g).collect();
+    if !seen.is_empty() {
+        let mean = seen.iter().sum::<f64>() / seen.len() as f64;
+        let shade = |dark: bool| if dark { -1.0 } else { 1.0 };
+        let (mut keep, mut turn) = (0.0, 0.0);
+        for (i, (g, dark)) in samples.iter().enumerate() {
+            if let Some(g) = g {
+                keep += shade(*dark) * (g - mean);
+                turn += shade(samples[(i + 2) % 4].1) * (g - mean);
+            }
+        }
+        if turn > keep {
+            corners.reverse();
+        }
     }
     Ok(Detection { corners })
 }

@@ -9,6 +9,7 @@
 //!   bending section.
 //! - [`Renderer`]: per-pixel ray casting with supersampled edges, Lambert + highlight shading,
 //!   a bright textured backdrop, optional soft shadows and Gaussian noise.
+//! - [`BoardRenderer`]: chessboards seen through a camera, for testing calibration.
 //! - [`Simulator`]: all of it together, producing [`SimFrame`]s (images + exact masks + truth)
 //!   and writing recordings.
 //!
@@ -16,6 +17,7 @@
 //! origin.
 
 mod catheter;
+mod chessboard;
 mod error;
 mod render;
 mod rig;
@@ -24,6 +26,7 @@ mod sequence;
 mod simulator;
 
 pub use catheter::{Catheter, CatheterPose, CatheterState, RENDER_STEP, TRUTH_STEP};
+pub use chessboard::{BoardRenderer, PrintedBoard};
 pub use error::SimError;
 pub use render::{RenderSettings, Renderer, View};
 pub use rig::SimRigConfig;

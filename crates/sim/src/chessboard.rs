@@ -1,0 +1,158 @@
+//! Chessboards rendered through a camera with known truth, for testing calibration: a planar
+//! board of `cols × rows` inner corners with one extra square all round and a white margin,
+//! on a grey background, antialiased by 4 × 4 supersampling, with Gaussian noise.
+//!
+//! Board frame (as the calibration uses it): origin at the first inner corner, x along `cols`,
+//! y along `rows`, z = 0 on the board; the outer square at the origin is dark (so for
+//! `cols + rows` odd the origin is unambiguous).
+
+use flexshape_camera::Camera;
+use flexshape_camera::nalgebra::{Isometry3, Point2, Vector2};
+use image::{GrayImage, Luma};
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::{RngExt, SeedableRng};
+use rand_distr::StandardNormal;
+
+/// A printed chessboard.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PrintedBoard {
+    /// Inner corners along x.
+    pub cols: usize,
+    /// Inner corners along y.
+    pub rows: usize,
+    /// Square edge, mm.
+    pub square: f64,
+}
+
+const SUB: usize = 4;
+const DARK: f64 = 35.0;
+const LIGHT: f64 = 215.0;
+const BACKGROUND: f64 = 120.0;
+
+/// Renders boards through one camera; the undistorted ray of every pixel corner is computed
+/// once.
+pub struct BoardRenderer {
+    camera: Camera,
+    /// Normalized coordinates of pixel corners, `(width + 1) × (height + 1)`, row-major.
+    corners: Vec<Vector2<f64>>,
+}
+
+impl BoardRenderer {
+    /// Precomputes `camera`'s rays; `None` if part of the image cannot be undistorted.
+    pub fn new(camera: &Camera) -> Option<Self> {
+        let k = &camera.intrinsics;
+        let mut corners = Vec::with_capacity(((k.width + 1) * (k.height + 1)) as usize);
+        for y in 0..=k.height {
+            for x in 0..=k.width {
+                let px = Point2::new(x as f64 - 0.5, y as f64 - 0.5);
+                corners.push(k.normalized_from_pixel(px).ok()?);
+            }
+        }
+        Some(BoardRenderer {
+            camera: camera.clone(),
+            corners,
+        })
+    }
+
+    /// The image of `board` at `pose` (board → world), with noise `sigma` grey levels.
+    pub fn render(
+        &self,
+        board: &PrintedBoard,
+        pose: &Isometry3<f64>,
+        sigma: f64,
+        seed: u64,
+    ) -> GrayImage {
+        let k = &self.camera.intrinsics;
+        let (w, h) = (k.width as usize, k.height as usize);
+        // Board → camera, and the plane's normal and offset in the camera frame.
+        let cam = Isometry3::from_parts(
+            self.camera.pose.translation.into(),
+            self.camera.pose.rotation.into(),
+        ) * pose;
+        let normal = cam.rotation * flexshape_camera::nalgebra::Vector3::z();
+        let origin = cam.translation.vector;
+        let to_board = cam.inverse();
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        let mut img = GrayImage::new(k.width, k.height);
+        for y in 0..h {
+            for x in 0..w {
+                let c00 = self.corners[y * (w + 1) + x];
+                let c10 = self.corners[y * (w + 1) + x + 1];
+                let c01 = self.corners[(y + 1) * (w + 1) + x];
+                let c11 = self.corners[(y + 1) * (w + 1) + x + 1];
+                let mut sum = 0.0;
+                for sy in 0..SUB {
+                    let v = (sy as f64 + 0.5) / SUB as f64;
+                    for sx in 0..SUB {
+                        let u = (sx as f64 + 0.5) / SUB as f64;
+                        let n = c00 * (1.0 - u) * (1.0 - v)
+                            + c10 * u * (1.0 - v)
+                            + c01 * (1.0 - u) * v
+                            + c11 * u * v;
+                        let dir = flexshape_camera::nalgebra::Vector3::new(n.x, n.y, 1.0);
+                        let denom = normal.dot(&dir);
+                        sum += if denom.abs() < 1e-12 {
+                            BACKGROUND
+                        } else {
+                            let s = normal.dot(&origin) / denom;
+                            if s <= 0.0 {
+                                BACKGROUND
+                            } else {
+                                let p =
+                                    to_board * flexshape_camera::nalgebra::Point3::from(dir * s);
+                                board.shade(p.x, p.y)
+                            }
+                        };
+                    }
+                }
+                let noise: f64 = rng.sample::<f64, _>(StandardNormal) * sigma;
+                let value = (sum / (SUB * SUB) as f64 + noise).round().clamp(0.0, 255.0);
+                img.put_pixel(x as u32, y as u32, Luma([value as u8]));
+            }
+        }
+        img
+    }
+}
+
+impl PrintedBoard {
+    /// Grey level at board point `(x, y)` mm.
+    fn shade(&self, x: f64, y: f64) -> f64 {
+        let s = self.square;
+        // `cols` inner corners lie between `cols + 1` squares, indices −1 to cols − 1 along x;
+        // a white margin of one square beyond.
+        let (i, j) = ((x / s).floor() as i64, (y / s).floor() as i64);
+        let inside = |v: i64, n: usize| v >= -1 && v < n as i64;
+        let margin = |v: i64, n: usize| v >= -2 && v <= n as i64;
+        if inside(i, self.cols) && inside(j, self.rows) {
+            if (i + j).rem_euclid(2) == 0 {
+                DARK
+            } else {
+                LIGHT
+            }
+        } else if margin(i, self.cols) && margin(j, self.rows) {
+            LIGHT
+        } else {
+            BACKGROUND
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_outer_square_at_the_origin_is_dark() {
+        let b = PrintedBoard {
+            cols: 9,
+            rows: 6,
+            square: 10.0,
+        };
+        assert_eq!(b.shade(-5.0, -5.0), DARK);
+        assert_eq!(b.shade(5.0, -5.0), LIGHT);
+        // The far outer corner square is light for 9 × 6 (cols + rows odd).
+        assert_eq!(b.shade(85.0, 55.0), LIGHT);
+        assert_eq!(b.shade(-15.0, 0.0), LIGHT);
+        assert_eq!(b.shade(-25.0, 0.0), BACKGROUND);
+    }
+}
