@@ -4,54 +4,8 @@
 
 use flexshape_calib::{Board, BoardPose, CalibrationSettings, calibrate, detect, relative_pose};
 use flexshape_camera::Camera;
-use flexshape_camera::nalgebra::{
-    Isometry3, Point2, Rotation3, Translation3, UnitQuaternion, Vector2, Vector3,
-};
-use flexshape_sim::{BoardRenderer, PrintedBoard, SimRigConfig};
-use rand::rngs::Xoshiro256PlusPlus;
-use rand::{RngExt, SeedableRng};
-
-/// Board → world poses facing `toward` (a unit direction from the board to its viewers)
-/// within `spread` (radians, per axis), turned at random in their plane, centred within 30 mm
-/// of the origin.
-fn poses(
-    board: &PrintedBoard,
-    toward: Vector3<f64>,
-    spread: f64,
-    n: usize,
-    seed: u64,
-) -> Vec<Isometry3<f64>> {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-    (0..n)
-        .map(|_| {
-            let wobble = Rotation3::from_euler_angles(
-                rng.random_range(-spread..spread),
-                rng.random_range(-spread..spread),
-                rng.random_range(-spread..spread),
-            );
-            let toward = wobble * toward.normalize();
-            // The board's z points away from its viewers.
-            let tilt = Rotation3::rotation_between(&Vector3::z(), &-toward).unwrap();
-            let spin = Rotation3::from_axis_angle(
-                &Vector3::z_axis(),
-                rng.random_range(0.0..std::f64::consts::TAU),
-            );
-            let rotation = tilt * spin;
-            let centre = Vector3::new(
-                rng.random_range(-30.0..30.0),
-                rng.random_range(-30.0..30.0),
-                rng.random_range(-30.0..30.0),
-            );
-            let half = Vector3::new(board.cols as f64 - 1.0, board.rows as f64 - 1.0, 0.0)
-                * board.square
-                / 2.0;
-            Isometry3::from_parts(
-                Translation3::from(centre - rotation * half),
-                UnitQuaternion::from_rotation_matrix(&rotation),
-            )
-        })
-        .collect()
-}
+use flexshape_camera::nalgebra::{Isometry3, Point2, Rotation3, Vector2, Vector3};
+use flexshape_sim::{BoardRenderer, PrintedBoard, SimRigConfig, calibration_views};
 
 /// Largest pixel distance between two cameras' projections of the same normalized rays over
 /// the part of the image the boards covered (within 25 px of a detected corner: beyond, the
@@ -77,11 +31,6 @@ fn lens_difference(
     worst
 }
 
-/// The cameras sit on +x, +y and +z looking at the origin.
-fn axis(k: usize) -> Vector3<f64> {
-    [Vector3::x(), Vector3::y(), Vector3::z()][k]
-}
-
 #[test]
 fn simulated_rig_is_recovered() {
     let cameras = SimRigConfig::default().cameras().unwrap();
@@ -91,26 +40,22 @@ fn simulated_rig_is_recovered() {
         square: 30.0,
     };
     let board = Board::parse("9x6", 30.0).unwrap();
-    // Each camera's own views (board within ±29° of facing it) and, for cam0 with each other
-    // camera, views both see (board facing between them, 45° to each).
-    let mut views: Vec<Vec<(String, Isometry3<f64>)>> = vec![Vec::new(); cameras.len()];
-    for (k, own) in views.iter_mut().enumerate() {
-        for (i, p) in poses(&printed, axis(k), 0.5, 10, k as u64)
-            .into_iter()
-            .enumerate()
-        {
-            own.push((format!("cam{k}_own{i}"), p));
-        }
-    }
-    for k in 1..cameras.len() {
-        for (i, p) in poses(&printed, axis(0) + axis(k), 0.12, 5, 10 + k as u64)
-            .into_iter()
-            .enumerate()
-        {
-            views[0].push((format!("pair{k}_{i}"), p));
-            views[k].push((format!("pair{k}_{i}"), p));
-        }
-    }
+    let session = calibration_views(
+        &cameras.iter().map(|(_, c)| c.clone()).collect::<Vec<_>>(),
+        &printed,
+        10,
+        5,
+        3,
+    );
+    let views: Vec<Vec<(String, Isometry3<f64>)>> = (0..cameras.len())
+        .map(|k| {
+            session
+                .iter()
+                .filter(|v| v.cameras.contains(&k))
+                .map(|v| (v.name.clone(), v.pose))
+                .collect()
+        })
+        .collect();
     let settings = CalibrationSettings::default();
     let mut calibrations = Vec::new();
     for (k, (name, cam)) in cameras.iter().enumerate() {

@@ -276,10 +276,14 @@ pub struct SimArgs {
 }
 
 #[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct SimulateArgs {
-    /// Folder to write the recording to.
+    /// What else to simulate instead of a tracking recording.
+    #[command(subcommand)]
+    pub what: Option<SimulateWhat>,
+    /// Folder to write the recording to (required).
     #[arg(long)]
-    pub out: PathBuf,
+    pub out: Option<PathBuf>,
     /// Number of frames.
     #[arg(long, default_value_t = 20)]
     pub frames: usize,
@@ -295,6 +299,35 @@ pub struct SimulateArgs {
     /// Workspace poses of the model experiment.
     #[arg(long, default_value_t = 26, requires = "model")]
     pub poses: usize,
+    #[command(flatten)]
+    pub sim: SimArgs,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum SimulateWhat {
+    /// Chessboard images through the simulated rig's cameras with the true rig beside them,
+    /// to try `flexshape calibrate` against known truth: per camera its own views, and views
+    /// each camera shares with the first (same file names).
+    Chessboards(ChessboardsArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ChessboardsArgs {
+    /// Output folder: images/camK/NAME.png and truth/rig.toml (+ camK.yml).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Inner corners, COLSxROWS.
+    #[arg(long, default_value = "9x6")]
+    pub board: String,
+    /// Square size, mm.
+    #[arg(long, default_value_t = 30.0)]
+    pub square: f64,
+    /// Views per camera facing it.
+    #[arg(long, default_value_t = 10)]
+    pub own: usize,
+    /// Views each camera shares with the first.
+    #[arg(long, default_value_t = 5)]
+    pub shared: usize,
     #[command(flatten)]
     pub sim: SimArgs,
 }

@@ -115,3 +115,76 @@ fn stereo_photographs_calibrate_into_a_rig() {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+#[test]
+fn simulated_chessboards_calibrate_to_the_true_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path();
+    let o = flexshape(&[
+        "simulate",
+        "chessboards",
+        "--out",
+        out.to_str().unwrap(),
+        "--own",
+        "5",
+        "--shared",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let images = |cam: &str| format!("{cam}={}", out.join("images").join(cam).display());
+    let cal = out.join("calibration");
+    let o = flexshape(&[
+        "calibrate",
+        "--board",
+        "9x6",
+        "--square",
+        "30",
+        "--images",
+        &images("cam0"),
+        "--images",
+        &images("cam1"),
+        "--images",
+        &images("cam2"),
+        "--out",
+        cal.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Both rigs through `rig check`'s reading code: compare focal lengths and camera centres.
+    let read = |path: &Path| {
+        let o = flexshape(&["rig", "check", path.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let truth = read(&out.join("truth/rig.toml"));
+    let got = read(&cal.join("rig.toml"));
+    let numbers = |text: &str, key: &str| -> Vec<f64> {
+        text.lines()
+            .filter_map(|l| l.split(key).nth(1))
+            .map(|rest| {
+                rest.split_whitespace()
+                    .next()
+                    .unwrap()
+                    .parse::<f64>()
+                    .unwrap()
+            })
+            .collect()
+    };
+    let (ft, fg) = (numbers(&truth, " fx "), numbers(&got, " fx "));
+    assert_eq!(ft.len(), 3);
+    for (t, g) in ft.iter().zip(&fg) {
+        assert!((t - g).abs() < 0.005 * t, "fx {g} vs {t}");
+    }
+    // Every shared view gives the same relative pose (the library test checks it against
+    // the truth).
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(cal.join("calibration.json")).unwrap())
+            .unwrap();
+    for k in 1..3 {
+        let rel = &report[k]["relative_to_reference"];
+        assert!(rel["rotation_spread_deg"].as_f64().unwrap() < 0.1, "{rel}");
+        assert!(
+            rel["translation_spread_mm"].as_f64().unwrap() < 1.0,
+            "{rel}"
+        );
+    }
+}

@@ -7,7 +7,9 @@
 //! `cols + rows` odd the origin is unambiguous).
 
 use flexshape_camera::Camera;
-use flexshape_camera::nalgebra::{Isometry3, Point2, Vector2};
+use flexshape_camera::nalgebra::{
+    Isometry3, Point2, Rotation3, Translation3, UnitQuaternion, Vector2, Vector3,
+};
 use image::{GrayImage, Luma};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
@@ -114,7 +116,89 @@ impl BoardRenderer {
     }
 }
 
+/// A board pose to photograph and the cameras that photograph it at that instant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationView {
+    /// File stem, e.g. `cam1_03` (one camera) or `shared1_02` (cam0 and cam1).
+    pub name: String,
+    /// Board → world.
+    pub pose: Isometry3<f64>,
+    /// Indices of the cameras that take this view.
+    pub cameras: Vec<usize>,
+}
+
+/// A calibration session for `cameras` (all looking at the world origin): per camera `own`
+/// views with the board facing it within ±29°, and per camera after the first `shared` views
+/// with the board facing halfway between it and the first camera (within ±7°), taken by both.
+/// Boards are centred within 30 mm of the origin and turned at random in their plane.
+pub fn calibration_views(
+    cameras: &[Camera],
+    board: &PrintedBoard,
+    own: usize,
+    shared: usize,
+    seed: u64,
+) -> Vec<CalibrationView> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0xB0A2_D5E7);
+    let toward = |c: &Camera| c.centre().coords.normalize();
+    let mut views = Vec::new();
+    for (k, cam) in cameras.iter().enumerate() {
+        for i in 0..own {
+            views.push(CalibrationView {
+                name: format!("cam{k}_{i:02}"),
+                pose: board.facing(toward(cam), 0.5, &mut rng),
+                cameras: vec![k],
+            });
+        }
+    }
+    for (k, cam) in cameras.iter().enumerate().skip(1) {
+        for i in 0..shared {
+            views.push(CalibrationView {
+                name: format!("shared{k}_{i:02}"),
+                pose: board.facing(toward(&cameras[0]) + toward(cam), 0.12, &mut rng),
+                cameras: vec![0, k],
+            });
+        }
+    }
+    views
+}
+
 impl PrintedBoard {
+    /// A pose facing `toward` (from the board to its viewers) within `spread` radians per
+    /// axis, turned at random in its plane, centred within 30 mm of the origin. The board's z
+    /// points away from its viewers.
+    fn facing(
+        &self,
+        toward: Vector3<f64>,
+        spread: f64,
+        rng: &mut Xoshiro256PlusPlus,
+    ) -> Isometry3<f64> {
+        let wobble = Rotation3::from_euler_angles(
+            rng.random_range(-spread..spread),
+            rng.random_range(-spread..spread),
+            rng.random_range(-spread..spread),
+        );
+        let toward = wobble * toward.normalize();
+        let tilt = Rotation3::rotation_between(&Vector3::z(), &-toward).unwrap_or_else(|| {
+            Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+        });
+        let spin = Rotation3::from_axis_angle(
+            &Vector3::z_axis(),
+            rng.random_range(0.0..std::f64::consts::TAU),
+        );
+        let rotation = tilt * spin;
+        let centre = Vector3::new(
+            rng.random_range(-30.0..30.0),
+            rng.random_range(-30.0..30.0),
+            rng.random_range(-30.0..30.0),
+        );
+        let half =
+            Vector3::new(self.cols as f64 - 1.0, self.rows as f64 - 1.0, 0.0) * self.square / 2.0;
+        Isometry3::from_parts(
+            Translation3::from(centre - rotation * half),
+            UnitQuaternion::from_rotation_matrix(&rotation),
+        )
+    }
+
     /// Grey level at board point `(x, y)` mm.
     fn shade(&self, x: f64, y: f64) -> f64 {
         let s = self.square;

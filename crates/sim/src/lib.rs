@@ -26,7 +26,7 @@ mod sequence;
 mod simulator;
 
 pub use catheter::{Catheter, CatheterPose, CatheterState, RENDER_STEP, TRUTH_STEP};
-pub use chessboard::{BoardRenderer, PrintedBoard};
+pub use chessboard::{BoardRenderer, CalibrationView, PrintedBoard, calibration_views};
 pub use error::SimError;
 pub use render::{RenderSettings, Renderer, View};
 pub use rig::SimRigConfig;

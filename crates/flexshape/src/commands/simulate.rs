@@ -6,13 +6,21 @@ use std::time::Instant;
 use anyhow::Context;
 use flexshape_model::{ExperimentPlan, ManipulatorParams, Role};
 use flexshape_recording::PoseRole;
-use flexshape_sim::{Catheter, CatheterPose, Simulator};
+use flexshape_sim::{
+    BoardRenderer, Catheter, CatheterPose, PrintedBoard, Simulator, calibration_views,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::cli::SimulateArgs;
+use crate::cli::{ChessboardsArgs, SimulateArgs, SimulateWhat};
 use crate::interrupt::Interrupt;
 
 pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
+    if let Some(SimulateWhat::Chessboards(a)) = &args.what {
+        return chessboards(a);
+    }
+    let Some(out) = &args.out else {
+        anyhow::bail!("give the folder to write the recording to with --out DIR");
+    };
     let stop = Interrupt::install();
     let mut config = super::sim_config(&args.sim);
     let experiment = match &args.model {
@@ -55,10 +63,10 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    bar.set_message(format!("simulating into {}", args.out.display()));
+    bar.set_message(format!("simulating into {}", out.display()));
     let start = Instant::now();
     let written = sim
-        .write_commanded_recording(&args.out, &poses, &commands, args.overwrite, |_| {
+        .write_commanded_recording(out, &poses, &commands, args.overwrite, |_| {
             bar.inc(1);
             if stop.requested() {
                 ControlFlow::Break(())
@@ -66,12 +74,12 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
                 ControlFlow::Continue(())
             }
         })
-        .with_context(|| format!("cannot write the recording to {}", args.out.display()))?;
+        .with_context(|| format!("cannot write the recording to {}", out.display()))?;
     bar.finish_and_clear();
     let cams = sim.rig().cameras.len();
     println!(
         "wrote {written} frames × {cams} cameras to {} in {:.1} s{}",
-        args.out.display(),
+        out.display(),
         start.elapsed().as_secs_f64(),
         if (written as usize) < frames {
             " (stopped early by Ctrl-C; every written frame is whole)"
@@ -81,7 +89,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     );
     println!(
         "  layout: docs/formats.md; check its rig with: flexshape rig check {}",
-        args.out.join("rig.toml").display()
+        out.join("rig.toml").display()
     );
     Ok(())
 }
@@ -100,4 +108,91 @@ fn catheter_for(default: &Catheter, params: &ManipulatorParams) -> Catheter {
         },
         ..default.clone()
     }
+}
+
+/// `flexshape simulate chessboards`.
+fn chessboards(args: &ChessboardsArgs) -> anyhow::Result<()> {
+    let (cols, rows) = args
+        .board
+        .split_once(['x', 'X'])
+        .and_then(|(c, r)| {
+            Some((
+                c.trim().parse::<usize>().ok()?,
+                r.trim().parse::<usize>().ok()?,
+            ))
+        })
+        .filter(|&(c, r)| c >= 2 && r >= 2)
+        .with_context(|| {
+            format!(
+                "--board {}: give inner corners as COLSxROWS, e.g. 9x6",
+                args.board
+            )
+        })?;
+    if !(args.square.is_finite() && args.square > 0.0) {
+        anyhow::bail!("--square {}: must be a positive length in mm", args.square);
+    }
+    let board = PrintedBoard {
+        cols,
+        rows,
+        square: args.square,
+    };
+    let config = super::sim_config(&args.sim);
+    let rig = config
+        .rig
+        .rig()
+        .context("cannot set up the simulated rig")?;
+    let cameras: Vec<_> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
+    let views = calibration_views(&cameras, &board, args.own, args.shared, args.sim.seed);
+    let renderers = cameras
+        .iter()
+        .map(|c| BoardRenderer::new(c).context("a camera's lens cannot be inverted over its image"))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let total: usize = views.iter().map(|v| v.cameras.len()).sum();
+    let bar = ProgressBar::new(total as u64);
+    for (i, view) in views.iter().enumerate() {
+        for &k in &view.cameras {
+            let name = &rig.cameras[k].name;
+            let dir = args.out.join("images").join(name);
+            std::fs::create_dir_all(&dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+            let img = renderers[k].render(
+                &board,
+                &view.pose,
+                args.sim.noise,
+                args.sim.seed ^ (i as u64 * 31 + k as u64),
+            );
+            let path = dir.join(format!("{}.png", view.name));
+            img.save(&path)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+    let truth = args.out.join("truth").join("rig.toml");
+    rig.save(&truth)
+        .with_context(|| format!("cannot write {}", truth.display()))?;
+    println!(
+        "wrote {total} images of a {cols}×{rows} board ({} mm squares) to {} and the true rig to {}",
+        args.square,
+        args.out.join("images").display(),
+        truth.display()
+    );
+    let images: Vec<String> = rig
+        .cameras
+        .iter()
+        .map(|c| {
+            format!(
+                "--images {}={}",
+                c.name,
+                args.out.join("images").join(&c.name).display()
+            )
+        })
+        .collect();
+    println!(
+        "  calibrate with: flexshape calibrate --board {cols}x{rows} --square {} {} --out {}",
+        args.square,
+        images.join(" "),
+        args.out.join("calibration").display()
+    );
+    Ok(())
 }
