@@ -6,6 +6,8 @@
 //! - [`homography`] and [`zhang`]: the closed-form start (Zhang 2000).
 //! - [`relative_pose`]: a camera's pose relative to the rig's reference camera from views
 //!   of the board both saw at the same instant.
+//! - [`adjust_rig`]: one joint bundle adjustment of every camera's intrinsics and pose and
+//!   every board pose.
 //! - [`calibrate`]: Levenberg–Marquardt over fx, fy, cx, cy, k1, k2, p1, p2, k3 and every
 //!   view's pose; per-view and overall reprojection RMS, outlier views, standard deviations.
 //!
@@ -14,6 +16,7 @@
 //! the `cols` direction, y along `rows`, z = 0 on the board, mm.
 
 mod board;
+mod bundle;
 mod detect;
 mod extrinsics;
 pub mod homography;
@@ -23,6 +26,7 @@ pub mod zhang;
 use thiserror::Error;
 
 pub use board::Board;
+pub use bundle::{RigAdjustment, RigCamera, adjust_rig};
 pub use detect::{Detection, detect};
 pub use extrinsics::{BoardPose, RelativePose, relative_pose};
 pub use intrinsics::{Calibration, CalibrationSettings, ViewResult, calibrate};

@@ -2,7 +2,9 @@
 //! (distorted lenses, noise σ = 2 grey levels), the board tilted toward all three at once in
 //! every view so every view is shared.
 
-use flexshape_calib::{Board, BoardPose, CalibrationSettings, calibrate, detect, relative_pose};
+use flexshape_calib::{
+    Board, BoardPose, CalibrationSettings, RigCamera, adjust_rig, calibrate, detect, relative_pose,
+};
 use flexshape_camera::Camera;
 use flexshape_camera::nalgebra::{Isometry3, Point2, Rotation3, Vector2, Vector3};
 use flexshape_sim::{BoardRenderer, PrintedBoard, SimRigConfig, calibration_views};
@@ -57,6 +59,7 @@ fn simulated_rig_is_recovered() {
         })
         .collect();
     let settings = CalibrationSettings::default();
+    let mut detected = Vec::new();
     let mut calibrations = Vec::new();
     for (k, (name, cam)) in cameras.iter().enumerate() {
         let renderer = BoardRenderer::new(cam).unwrap();
@@ -83,6 +86,7 @@ fn simulated_rig_is_recovered() {
             views[k].len()
         );
         let (w, h) = (cam.intrinsics.width, cam.intrinsics.height);
+        detected.push(detections.clone());
         let cal = calibrate(&board, &detections, w, h, &settings).unwrap();
         let (t, g) = (&cam.intrinsics, &cal.intrinsics);
         let seen: Vec<Point2<f64>> = detections
@@ -126,7 +130,17 @@ fn simulated_rig_is_recovered() {
         }
         calibrations.push(cal);
     }
-    // Every camera relative to cam0 against the truth, from the views they share.
+    // Every camera relative to cam0 against the truth, from the views they share; then the
+    // joint adjustment of everything.
+    let truth_relative = |k: usize| {
+        let (p0, pk) = (&cameras[0].1.pose, &cameras[k].1.pose);
+        let r = pk.rotation * p0.rotation.inverse();
+        (r, pk.translation - r * p0.translation)
+    };
+    let mut relative = vec![BoardPose {
+        rotation: Rotation3::identity(),
+        translation: Vector3::zeros(),
+    }];
     for k in 1..cameras.len() {
         let pairs: Vec<(BoardPose, BoardPose)> = calibrations[0]
             .views
@@ -140,9 +154,7 @@ fn simulated_rig_is_recovered() {
             })
             .collect();
         let rel = relative_pose(&pairs).unwrap();
-        let (p0, pk) = (&cameras[0].1.pose, &cameras[k].1.pose);
-        let r_true = pk.rotation * p0.rotation.inverse();
-        let t_true = pk.translation - r_true * p0.translation;
+        let (r_true, t_true) = truth_relative(k);
         let r = Rotation3::from_matrix_unchecked(flexshape_camera::nalgebra::Matrix3::from_fn(
             |i, j| rel.rotation[i][j],
         ));
@@ -155,5 +167,36 @@ fn simulated_rig_is_recovered() {
         );
         assert!(rel.shared_views >= 4);
         assert!(angle < 0.1 && dt < 1.0, "{angle}° {dt} mm");
+        relative.push(BoardPose {
+            rotation: r,
+            translation: Vector3::from(rel.translation),
+        });
+    }
+    let rig: Vec<RigCamera> = (0..cameras.len())
+        .map(|k| RigCamera {
+            calibration: &calibrations[k],
+            views: &detected[k],
+            pose: relative[k],
+        })
+        .collect();
+    let adjusted = adjust_rig(&board, &rig, true).unwrap();
+    println!("joint adjustment: rms per camera {:?} px", adjusted.rms_px);
+    for (k, (_, cam)) in cameras.iter().enumerate() {
+        let (t, g) = (&cam.intrinsics, &adjusted.intrinsics[k]);
+        println!(
+            "cam{k} adjusted: fx {:.2} ({:.2}), fy {:.2} ({:.2}), cx {:.2} ({:.2}), cy {:.2} ({:.2})",
+            g.fx, t.fx, g.fy, t.fy, g.cx, t.cx, g.cy, t.cy
+        );
+        assert!((g.fx / t.fx - 1.0).abs() < 0.003 && (g.cx - t.cx).abs() < 1.5);
+        assert!(adjusted.rms_px[k] < 0.1);
+        if k > 0 {
+            let (r_true, t_true) = truth_relative(k);
+            let angle = adjusted.poses[k].rotation.angle_to(&r_true).to_degrees();
+            let dt = (adjusted.poses[k].translation - t_true).norm();
+            println!(
+                "cam{k} adjusted relative pose: rotation off {angle:.4}°, translation off {dt:.3} mm"
+            );
+            assert!(angle < 0.1 && dt < 1.0, "{angle}° {dt} mm");
+        }
     }
 }

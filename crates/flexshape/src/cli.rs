@@ -155,6 +155,10 @@ pub struct CalibrateArgs {
     /// Keep k3 at zero.
     #[arg(long)]
     pub fix_k3: bool,
+    /// Also refine every camera's intrinsics in the joint adjustment of the rig (by default
+    /// they stay as calibrated per camera, as OpenCV's stereo calibration does).
+    #[arg(long)]
+    pub joint_intrinsics: bool,
 }
 
 #[derive(Debug, Args)]

@@ -78,6 +78,29 @@ fn stereo_photographs_calibrate_into_a_rig() {
         (baseline - 96.79).abs() < 0.02 * 96.79,
         "baseline {baseline}"
     );
+    // The written pose (the joint adjustment's, intrinsics fixed) against OpenCV's
+    // stereoCalibrate (intrinsics fixed): T = [3.8228, −0.0939, 0.6048] squares of 25 mm.
+    let yml = std::fs::read_to_string(out.join("right.yml")).unwrap();
+    let t_line = yml
+        .split("T:")
+        .nth(1)
+        .unwrap()
+        .lines()
+        .find(|l| l.contains("data"))
+        .unwrap();
+    let t: Vec<f64> = t_line
+        .split(['[', ']'])
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|v| v.trim().parse().unwrap())
+        .collect();
+    let opencv = [3.8227986 * 25.0, -0.0938641 * 25.0, 0.6047747 * 25.0];
+    let d = (0..3)
+        .map(|i| (t[i] - opencv[i]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(d < 0.5, "T {t:?} vs OpenCV {opencv:?}");
     // The rig loads back, with both cameras.
     let o = flexshape(&["rig", "check", out.join("rig.toml").to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

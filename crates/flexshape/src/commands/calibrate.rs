@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flexshape_calib::{
-    Board, BoardPose, Calibration, CalibrationSettings, Detection, RelativePose, calibrate, detect,
-    relative_pose,
+    Board, BoardPose, Calibration, CalibrationSettings, Detection, RelativePose, adjust_rig,
+    calibrate, detect, relative_pose,
 };
 use flexshape_camera::nalgebra::{Matrix3, Rotation3, Vector3};
 use flexshape_camera::{Camera, Pose};
@@ -37,8 +37,11 @@ struct CameraReport {
     views: Vec<ViewReport>,
     rejected: Vec<String>,
     dropped: Vec<String>,
-    /// Pose relative to the reference camera (absent for the reference).
+    /// Pose relative to the reference camera from the shared views (absent for the
+    /// reference); the written pose is the joint adjustment's.
     relative_to_reference: Option<RelativePose>,
+    /// Reprojection RMS over this camera's views after the joint adjustment of the rig, px.
+    joint_rms_px: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -64,10 +67,18 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         ..CalibrationSettings::default()
     };
     let mut results: Vec<(Calibration, Vec<String>)> = Vec::new();
+    let mut detections = Vec::new();
     for cam in &cameras {
         let (views, rejected, size) = detect_all(cam, &board, &bar)?;
         let cal = calibrate(&board, &views, size.0, size.1, &settings)
             .with_context(|| format!("camera {}", cam.name))?;
+        // The views the calibration kept (outliers may have been dropped), by instant.
+        let kept: Vec<(String, Detection)> = views
+            .into_iter()
+            .filter(|(name, _)| cal.views.iter().any(|v| &v.name == name))
+            .map(|(name, d)| (stem(&name).to_string(), d))
+            .collect();
+        detections.push(kept);
         results.push((cal, rejected));
     }
     bar.finish_and_clear();
@@ -96,6 +107,52 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         relative.push(Some(rel));
     }
     let world = world_frame(args.world.as_deref(), &cameras, reference)?;
+    // One joint adjustment of everything, from these starts.
+    let mut joint = None;
+    if cameras.len() > 1 {
+        let named: Vec<Calibration> = results
+            .iter()
+            .map(|(cal, _)| {
+                let mut c = cal.clone();
+                for v in &mut c.views {
+                    v.name = stem(&v.name).to_string();
+                }
+                c
+            })
+            .collect();
+        let rig: Vec<flexshape_calib::RigCamera> = named
+            .iter()
+            .zip(&detections)
+            .zip(&poses)
+            .map(|((cal, views), pose)| flexshape_calib::RigCamera {
+                calibration: cal,
+                views,
+                pose: BoardPose {
+                    rotation: pose.rotation,
+                    translation: pose.translation,
+                },
+            })
+            .collect();
+        match adjust_rig(&board, &rig, args.joint_intrinsics) {
+            Ok(a) => {
+                for ((cal, _), k) in results.iter_mut().zip(&a.intrinsics) {
+                    cal.intrinsics = k.clone();
+                }
+                poses = a
+                    .poses
+                    .iter()
+                    .map(|p| Pose {
+                        rotation: p.rotation,
+                        translation: p.translation,
+                    })
+                    .collect();
+                joint = Some(a);
+            }
+            Err(e) => eprintln!(
+                "warning: the joint adjustment failed ({e}); writing the per-camera results"
+            ),
+        }
+    }
     // x_cam = R_c·x_ref + t_c and x_ref = R_w·x_world + t_w.
     let poses: Vec<Pose> = poses
         .iter()
@@ -127,7 +184,12 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         .iter()
         .zip(&results)
         .zip(relative)
-        .map(|((c, (cal, rejected)), rel)| report(c, cal, rejected, rel))
+        .enumerate()
+        .map(|(k, ((c, (cal, rejected)), rel))| {
+            let mut r = report(c, cal, rejected, rel);
+            r.joint_rms_px = joint.as_ref().map(|a| a.rms_px[k]);
+            r
+        })
         .collect();
     let json = args.out.join("calibration.json");
     std::fs::write(&json, serde_json::to_string_pretty(&reports)?)
@@ -308,6 +370,7 @@ fn report(
         rejected: rejected.to_vec(),
         dropped: cal.dropped.clone(),
         relative_to_reference: rel,
+        joint_rms_px: None,
     }
 }
 
@@ -342,6 +405,9 @@ fn print_summary(reports: &[CameraReport], out: &Path) {
         }
         for why in &r.rejected {
             println!("  rejected {why}");
+        }
+        if let Some(j) = r.joint_rms_px {
+            println!("  after the joint adjustment of the rig: rms {j:.3} px");
         }
         if let Some(rel) = &r.relative_to_reference {
             println!(

@@ -1,0 +1,276 @@
+//! One joint bundle adjustment of a rig: every camera's intrinsics, every camera's pose
+//! relative to the first, and every board pose (one per instant, in the first camera's frame),
+//! by Levenberg–Marquardt on all reprojection errors at once — so views one camera alone saw
+//! still inform the others through the shared instants.
+
+use std::collections::BTreeMap;
+
+use flexshape_camera::{Distortion, Intrinsics};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{DMatrix, DVector, Dyn, Owned, Point2, Point3, Rotation3, Vector2, Vector3};
+
+use crate::{Board, BoardPose, CalibError, Calibration, Detection};
+
+/// One camera's input to the adjustment.
+pub struct RigCamera<'a> {
+    /// Its single-camera calibration (the start).
+    pub calibration: &'a Calibration,
+    /// Its detections, named by instant (the same name in every camera that saw it).
+    pub views: &'a [(String, Detection)],
+    /// Its pose relative to the first camera (`x_cam = R·x_cam0 + t`); the identity for the
+    /// first.
+    pub pose: BoardPose,
+}
+
+/// The adjusted rig.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigAdjustment {
+    /// Per camera: intrinsics.
+    pub intrinsics: Vec<Intrinsics>,
+    /// Per camera: pose relative to the first.
+    pub poses: Vec<BoardPose>,
+    /// Per camera: reprojection RMS over its views, px.
+    pub rms_px: Vec<f64>,
+    /// Over everything, px.
+    pub total_rms_px: f64,
+}
+
+/// Adjusts the cameras' poses and every board pose jointly, and with `intrinsics` also every
+/// camera's intrinsics (without, they stay as calibrated per camera, as OpenCV's
+/// `stereoCalibrate` with `CALIB_FIX_INTRINSIC` does).
+pub fn adjust_rig(
+    board: &Board,
+    cameras: &[RigCamera],
+    intrinsics: bool,
+) -> Result<RigAdjustment, CalibError> {
+    if cameras.is_empty() {
+        return Err(CalibError::TooFewViews {
+            found: 0,
+            needed: 1,
+        });
+    }
+    // Board poses per instant, in cam0's frame: from the first camera (in order) that saw it.
+    let mut instants: BTreeMap<&str, usize> = BTreeMap::new();
+    let mut boards: Vec<BoardPose> = Vec::new();
+    for cam in cameras {
+        for (v, result) in cam.calibration.views.iter().enumerate() {
+            let name = result.name.as_str();
+            if instants.contains_key(name) || cam.views.get(v).is_none() {
+                continue;
+            }
+            let p = result.board_pose();
+            let inv = cam.pose.rotation.inverse();
+            instants.insert(name, boards.len());
+            boards.push(BoardPose {
+                rotation: inv * p.rotation,
+                translation: inv * (p.translation - cam.pose.translation),
+            });
+        }
+    }
+    let mut x = Vec::new();
+    for cam in cameras {
+        let k = &cam.calibration.intrinsics;
+        let d = k.distortion.to_opencv();
+        x.extend([
+            k.fx,
+            k.fy,
+            k.cx,
+            k.cy,
+            d[0],
+            d[1],
+            d[2],
+            d[3],
+            d.get(4).copied().unwrap_or(0.0),
+        ]);
+    }
+    for cam in &cameras[1..] {
+        x.extend(cam.pose.rotation.scaled_axis().iter());
+        x.extend(cam.pose.translation.iter());
+    }
+    for b in &boards {
+        x.extend(b.rotation.scaled_axis().iter());
+        x.extend(b.translation.iter());
+    }
+    // Observations: (camera, instant, corners), in the calibrations' view order.
+    let mut observations = Vec::new();
+    for (k, cam) in cameras.iter().enumerate() {
+        for (name, d) in cam.views {
+            if let Some(&b) = instants.get(name.as_str()) {
+                observations.push(Observation {
+                    camera: k,
+                    board: b,
+                    corners: d.corners.clone(),
+                });
+            }
+        }
+    }
+    let problem = Problem {
+        points: board.points(),
+        observations,
+        cameras: cameras.len(),
+        free_intrinsics: intrinsics,
+        x: DVector::from_vec(x),
+    };
+    let (problem, _) = LevenbergMarquardt::new()
+        .with_xtol(1e-10)
+        .with_ftol(1e-12)
+        .minimize(problem);
+    let r = problem
+        .residuals()
+        .ok_or_else(|| CalibError::Degenerate("the rig adjustment left the valid range".into()))?;
+    let x = &problem.x;
+    let mut intrinsics = Vec::new();
+    for (k, cam) in cameras.iter().enumerate() {
+        let p = &x.as_slice()[9 * k..9 * k + 9];
+        let distortion =
+            Distortion::from_opencv(&p[4..9]).map_err(|e| CalibError::Degenerate(e.to_string()))?;
+        let old = &cam.calibration.intrinsics;
+        intrinsics.push(
+            Intrinsics::new(old.width, old.height, p[0], p[1], p[2], p[3], distortion)
+                .map_err(|e| CalibError::Degenerate(e.to_string()))?,
+        );
+    }
+    let poses = (0..cameras.len())
+        .map(|k| problem.camera_pose(x, k))
+        .collect();
+    let per = 2 * problem.points.len();
+    let mut sums = vec![(0.0, 0usize); cameras.len()];
+    for (i, o) in problem.observations.iter().enumerate() {
+        let block = r.rows(i * per, per);
+        sums[o.camera].0 += block.norm_squared();
+        sums[o.camera].1 += problem.points.len();
+    }
+    Ok(RigAdjustment {
+        intrinsics,
+        poses,
+        rms_px: sums
+            .iter()
+            .map(|(s, n)| (s / (*n).max(1) as f64).sqrt())
+            .collect(),
+        total_rms_px: (r.norm_squared() / (r.len() / 2).max(1) as f64).sqrt(),
+    })
+}
+
+struct Observation {
+    camera: usize,
+    board: usize,
+    corners: Vec<Point2<f64>>,
+}
+
+/// Parameters: 9 intrinsics per camera, 6 per camera after the first, 6 per board.
+struct Problem {
+    points: Vec<Point3<f64>>,
+    observations: Vec<Observation>,
+    cameras: usize,
+    free_intrinsics: bool,
+    x: DVector<f64>,
+}
+
+impl Problem {
+    fn pose_at(x: &DVector<f64>, at: usize) -> BoardPose {
+        BoardPose {
+            rotation: Rotation3::from_scaled_axis(Vector3::new(x[at], x[at + 1], x[at + 2])),
+            translation: Vector3::new(x[at + 3], x[at + 4], x[at + 5]),
+        }
+    }
+
+    fn camera_pose(&self, x: &DVector<f64>, k: usize) -> BoardPose {
+        if k == 0 {
+            BoardPose {
+                rotation: Rotation3::identity(),
+                translation: Vector3::zeros(),
+            }
+        } else {
+            Self::pose_at(x, 9 * self.cameras + 6 * (k - 1))
+        }
+    }
+
+    fn board_at(&self, b: usize) -> usize {
+        9 * self.cameras + 6 * (self.cameras - 1) + 6 * b
+    }
+
+    fn block(&self, x: &DVector<f64>, o: &Observation, out: &mut [f64]) -> Option<()> {
+        let p = &x.as_slice()[9 * o.camera..9 * o.camera + 9];
+        let d = Distortion::from_opencv(&p[4..9]).ok()?;
+        let cam = self.camera_pose(x, o.camera);
+        let board = Self::pose_at(x, self.board_at(o.board));
+        let r = cam.rotation * board.rotation;
+        let t = cam.rotation * board.translation + cam.translation;
+        for (j, (pt, obs)) in self.points.iter().zip(&o.corners).enumerate() {
+            let c = r * pt + t;
+            if c.z <= 1e-9 {
+                return None;
+            }
+            let n = d.distort(Vector2::new(c.x / c.z, c.y / c.z));
+            out[2 * j] = obs.x - (p[0] * n.x + p[2]);
+            out[2 * j + 1] = obs.y - (p[1] * n.y + p[3]);
+        }
+        Some(())
+    }
+
+    fn residuals_at(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
+        let per = 2 * self.points.len();
+        let mut r = DVector::zeros(per * self.observations.len());
+        for (i, o) in self.observations.iter().enumerate() {
+            self.block(x, o, &mut r.as_mut_slice()[i * per..(i + 1) * per])?;
+        }
+        Some(r)
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.x.copy_from(x);
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.x.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        self.residuals_at(&self.x)
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        // Central differences, block by block: a parameter moves only the observations of its
+        // camera or its board.
+        let per = 2 * self.points.len();
+        let mut j = DMatrix::zeros(per * self.observations.len(), self.x.len());
+        let (mut up_block, mut down_block) = (vec![0.0; per], vec![0.0; per]);
+        let first = if self.free_intrinsics {
+            0
+        } else {
+            9 * self.cameras
+        };
+        for col in first..self.x.len() {
+            let touches = |o: &Observation| -> bool {
+                if col < 9 * self.cameras {
+                    o.camera == col / 9
+                } else if col < self.board_at(0) {
+                    o.camera == 1 + (col - 9 * self.cameras) / 6
+                } else {
+                    o.board == (col - self.board_at(0)) / 6
+                }
+            };
+            let h = 1e-6 * self.x[col].abs().max(1e-3);
+            let (mut up, mut down) = (self.x.clone(), self.x.clone());
+            up[col] += h;
+            down[col] -= h;
+            for (i, o) in self.observations.iter().enumerate() {
+                if !touches(o) {
+                    continue;
+                }
+                self.block(&up, o, &mut up_block)?;
+                self.block(&down, o, &mut down_block)?;
+                for row in 0..per {
+                    j[(i * per + row, col)] = (up_block[row] - down_block[row]) / (2.0 * h);
+                }
+            }
+        }
+        Some(j)
+    }
+}
