@@ -145,8 +145,10 @@ pub struct CalibrateArgs {
     /// residuals.png/svg.
     #[arg(long)]
     pub out: PathBuf,
-    /// The world frame: a camera's name (default: the first), or `board:IMAGE` for the board
-    /// in that image of the first camera (file name without extension).
+    /// The world frame: the first camera's name (the default), `board:IMAGE` for the board in
+    /// that image of the first camera (file name without extension), or `points:FILE` for
+    /// measured points: CSV lines `IMAGE,COL,ROW,X,Y,Z` saying board corner (COL, ROW) in the
+    /// first camera's IMAGE is at world (X, Y, Z) mm (at least 3, not on one line).
     #[arg(long)]
     pub world: Option<String>,
     /// Drop views whose RMS exceeds 3× the median view's and solve again.

@@ -197,6 +197,66 @@ fn simulated_chessboards_calibrate_to_the_true_rig() {
     for (t, g) in ft.iter().zip(&fg) {
         assert!((t - g).abs() < 0.005 * t, "fx {g} vs {t}");
     }
+    // The world frame from measured points: five corners of the board in cam0_00, at their
+    // true world positions (truth/boards.json); the cameras' centres then land on the truth's.
+    let boards: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("truth/boards.json")).unwrap())
+            .unwrap();
+    let view = boards
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|b| b["image"] == "cam0_00")
+        .unwrap();
+    let m = |r: usize, c: usize| view["rotation"][r][c].as_f64().unwrap();
+    let t = |r: usize| view["translation"][r].as_f64().unwrap();
+    let mut csv = String::from("image,col,row,x,y,z\n");
+    for (c, r) in [(0, 0), (8, 0), (0, 5), (8, 5), (4, 3)] {
+        let (x, y) = (c as f64 * 30.0, r as f64 * 30.0);
+        let w: Vec<f64> = (0..3).map(|i| m(i, 0) * x + m(i, 1) * y + t(i)).collect();
+        csv += &format!("cam0_00,{c},{r},{},{},{}\n", w[0], w[1], w[2]);
+    }
+    let points = out.join("points.csv");
+    std::fs::write(&points, csv).unwrap();
+    let cal2 = out.join("calibration-world");
+    let o = flexshape(&[
+        "calibrate",
+        "--board",
+        "9x6",
+        "--square",
+        "30",
+        "--images",
+        &images("cam0"),
+        "--images",
+        &images("cam1"),
+        "--images",
+        &images("cam2"),
+        "--world",
+        &format!("points:{}", points.display()),
+        "--out",
+        cal2.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let centres = |text: &str| -> Vec<[f64; 3]> {
+        text.lines()
+            .filter_map(|l| l.split("centre (").nth(1))
+            .map(|rest| {
+                let inside = rest.split(')').next().unwrap();
+                let v: Vec<f64> = inside
+                    .split(',')
+                    .map(|x| x.trim().parse().unwrap())
+                    .collect();
+                [v[0], v[1], v[2]]
+            })
+            .collect()
+    };
+    let (ct, cg) = (centres(&truth), centres(&read(&cal2.join("rig.toml"))));
+    assert_eq!(ct.len(), 3);
+    for (a, b) in ct.iter().zip(&cg) {
+        let d = (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt();
+        println!("camera centre {b:?} vs truth {a:?}: {d:.2} mm");
+        assert!(d < 2.0, "camera centre {b:?} vs truth {a:?}");
+    }
     // Every shared view gives the same relative pose (the library test checks it against
     // the truth).
     let report: serde_json::Value =

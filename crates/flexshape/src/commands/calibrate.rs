@@ -106,7 +106,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         poses.push(pose_of(&rel));
         relative.push(Some(rel));
     }
-    let world = world_frame(args.world.as_deref(), &cameras, reference)?;
+    let world = world_frame(args.world.as_deref(), &cameras, reference, &board)?;
     // One joint adjustment of everything, from these starts.
     let mut joint = None;
     if cameras.len() > 1 {
@@ -214,7 +214,10 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         &series,
         &args.out.join("residuals"),
     )?;
-    print_summary(&reports, &args.out);
+    let text = summary(&reports, &args.out);
+    let txt = args.out.join("calibration.txt");
+    std::fs::write(&txt, &text).with_context(|| format!("cannot write {}", txt.display()))?;
+    print!("{text}");
     Ok(())
 }
 
@@ -312,34 +315,99 @@ fn world_frame(
     world: Option<&str>,
     cameras: &[CameraImages],
     reference: &Calibration,
+    board: &Board,
 ) -> anyhow::Result<Pose> {
-    match world {
-        None => Ok(Pose::identity()),
-        Some(w) if w == cameras[0].name => Ok(Pose::identity()),
-        Some(w) => match w.strip_prefix("board:") {
-            Some(image) => {
-                let view = reference
-                    .views
-                    .iter()
-                    .find(|v| stem(&v.name) == image)
-                    .with_context(|| {
-                        format!(
-                            "--world {w}: camera {} has no detected board in an image named {image}",
-                            cameras[0].name
-                        )
-                    })?;
-                let b = view.board_pose();
-                Ok(Pose {
-                    rotation: b.rotation,
-                    translation: b.translation,
-                })
-            }
-            None => bail!(
-                "--world {w}: give the reference camera ({}) or board:IMAGE; other cameras as the world frame are not supported yet",
-                cameras[0].name
-            ),
-        },
+    let Some(w) = world else {
+        return Ok(Pose::identity());
+    };
+    if w == cameras[0].name {
+        return Ok(Pose::identity());
     }
+    let view_pose = |image: &str| -> anyhow::Result<BoardPose> {
+        reference
+            .views
+            .iter()
+            .find(|v| stem(&v.name) == image)
+            .map(|v| v.board_pose())
+            .with_context(|| {
+                format!(
+                    "--world {w}: camera {} has no detected board in an image named {image}",
+                    cameras[0].name
+                )
+            })
+    };
+    if let Some(image) = w.strip_prefix("board:") {
+        let b = view_pose(image)?;
+        return Ok(Pose {
+            rotation: b.rotation,
+            translation: b.translation,
+        });
+    }
+    if let Some(file) = w.strip_prefix("points:") {
+        // Lines `IMAGE,COL,ROW,X,Y,Z`: board corner (COL, ROW) in the first camera's image
+        // IMAGE lies at world (X, Y, Z) mm.
+        let text = std::fs::read_to_string(file)
+            .with_context(|| format!("--world {w}: cannot read {file}"))?;
+        let (mut world_points, mut camera_points) = (Vec::new(), Vec::new());
+        for (i, line) in text.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            let f: Vec<&str> = line.split(',').map(str::trim).collect();
+            let parsed = (f.len() == 6)
+                .then(|| {
+                    let c = f[1].parse::<usize>().ok()?;
+                    let r = f[2].parse::<usize>().ok()?;
+                    let xyz: Vec<f64> = f[3..]
+                        .iter()
+                        .map(|v| v.parse().ok())
+                        .collect::<Option<_>>()?;
+                    Some((c, r, xyz))
+                })
+                .flatten();
+            let Some((c, r, xyz)) = parsed else {
+                if i == 0 {
+                    continue; // a header
+                }
+                bail!(
+                    "{file} line {}: expected IMAGE,COL,ROW,X,Y,Z, found `{line}`",
+                    i + 1
+                );
+            };
+            if c >= board.cols || r >= board.rows {
+                bail!(
+                    "{file} line {}: corner ({c}, {r}) is not on a {}×{} board",
+                    i + 1,
+                    board.cols,
+                    board.rows
+                );
+            }
+            let b = view_pose(f[0])?;
+            camera_points.push(flexshape_camera::nalgebra::Point3::from(
+                b.rotation * board.point(c, r).coords + b.translation,
+            ));
+            world_points.push(flexshape_camera::nalgebra::Point3::new(
+                xyz[0], xyz[1], xyz[2],
+            ));
+        }
+        let (t, res) = flexshape_register::register(&world_points, &camera_points)
+            .with_context(|| format!("--world {w}: cannot register the measured points"))?;
+        eprintln!(
+            "world frame from {} measured points: rms {:.3} mm, max {:.3} mm",
+            world_points.len(),
+            res.rms,
+            res.max
+        );
+        return Ok(Pose {
+            rotation: t.rotation,
+            translation: t.translation,
+        });
+    }
+    bail!(
+        "--world {w}: give the reference camera ({}), board:IMAGE or points:FILE",
+        cameras[0].name
+    )
 }
 
 fn report(
@@ -374,9 +442,12 @@ fn report(
     }
 }
 
-fn print_summary(reports: &[CameraReport], out: &Path) {
+fn summary(reports: &[CameraReport], out: &Path) -> String {
+    use std::fmt::Write as _;
+    let mut text = String::new();
     for r in reports {
-        println!(
+        let _ = writeln!(
+            text,
             "{}: {} views, rms {:.3} px; fx {:.2} ± {:.2}, fy {:.2} ± {:.2}, cx {:.2} ± {:.2}, cy {:.2} ± {:.2}; k1..k3 {:?}",
             r.name,
             r.views.len(),
@@ -395,22 +466,27 @@ fn print_summary(reports: &[CameraReport], out: &Path) {
                 .collect::<Vec<_>>()
         );
         for v in r.views.iter().filter(|v| v.outlier) {
-            println!(
+            let _ = writeln!(
+                text,
                 "  outlier view {} (rms {:.3} px); --drop-outliers leaves it out",
                 v.image, v.rms_px
             );
         }
         for d in &r.dropped {
-            println!("  dropped outlier view {d}");
+            let _ = writeln!(text, "  dropped outlier view {d}");
         }
         for why in &r.rejected {
-            println!("  rejected {why}");
+            let _ = writeln!(text, "  rejected {why}");
         }
         if let Some(j) = r.joint_rms_px {
-            println!("  after the joint adjustment of the rig: rms {j:.3} px");
+            let _ = writeln!(
+                text,
+                "  after the joint adjustment of the rig: rms {j:.3} px"
+            );
         }
         if let Some(rel) = &r.relative_to_reference {
-            println!(
+            let _ = writeln!(
+                text,
                 "  pose relative to the reference: t [{:.2}, {:.2}, {:.2}] mm from {} shared views (spread {:.3}°, {:.2} mm)",
                 rel.translation[0],
                 rel.translation[1],
@@ -421,8 +497,10 @@ fn print_summary(reports: &[CameraReport], out: &Path) {
             );
         }
     }
-    println!(
-        "wrote {} (rig.toml, one .yml per camera, calibration.json, residuals.png/svg)",
+    let _ = writeln!(
+        text,
+        "wrote {} (rig.toml, one .yml per camera, calibration.json, calibration.txt, residuals.png/svg)",
         out.display()
     );
+    text
 }

@@ -171,6 +171,23 @@ fn chessboards(args: &ChessboardsArgs) -> anyhow::Result<()> {
     let truth = args.out.join("truth").join("rig.toml");
     rig.save(&truth)
         .with_context(|| format!("cannot write {}", truth.display()))?;
+    // The board poses (board → world: x_world = R·x_board + t, mm), per image name.
+    let boards: Vec<serde_json::Value> = views
+        .iter()
+        .map(|v| {
+            let m = v.pose.rotation.to_rotation_matrix();
+            let rows: Vec<Vec<f64>> = (0..3).map(|r| (0..3).map(|c| m[(r, c)]).collect()).collect();
+            serde_json::json!({
+                "image": v.name,
+                "rotation": rows,
+                "translation": v.pose.translation.vector.as_slice(),
+                "cameras": v.cameras.iter().map(|&k| rig.cameras[k].name.clone()).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    let boards_path = args.out.join("truth").join("boards.json");
+    std::fs::write(&boards_path, serde_json::to_string_pretty(&boards)?)
+        .with_context(|| format!("cannot write {}", boards_path.display()))?;
     println!(
         "wrote {total} images of a {cols}×{rows} board ({} mm squares) to {} and the true rig to {}",
         args.square,
