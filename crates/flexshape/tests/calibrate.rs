@@ -2,15 +2,11 @@
 //! with a message when absent): intrinsics per camera, the right camera's pose, files that load
 //! back as a rig.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
-fn flexshape(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flexshape"))
-        .args(args)
-        .output()
-        .expect("flexshape runs")
-}
+use common::flexshape;
+
+use std::path::Path;
 
 #[test]
 fn stereo_photographs_calibrate_into_a_rig() {
@@ -155,23 +151,29 @@ fn simulated_chessboards_calibrate_to_the_true_rig() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let images = |cam: &str| format!("{cam}={}", out.join("images").join(cam).display());
+    let calibrate = |to: &Path, extra: &[&str]| {
+        let (a, b, c) = (images("cam0"), images("cam1"), images("cam2"));
+        let mut args = vec![
+            "calibrate",
+            "--board",
+            "9x6",
+            "--square",
+            "30",
+            "--images",
+            &a,
+            "--images",
+            &b,
+            "--images",
+            &c,
+            "--out",
+        ];
+        args.push(to.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let o = flexshape(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
     let cal = out.join("calibration");
-    let o = flexshape(&[
-        "calibrate",
-        "--board",
-        "9x6",
-        "--square",
-        "30",
-        "--images",
-        &images("cam0"),
-        "--images",
-        &images("cam1"),
-        "--images",
-        &images("cam2"),
-        "--out",
-        cal.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    calibrate(&cal, &[]);
     // Both rigs through `rig check`'s reading code: compare focal lengths and camera centres.
     let read = |path: &Path| {
         let o = flexshape(&["rig", "check", path.to_str().unwrap()]);
@@ -219,24 +221,7 @@ fn simulated_chessboards_calibrate_to_the_true_rig() {
     let points = out.join("points.csv");
     std::fs::write(&points, csv).unwrap();
     let cal2 = out.join("calibration-world");
-    let o = flexshape(&[
-        "calibrate",
-        "--board",
-        "9x6",
-        "--square",
-        "30",
-        "--images",
-        &images("cam0"),
-        "--images",
-        &images("cam1"),
-        "--images",
-        &images("cam2"),
-        "--world",
-        &format!("points:{}", points.display()),
-        "--out",
-        cal2.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    calibrate(&cal2, &["--world", &format!("points:{}", points.display())]);
     let centres = |text: &str| -> Vec<[f64; 3]> {
         text.lines()
             .filter_map(|l| l.split("centre (").nth(1))

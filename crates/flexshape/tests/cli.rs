@@ -1,22 +1,10 @@
 //! The `flexshape` binary end to end.
 
+mod common;
+
+use common::{flexshape, text};
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn flexshape(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flexshape"))
-        .args(args)
-        .output()
-        .expect("flexshape runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
 
 #[test]
 fn simulate_writes_the_recording_layout_and_refuses_to_overwrite() {

@@ -2,29 +2,11 @@
 //! by the tendon model (`simulate --model`), the sensing chain tracks it (`track`), and the
 //! tensionless estimation recovers the stiffnesses (`model fit`).
 
+mod common;
+
+use common::{fails, run};
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn flexshape(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flexshape"))
-        .args(args)
-        .output()
-        .expect("flexshape runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn run(args: &[&str]) -> String {
-    let o = flexshape(args);
-    assert!(o.status.success(), "flexshape {args:?}: {}", text(&o));
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
 
 /// The paper's catheter with polymer tendons (Kt = 1500 N per unit strain): stiff steel
 /// tendons (the template's 14,000) make the estimate 15–26× as sensitive to curvature errors
@@ -103,45 +85,28 @@ fn fit_input_errors_name_the_problem() {
     let dir = tempfile::tempdir().unwrap();
     let params = params(dir.path());
     let data = dir.path().join("data.jsonl");
+    let fit = |contents: &str| {
+        std::fs::write(&data, contents).unwrap();
+        fails(&[
+            "model",
+            "fit",
+            "--params",
+            &params,
+            "--data",
+            data.to_str().unwrap(),
+        ])
+    };
     // Records without commands.
-    std::fs::write(&data, "{\"summary\": {}}\n").unwrap();
-    let o = flexshape(&[
-        "model",
-        "fit",
-        "--params",
-        &params,
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(!o.status.success());
-    assert!(text(&o).contains("tendon_displacements"), "{}", text(&o));
+    let t = fit("{\"summary\": {}}\n");
+    assert!(t.contains("tendon_displacements"), "{t}");
     // Three displacements for a four-tendon model: the line and frame are named.
     let record = r#"{"frame":7,"status":"ok","centerline":[],"tip":null,"tip_direction":null,"arc_length":0,"bands":[],"arc_fit":null,"voxels":0,"timings_ms":{"silhouettes":0,"carve":0,"bands":0,"shape":0},"tendon_displacements":[1,2,3]}"#;
-    std::fs::write(&data, format!("{record}\n")).unwrap();
-    let o = flexshape(&[
-        "model",
-        "fit",
-        "--params",
-        &params,
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(!o.status.success());
-    let t = text(&o);
+    let t = fit(&format!("{record}\n"));
     assert!(
         t.contains("line 1") && t.contains("frame 7") && t.contains("4 tendons"),
         "{t}"
     );
     // Not JSON.
-    std::fs::write(&data, "garbage\n").unwrap();
-    let o = flexshape(&[
-        "model",
-        "fit",
-        "--params",
-        &params,
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert!(!o.status.success());
-    assert!(text(&o).contains("line 1: not JSON"), "{}", text(&o));
+    let t = fit("garbage\n");
+    assert!(t.contains("line 1: not JSON"), "{t}");
 }

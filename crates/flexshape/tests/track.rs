@@ -1,18 +1,13 @@
 //! `flexshape track` on a simulated recording, checked against its ground truth.
 
-use std::process::Command;
+mod common;
+
+use common::flexshape;
 
 use flexshape_camera::nalgebra::Point3;
 use flexshape_curve::Polyline;
 use flexshape_recording::RecordingReader;
 use serde_json::Value;
-
-fn flexshape(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_flexshape"))
-        .args(args)
-        .output()
-        .expect("flexshape runs")
-}
 
 #[test]
 fn tracks_a_simulated_recording_within_the_shape_targets_and_survives_a_corrupt_frame() {

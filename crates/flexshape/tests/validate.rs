@@ -2,15 +2,11 @@
 //! `target/tmp/validation/` as artifacts), and `validate points` / `validate shape` / `report`
 //! on the data the simulation writes.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn flexshape(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flexshape"))
-        .args(args)
-        .output()
-        .expect("flexshape runs")
-}
+use common::{flexshape, ink};
+
+use std::path::PathBuf;
 
 fn json(args: &[&str]) -> serde_json::Value {
     let o = flexshape(args);
@@ -20,19 +16,6 @@ fn json(args: &[&str]) -> serde_json::Value {
         String::from_utf8_lossy(&o.stderr)
     );
     serde_json::from_slice(&o.stdout).unwrap()
-}
-
-/// Fraction of non-white pixels and the number of distinct colours.
-fn ink(png: &Path) -> (f64, usize) {
-    let img = image::open(png).unwrap().to_rgb8();
-    let inked = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();
-    let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
-    colours.sort_unstable();
-    colours.dedup();
-    (
-        inked as f64 / (img.width() * img.height()) as f64,
-        colours.len(),
-    )
 }
 
 fn f(v: &serde_json::Value) -> f64 {

@@ -112,29 +112,13 @@ fn catheter_for(default: &Catheter, params: &ManipulatorParams) -> Catheter {
 
 /// `flexshape simulate chessboards`.
 fn chessboards(args: &ChessboardsArgs) -> anyhow::Result<()> {
-    let (cols, rows) = args
-        .board
-        .split_once(['x', 'X'])
-        .and_then(|(c, r)| {
-            Some((
-                c.trim().parse::<usize>().ok()?,
-                r.trim().parse::<usize>().ok()?,
-            ))
-        })
-        .filter(|&(c, r)| c >= 2 && r >= 2)
-        .with_context(|| {
-            format!(
-                "--board {}: give inner corners as COLSxROWS, e.g. 9x6",
-                args.board
-            )
-        })?;
-    if !(args.square.is_finite() && args.square > 0.0) {
-        anyhow::bail!("--square {}: must be a positive length in mm", args.square);
-    }
+    let parsed = flexshape_calib::Board::parse(&args.board, args.square)
+        .map_err(|e| anyhow::anyhow!("--board/--square: {e}"))?;
+    let (cols, rows) = (parsed.cols, parsed.rows);
     let board = PrintedBoard {
         cols,
         rows,
-        square: args.square,
+        square: parsed.square,
     };
     let config = super::sim_config(&args.sim);
     let rig = config

@@ -1,0 +1,53 @@
+//! Helpers shared by the binary's integration tests.
+#![allow(dead_code)] // each test file uses its own subset
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// Runs the `flexshape` binary.
+pub fn flexshape(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_flexshape"))
+        .args(args)
+        .output()
+        .expect("flexshape runs")
+}
+
+/// Standard output and error together.
+pub fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// Runs and asserts success; standard output.
+pub fn run(args: &[&str]) -> String {
+    let o = flexshape(args);
+    assert!(o.status.success(), "flexshape {args:?}: {}", text(&o));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Runs and asserts failure; standard output and error.
+pub fn fails(args: &[&str]) -> String {
+    let o = flexshape(args);
+    assert!(
+        !o.status.success(),
+        "flexshape {args:?} should fail: {}",
+        text(&o)
+    );
+    text(&o)
+}
+
+/// Fraction of non-white pixels of a PNG and its number of distinct colours.
+pub fn ink(png: &Path) -> (f64, usize) {
+    let img = image::open(png).unwrap().to_rgb8();
+    let inked = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+    let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    (
+        inked as f64 / (img.width() * img.height()) as f64,
+        colours.len(),
+    )
+}
