@@ -256,3 +256,57 @@ fn simulated_chessboards_calibrate_to_the_true_rig() {
         );
     }
 }
+
+#[test]
+fn calibration_input_errors_name_the_problem() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stereo-9x6");
+    if !data.is_dir() {
+        println!("SKIPPED: {} not found", data.display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("left");
+    std::fs::create_dir_all(&folder).unwrap();
+    for i in 1..=2 {
+        std::fs::copy(
+            data.join(format!("left{i:02}.jpg")),
+            folder.join(format!("{i:02}.jpg")),
+        )
+        .unwrap();
+    }
+    let images = format!("left={}", folder.display());
+    let out = dir.path().join("out");
+    let calibrate = |board: &str| {
+        let o = flexshape(&[
+            "calibrate",
+            "--board",
+            board,
+            "--square",
+            "25",
+            "--images",
+            &images,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(!o.status.success());
+        String::from_utf8_lossy(&o.stderr).to_string()
+    };
+    // Two views are too few.
+    let e = calibrate("9x6");
+    assert!(
+        e.contains("camera left") && e.contains("2 usable views"),
+        "{e}"
+    );
+    // A board size that does not match: no view is usable.
+    let e = calibrate("8x6");
+    assert!(e.contains("0 usable views"), "{e}");
+    // An image of another size in one camera's folder.
+    image::RgbImage::new(20, 10)
+        .save(folder.join("03.png"))
+        .unwrap();
+    let e = calibrate("9x6");
+    assert!(
+        e.contains("03.png is 20×10") && e.contains("640×512"),
+        "{e}"
+    );
+}
