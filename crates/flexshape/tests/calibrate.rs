@@ -8,13 +8,20 @@ use common::flexshape;
 
 use std::path::Path;
 
+/// The real stereo photographs, or `None` (with a message) when `../shared` is absent.
+fn stereo_data() -> Option<std::path::PathBuf> {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stereo-9x6");
+    if data.is_dir() {
+        Some(data)
+    } else {
+        println!("SKIPPED: {} not found", data.display());
+        None
+    }
+}
+
 #[test]
 fn stereo_photographs_calibrate_into_a_rig() {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stereo-9x6");
-    if !data.is_dir() {
-        println!("SKIPPED: {} not found", data.display());
-        return;
-    }
+    let Some(data) = stereo_data() else { return };
     // One folder per camera; the same file name means the same instant.
     let dir = tempfile::tempdir().unwrap();
     for cam in ["left", "right"] {
@@ -259,11 +266,7 @@ fn simulated_chessboards_calibrate_to_the_true_rig() {
 
 #[test]
 fn calibration_input_errors_name_the_problem() {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stereo-9x6");
-    if !data.is_dir() {
-        println!("SKIPPED: {} not found", data.display());
-        return;
-    }
+    let Some(data) = stereo_data() else { return };
     let dir = tempfile::tempdir().unwrap();
     let folder = dir.path().join("left");
     std::fs::create_dir_all(&folder).unwrap();
