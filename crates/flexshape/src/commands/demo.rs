@@ -59,15 +59,9 @@ impl Stages {
             .collect::<Result<Vec<_>, _>>()
             .context("cannot model the simulated backgrounds")?;
         let rig = sim.rig();
+        // The simulated rig's `[processing.shape]` describes its catheter (bands, sections).
         let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume)
             .context("cannot set up the sensing chain")?;
-        let mut settings = pipeline.shape_settings().clone();
-        if settings.expected_bands == 0 {
-            settings.expected_bands = 2 + sim.config().catheter.extra_bands.len();
-        }
-        let pipeline = pipeline
-            .with_shape_settings(settings)
-            .context("cannot set up shape estimation")?;
         Ok(Stages { pipeline })
     }
 
