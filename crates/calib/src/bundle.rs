@@ -109,6 +109,7 @@ pub fn adjust_rig(
         observations,
         cameras: cameras.len(),
         free_intrinsics: intrinsics,
+        fix_k3: false,
         x: DVector::from_vec(x),
     };
     let (problem, _) = LevenbergMarquardt::new()
@@ -151,19 +152,33 @@ pub fn adjust_rig(
     })
 }
 
-struct Observation {
-    camera: usize,
-    board: usize,
-    corners: Vec<Point2<f64>>,
+/// One camera's view of one board: its detected corners.
+pub(crate) struct Observation {
+    /// The camera.
+    pub camera: usize,
+    /// The board pose (instant).
+    pub board: usize,
+    /// Pixels, in [`Board::points`] order.
+    pub corners: Vec<Point2<f64>>,
 }
 
-/// Parameters: 9 intrinsics per camera, 6 per camera after the first, 6 per board.
-struct Problem {
-    points: Vec<Point3<f64>>,
-    observations: Vec<Observation>,
-    cameras: usize,
-    free_intrinsics: bool,
-    x: DVector<f64>,
+/// Reprojection of boards into cameras. Parameters: 9 intrinsics per camera (fx fy cx cy k1
+/// k2 p1 p2 k3), 6 per camera after the first (rotation vector, translation relative to the
+/// first), 6 per board (its pose in the first camera). One camera is the single-camera
+/// calibration ([`crate::calibrate`]).
+pub(crate) struct Problem {
+    /// Board corners, board frame.
+    pub points: Vec<Point3<f64>>,
+    /// What was seen.
+    pub observations: Vec<Observation>,
+    /// Cameras.
+    pub cameras: usize,
+    /// Refine the intrinsics (else they stay at their start).
+    pub free_intrinsics: bool,
+    /// Keep every k3 at its start.
+    pub fix_k3: bool,
+    /// The parameters.
+    pub x: DVector<f64>,
 }
 
 impl Problem {
@@ -247,6 +262,9 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem {
             9 * self.cameras
         };
         for col in first..self.x.len() {
+            if self.fix_k3 && col < 9 * self.cameras && col % 9 == 8 {
+                continue;
+            }
             let touches = |o: &Observation| -> bool {
                 if col < 9 * self.cameras {
                     o.camera == col / 9

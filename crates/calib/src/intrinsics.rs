@@ -3,11 +3,11 @@
 
 use flexshape_camera::{Distortion, Intrinsics};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{
-    DMatrix, DVector, Dyn, Matrix3, Owned, Point2, Point3, Rotation3, Vector2, Vector3,
-};
+
+use nalgebra::{DVector, Matrix3, Point2, Rotation3, Vector3};
 use serde::Serialize;
 
+use crate::bundle::{Observation, Problem};
 use crate::{Board, CalibError, Detection, homography, zhang};
 
 /// Options of [`calibrate`].
@@ -139,10 +139,19 @@ fn solve(
         x.extend(r.scaled_axis().iter());
         x.extend(t.iter());
     }
-    let observed: Vec<&[Point2<f64>]> = views.iter().map(|(_, d)| d.corners.as_slice()).collect();
     let problem = Problem {
-        points: &points,
-        observed: &observed,
+        points: points.clone(),
+        observations: views
+            .iter()
+            .enumerate()
+            .map(|(board, (_, d))| Observation {
+                camera: 0,
+                board,
+                corners: d.corners.clone(),
+            })
+            .collect(),
+        cameras: 1,
+        free_intrinsics: true,
         fix_k3: settings.fix_k3,
         x: DVector::from_vec(x),
     };
@@ -201,95 +210,4 @@ fn solve(
         dropped: Vec::new(),
         std_dev,
     })
-}
-
-/// Parameters: fx fy cx cy k1 k2 p1 p2 k3, then per view a rotation vector and translation.
-struct Problem<'a> {
-    points: &'a [Point3<f64>],
-    observed: &'a [&'a [Point2<f64>]],
-    fix_k3: bool,
-    x: DVector<f64>,
-}
-
-impl Problem<'_> {
-    /// Observed − projected for view `i`, appended to `out`; `None` when a point falls behind
-    /// the camera or a parameter is not finite.
-    fn view_residuals(&self, x: &DVector<f64>, i: usize, out: &mut Vec<f64>) -> Option<()> {
-        let k3 = if self.fix_k3 { 0.0 } else { x[8] };
-        let d = Distortion::from_opencv(&[x[4], x[5], x[6], x[7], k3]).ok()?;
-        let p = 9 + 6 * i;
-        let r = Rotation3::from_scaled_axis(Vector3::new(x[p], x[p + 1], x[p + 2]));
-        let t = Vector3::new(x[p + 3], x[p + 4], x[p + 5]);
-        for (pt, obs) in self.points.iter().zip(self.observed[i]) {
-            let c = r * pt + t;
-            if c.z <= 1e-9 {
-                return None;
-            }
-            let n = d.distort(Vector2::new(c.x / c.z, c.y / c.z));
-            out.push(obs.x - (x[0] * n.x + x[2]));
-            out.push(obs.y - (x[1] * n.y + x[3]));
-        }
-        Some(())
-    }
-
-    fn residuals_at(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
-        let mut out = Vec::with_capacity(2 * self.points.len() * self.observed.len());
-        for i in 0..self.observed.len() {
-            self.view_residuals(x, i, &mut out)?;
-        }
-        Some(DVector::from_vec(out))
-    }
-}
-
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.x.copy_from(x);
-    }
-
-    fn params(&self) -> DVector<f64> {
-        self.x.clone()
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        self.residuals_at(&self.x)
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        // Central differences, exploiting the structure: a view's pose moves only its own
-        // residuals.
-        let per_view = 2 * self.points.len();
-        let views = self.observed.len();
-        let mut j = DMatrix::zeros(per_view * views, self.x.len());
-        let step = |v: f64| 1e-6 * v.abs().max(1e-3);
-        for k in 0..9 {
-            if self.fix_k3 && k == 8 {
-                continue;
-            }
-            let h = step(self.x[k]);
-            let (mut up, mut down) = (self.x.clone(), self.x.clone());
-            up[k] += h;
-            down[k] -= h;
-            let d = (self.residuals_at(&up)? - self.residuals_at(&down)?) / (2.0 * h);
-            j.set_column(k, &d);
-        }
-        for i in 0..views {
-            for k in 9 + 6 * i..9 + 6 * (i + 1) {
-                let h = step(self.x[k]);
-                let (mut up, mut down) = (self.x.clone(), self.x.clone());
-                up[k] += h;
-                down[k] -= h;
-                let (mut a, mut b) = (Vec::new(), Vec::new());
-                self.view_residuals(&up, i, &mut a)?;
-                self.view_residuals(&down, i, &mut b)?;
-                for (row, (a, b)) in a.iter().zip(&b).enumerate() {
-                    j[(i * per_view + row, k)] = (a - b) / (2.0 * h);
-                }
-            }
-        }
-        Some(j)
-    }
 }
