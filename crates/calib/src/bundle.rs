@@ -35,13 +35,25 @@ pub struct RigAdjustment {
     pub total_rms_px: f64,
 }
 
-/// Adjusts the cameras' poses and every board pose jointly, and with `intrinsics` also every
-/// camera's intrinsics (without, they stay as calibrated per camera, as OpenCV's
-/// `stereoCalibrate` with `CALIB_FIX_INTRINSIC` does).
+/// What the joint adjustment does with the cameras' intrinsics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JointIntrinsics {
+    /// They stay as calibrated per camera, as OpenCV's `stereoCalibrate` with
+    /// `CALIB_FIX_INTRINSIC` does.
+    Fixed,
+    /// They are refined too; with `fix_k3` every k3 stays as calibrated.
+    Refined {
+        /// Keep k3.
+        fix_k3: bool,
+    },
+}
+
+/// Adjusts the cameras' poses and every board pose jointly, and the intrinsics as
+/// `intrinsics` says.
 pub fn adjust_rig(
     board: &Board,
     cameras: &[RigCamera],
-    intrinsics: bool,
+    intrinsics: JointIntrinsics,
 ) -> Result<RigAdjustment, CalibError> {
     if cameras.is_empty() {
         return Err(CalibError::TooFewViews {
@@ -108,8 +120,8 @@ pub fn adjust_rig(
         points: board.points(),
         observations,
         cameras: cameras.len(),
-        free_intrinsics: intrinsics,
-        fix_k3: false,
+        free_intrinsics: intrinsics != JointIntrinsics::Fixed,
+        fix_k3: intrinsics == JointIntrinsics::Refined { fix_k3: true },
         x: DVector::from_vec(x),
     };
     let (problem, _) = LevenbergMarquardt::new()

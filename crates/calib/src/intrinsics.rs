@@ -198,7 +198,12 @@ fn solve(
     }
     let dof = (r.len() as f64 - x.len() as f64).max(1.0);
     let sigma2 = r.norm_squared() / dof;
-    let cov = (j.transpose() * &j).try_inverse();
+    let mut normal = j.transpose() * &j;
+    if settings.fix_k3 {
+        // k3's column is zero: give it a unit diagonal so the others' covariance exists.
+        normal[(8, 8)] = 1.0;
+    }
+    let cov = normal.try_inverse();
     let std_dev = std::array::from_fn(|k| match &cov {
         Some(c) if !(settings.fix_k3 && k == 8) => (sigma2 * c[(k, k)]).max(0.0).sqrt(),
         _ => 0.0,

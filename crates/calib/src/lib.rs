@@ -26,7 +26,7 @@ pub mod zhang;
 use thiserror::Error;
 
 pub use board::Board;
-pub use bundle::{RigAdjustment, RigCamera, adjust_rig};
+pub use bundle::{JointIntrinsics, RigAdjustment, RigCamera, adjust_rig};
 pub use detect::{Detection, detect};
 pub use extrinsics::{BoardPose, RelativePose, relative_pose};
 pub use intrinsics::{Calibration, CalibrationSettings, ViewResult, calibrate};

@@ -180,3 +180,38 @@ fn stereo_rig_relative_pose_matches_opencv() {
     }
     assert!(angle < 0.005, "rotation entries off by {angle}");
 }
+
+#[test]
+fn fixing_k3_keeps_it_zero_and_still_reports_standard_deviations() {
+    let Some(dir) = data("stereo-9x6") else {
+        return;
+    };
+    let board = Board::parse("9x6", 1.0).unwrap();
+    let (views, _, (w, h)) = detections(&dir, "left", &board);
+    let settings = CalibrationSettings {
+        fix_k3: true,
+        ..CalibrationSettings::default()
+    };
+    let cal = calibrate(&board, &views, w, h, &settings).unwrap();
+    assert_eq!(cal.intrinsics.distortion.to_opencv()[4], 0.0);
+    assert_eq!(cal.std_dev[8], 0.0);
+    for (k, sd) in cal.std_dev[..8].iter().enumerate() {
+        assert!(*sd > 0.0 && sd.is_finite(), "std_dev[{k}] = {sd}");
+    }
+    // The joint adjustment, refining intrinsics, keeps it too.
+    let rig = [flexshape_calib::RigCamera {
+        calibration: &cal,
+        views: &views,
+        pose: flexshape_calib::BoardPose {
+            rotation: nalgebra::Rotation3::identity(),
+            translation: nalgebra::Vector3::zeros(),
+        },
+    }];
+    let adjusted = flexshape_calib::adjust_rig(
+        &board,
+        &rig,
+        flexshape_calib::JointIntrinsics::Refined { fix_k3: true },
+    )
+    .unwrap();
+    assert_eq!(adjusted.intrinsics[0].distortion.to_opencv()[4], 0.0);
+}

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flexshape_calib::{
-    Board, BoardPose, Calibration, CalibrationSettings, Detection, RelativePose, adjust_rig,
-    calibrate, detect, relative_pose,
+    Board, BoardPose, Calibration, CalibrationSettings, Detection, JointIntrinsics, RelativePose,
+    adjust_rig, calibrate, detect, relative_pose,
 };
 use flexshape_camera::nalgebra::{Matrix3, Rotation3, Vector3};
 use flexshape_camera::{Camera, Pose};
@@ -133,7 +133,14 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
                 },
             })
             .collect();
-        match adjust_rig(&board, &rig, args.joint_intrinsics) {
+        let intrinsics = if args.joint_intrinsics {
+            JointIntrinsics::Refined {
+                fix_k3: args.fix_k3,
+            }
+        } else {
+            JointIntrinsics::Fixed
+        };
+        match adjust_rig(&board, &rig, intrinsics) {
             Ok(a) => {
                 for ((cal, _), k) in results.iter_mut().zip(&a.intrinsics) {
                     cal.intrinsics = k.clone();
