@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
+use flexshape_curve::Section;
 use flexshape_plot::{HistogramSeries, Mark, PALETTE, Series3, histograms, orthographic_views};
 use flexshape_track::{TrackArcFit, TrackRecord};
 use flexshape_validate::{AccuracyReport, PoseComparison};
@@ -152,20 +153,22 @@ pub fn precision(
     Ok(files)
 }
 
-/// Points of a circular-arc fit (1 mm apart), world mm.
+/// Points of a circular-arc fit (1 mm apart), world mm: the constant-curvature section in the
+/// plane of the base tangent (local y) and the bend direction (local z, where κx bends).
 fn arc_points(fit: &TrackArcFit) -> Vec<[f64; 3]> {
+    let section = Section {
+        length: fit.length,
+        kappa: [fit.curvature, 0.0],
+        strain: 0.0,
+    };
     let n = fit.length.max(1.0).ceil() as usize;
     (0..=n)
         .map(|i| {
-            let u = fit.length * i as f64 / n as f64;
-            let a = fit.curvature * u;
-            let (along, side) = if a.abs() < 1e-6 {
-                (u, 0.5 * fit.curvature * u * u)
-            } else {
-                (a.sin() / fit.curvature, (1.0 - a.cos()) / fit.curvature)
-            };
+            let p = section
+                .local_frame(fit.length * i as f64 / n as f64)
+                .position;
             std::array::from_fn(|c| {
-                fit.base[c] + fit.base_tangent[c] * along + fit.bend_direction[c] * side
+                fit.base[c] + fit.base_tangent[c] * p.y + fit.bend_direction[c] * p.z
             })
         })
         .collect()
