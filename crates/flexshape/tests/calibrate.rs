@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::flexshape;
+use common::{fails, run};
 
 use std::path::Path;
 
@@ -39,7 +39,7 @@ fn stereo_photographs_calibrate_into_a_rig() {
     std::fs::write(dir.path().join("left/99.jpg"), b"not a jpeg").unwrap();
     let out = dir.path().join("calibration");
     let arg = |cam: &str| format!("{cam}={}", dir.path().join(cam).display());
-    let o = flexshape(&[
+    let text = run(&[
         "calibrate",
         "--board",
         "9x6",
@@ -52,8 +52,6 @@ fn stereo_photographs_calibrate_into_a_rig() {
         "--out",
         out.to_str().unwrap(),
     ]);
-    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{text}");
     assert!(
         text.contains("rejected 99.jpg: cannot read the image"),
         "{text}"
@@ -105,9 +103,7 @@ fn stereo_photographs_calibrate_into_a_rig() {
         .sqrt();
     assert!(d < 0.5, "T {t:?} vs OpenCV {opencv:?}");
     // The rig loads back, with both cameras.
-    let o = flexshape(&["rig", "check", out.join("rig.toml").to_str().unwrap()]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(String::from_utf8_lossy(&o.stdout).contains("2 cameras"));
+    assert!(run(&["rig", "check", out.join("rig.toml").to_str().unwrap()]).contains("2 cameras"));
     for f in ["left.yml", "right.yml", "residuals.png", "residuals.svg"] {
         assert!(out.join(f).is_file(), "{f}");
     }
@@ -121,7 +117,7 @@ fn stereo_photographs_calibrate_into_a_rig() {
         )
         .unwrap();
     }
-    let o = flexshape(&[
+    let e = fails(&[
         "calibrate",
         "--board",
         "9x6",
@@ -134,19 +130,14 @@ fn stereo_photographs_calibrate_into_a_rig() {
         "--out",
         dir.path().join("x").to_str().unwrap(),
     ]);
-    assert!(!o.status.success());
-    assert!(
-        String::from_utf8_lossy(&o.stderr).contains("same file name"),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    assert!(e.contains("same file name"), "{e}");
 }
 
 #[test]
 fn simulated_chessboards_calibrate_to_the_true_rig() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path();
-    let o = flexshape(&[
+    run(&[
         "simulate",
         "chessboards",
         "--out",
@@ -156,7 +147,6 @@ fn simulated_chessboards_calibrate_to_the_true_rig() {
         "--shared",
         "3",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let images = |cam: &str| format!("{cam}={}", out.join("images").join(cam).display());
     let calibrate = |to: &Path, extra: &[&str]| {
         let (a, b, c) = (images("cam0"), images("cam1"), images("cam2"));
@@ -176,17 +166,12 @@ fn simulated_chessboards_calibrate_to_the_true_rig() {
         ];
         args.push(to.to_str().unwrap());
         args.extend_from_slice(extra);
-        let o = flexshape(&args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        run(&args);
     };
     let cal = out.join("calibration");
     calibrate(&cal, &[]);
     // Both rigs through `rig check`'s reading code: compare focal lengths and camera centres.
-    let read = |path: &Path| {
-        let o = flexshape(&["rig", "check", path.to_str().unwrap()]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        String::from_utf8_lossy(&o.stdout).to_string()
-    };
+    let read = |path: &Path| run(&["rig", "check", path.to_str().unwrap()]);
     let truth = read(&out.join("truth/rig.toml"));
     let got = read(&cal.join("rig.toml"));
     let numbers = |text: &str, key: &str| -> Vec<f64> {
@@ -280,7 +265,7 @@ fn calibration_input_errors_name_the_problem() {
     let images = format!("left={}", folder.display());
     let out = dir.path().join("out");
     let calibrate = |board: &str| {
-        let o = flexshape(&[
+        fails(&[
             "calibrate",
             "--board",
             board,
@@ -290,9 +275,7 @@ fn calibration_input_errors_name_the_problem() {
             &images,
             "--out",
             out.to_str().unwrap(),
-        ]);
-        assert!(!o.status.success());
-        String::from_utf8_lossy(&o.stderr).to_string()
+        ])
     };
     // Two views are too few.
     let e = calibrate("9x6");
