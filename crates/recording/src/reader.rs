@@ -1,7 +1,7 @@
 //! Reading a recording folder, checking its structure up front.
 
 use std::collections::BTreeSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use flexshape_rig::{Rig, Volume};
 use image::{GrayImage, RgbImage};
@@ -146,32 +146,16 @@ impl RecordingReader {
 
     /// Reads `truth/<frame>.json`, if present (simulated recordings).
     pub fn read_truth(&self, frame: u64) -> Result<Option<Truth>, RecordingError> {
-        let path = self.layout.truth(frame);
-        if !path.is_file() {
-            return Ok(None);
-        }
-        let text = std::fs::read(&path).map_err(|e| RecordingError::io(&path, e))?;
-        serde_json::from_slice(&text)
-            .map(Some)
-            .map_err(|e| RecordingError::Truth {
-                path,
-                message: e.to_string(),
-            })
+        read_json(self.layout.truth(frame), |path, message| {
+            RecordingError::Truth { path, message }
+        })
     }
 
     /// Reads `commands/<frame>.json`, if present (model experiments).
     pub fn read_command(&self, frame: u64) -> Result<Option<Command>, RecordingError> {
-        let path = self.layout.command(frame);
-        if !path.is_file() {
-            return Ok(None);
-        }
-        let text = std::fs::read(&path).map_err(|e| RecordingError::io(&path, e))?;
-        serde_json::from_slice(&text)
-            .map(Some)
-            .map_err(|e| RecordingError::Command {
-                path,
-                message: e.to_string(),
-            })
+        read_json(self.layout.command(frame), |path, message| {
+            RecordingError::Command { path, message }
+        })
     }
 
     /// Reads camera `cam`'s exact object mask of `frame`, if present (simulated recordings).
@@ -208,4 +192,18 @@ fn frame_number(path: &Path) -> Option<u64> {
         return None;
     }
     stem.parse().ok()
+}
+
+/// The JSON file at `path`, or `None` when there is none; `invalid` names a parse failure.
+fn read_json<T: serde::de::DeserializeOwned>(
+    path: PathBuf,
+    invalid: impl FnOnce(PathBuf, String) -> RecordingError,
+) -> Result<Option<T>, RecordingError> {
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let text = std::fs::read(&path).map_err(|e| RecordingError::io(&path, e))?;
+    serde_json::from_slice(&text)
+        .map(Some)
+        .map_err(|e| invalid(path, e.to_string()))
 }

@@ -98,25 +98,22 @@ impl RecordingWriter {
 
     /// Writes `truth/<frame:06>.json`.
     pub fn write_truth(&self, truth: &Truth) -> Result<(), RecordingError> {
-        let path = self.layout.truth(truth.frame);
-        let text = serde_json::to_vec(truth).map_err(|e| RecordingError::Truth {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
-        write_atomic(&path, &text)
+        write_json(&self.layout.truth(truth.frame), truth, |path, message| {
+            RecordingError::Truth { path, message }
+        })
     }
 
     /// Writes `commands/<frame:06>.json`.
     pub fn write_command(&self, command: &Command) -> Result<(), RecordingError> {
+        // `commands/` exists only in model experiments: made on first use.
         let path = self.layout.command(command.frame);
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir).map_err(|e| RecordingError::io(dir, e))?;
         }
-        let text = serde_json::to_vec(command).map_err(|e| RecordingError::Command {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
-        write_atomic(&path, &text)
+        write_json(&path, command, |path, message| RecordingError::Command {
+            path,
+            message,
+        })
     }
 
     /// Writes `truth/masks/<cam>/<frame:06>.png` (0 = background, 255 = object).
@@ -138,6 +135,16 @@ impl RecordingWriter {
     ) -> Result<(), RecordingError> {
         write_gray(&self.layout.truth_markers(cam, frame), mask)
     }
+}
+
+/// `value` as JSON at `path` (atomically); `invalid` names an encoding failure.
+fn write_json(
+    path: &Path,
+    value: &impl serde::Serialize,
+    invalid: impl FnOnce(PathBuf, String) -> RecordingError,
+) -> Result<(), RecordingError> {
+    let text = serde_json::to_vec(value).map_err(|e| invalid(path.to_path_buf(), e.to_string()))?;
+    write_atomic(path, &text)
 }
 
 fn write_rgb(path: &Path, image: &RgbImage) -> Result<(), RecordingError> {
