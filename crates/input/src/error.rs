@@ -1,0 +1,105 @@
+//! Errors of reading frames; each names the camera, file or frame and what to do.
+
+use std::path::PathBuf;
+
+use flexshape_recording::RecordingError;
+use thiserror::Error;
+
+/// A problem with the input.
+#[derive(Debug, Error)]
+pub enum InputError {
+    /// A recording's file.
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    /// A file or folder could not be read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// An image file could not be decoded.
+    #[error("{}: cannot decode image: {message}", path.display())]
+    Decode {
+        /// The image file.
+        path: PathBuf,
+        /// Decoder message.
+        message: String,
+    },
+    /// An image or video has another size than its camera's calibration.
+    #[error(
+        "{what}: {width}×{height} but camera `{camera}` is calibrated for {expected_width}×{expected_height}; use the calibrated camera's frames or recalibrate"
+    )]
+    Size {
+        /// The file, video or device.
+        what: String,
+        /// Camera name.
+        camera: String,
+        /// Width found.
+        width: u32,
+        /// Height found.
+        height: u32,
+        /// Calibrated width.
+        expected_width: u32,
+        /// Calibrated height.
+        expected_height: u32,
+    },
+    /// The input names other cameras than the rig, or none.
+    #[error("{0}")]
+    Cameras(String),
+    /// A plain image folder holds no frame that every camera has.
+    #[error("{0}")]
+    NoFrames(String),
+    /// The ffmpeg program is not installed.
+    #[error(
+        "reading {what} needs the `ffmpeg` program, which is not installed or not on PATH; install it ({})",
+        crate::FFMPEG_PACKAGE_HINT
+    )]
+    FfmpegMissing {
+        /// What was to be read.
+        what: String,
+    },
+    /// ffmpeg could not open or decode a camera's stream.
+    #[error("camera `{camera}`: ffmpeg cannot read {input}: {message}")]
+    Ffmpeg {
+        /// Camera name.
+        camera: String,
+        /// The file, device or URL.
+        input: String,
+        /// ffmpeg's own message, or what happened.
+        message: String,
+    },
+    /// One camera's video or stream ended before the others'.
+    #[error(
+        "camera `{camera}`: its input ended after {frames} frames while other cameras still had frames; the stream stops here (videos of one recording must have the same number of frames)"
+    )]
+    Ended {
+        /// Camera name.
+        camera: String,
+        /// Frames read from it.
+        frames: u64,
+    },
+}
+
+impl InputError {
+    /// True when no further frame can be read after this error (a broken stream), false when
+    /// it concerns one frame only.
+    pub fn ends_input(&self) -> bool {
+        matches!(
+            self,
+            InputError::FfmpegMissing { .. }
+                | InputError::Ffmpeg { .. }
+                | InputError::Ended { .. }
+                | InputError::Cameras(_)
+                | InputError::NoFrames(_)
+        )
+    }
+
+    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        InputError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,84 @@
+//! One frame set: an image per camera plus what the input knows about the frame.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use flexshape_recording::{Command, Truth};
+use image::RgbImage;
+
+use crate::InputError;
+
+/// One camera's image of a frame: decoded already (videos, cameras) or a file that the
+/// tracking worker decodes (so decoding runs in parallel with everything else).
+#[derive(Debug, Clone)]
+pub enum FrameImage {
+    /// 8-bit RGB pixels.
+    Decoded(RgbImage),
+    /// An image file (PNG, JPEG).
+    File(PathBuf),
+}
+
+impl FrameImage {
+    /// The pixels, checking the size against camera `camera`'s calibrated `size`.
+    pub fn load(self, camera: &str, size: (u32, u32)) -> Result<RgbImage, InputError> {
+        let (image, what) = match self {
+            FrameImage::Decoded(image) => (image, format!("frame of camera `{camera}`")),
+            FrameImage::File(path) => {
+                let bytes = std::fs::read(&path).map_err(|e| InputError::io(&path, e))?;
+                let image = image::load_from_memory(&bytes)
+                    .map_err(|e| InputError::Decode {
+                        path: path.clone(),
+                        message: e.to_string(),
+                    })?
+                    .to_rgb8();
+                (image, path.display().to_string())
+            }
+        };
+        if image.dimensions() != size {
+            return Err(InputError::Size {
+                what,
+                camera: camera.into(),
+                width: image.width(),
+                height: image.height(),
+                expected_width: size.0,
+                expected_height: size.1,
+            });
+        }
+        Ok(image)
+    }
+}
+
+/// The images of one instant, one per camera in the rig's order.
+#[derive(Debug, Clone)]
+pub struct FrameSet {
+    /// Frame number: the recording's, the position in a folder or video, or a running count
+    /// for live input.
+    pub frame: u64,
+    /// The input's own name of the frame, when it has one (a plain folder's file name).
+    pub name: Option<String>,
+    /// One image per camera.
+    pub images: Vec<FrameImage>,
+    /// When the frame was captured (live input: the oldest of the cameras' frames) or read.
+    pub captured: Instant,
+    /// The commanded tendon displacements (recordings of model experiments).
+    pub command: Option<Command>,
+    /// Ground truth (simulated recordings).
+    pub truth: Option<Truth>,
+    /// Problems that did not stop the frame (e.g. an unreadable command file).
+    pub warnings: Vec<String>,
+}
+
+impl FrameSet {
+    /// A frame set with only images.
+    pub fn new(frame: u64, images: Vec<FrameImage>) -> Self {
+        FrameSet {
+            frame,
+            name: None,
+            images,
+            captured: Instant::now(),
+            command: None,
+            truth: None,
+            warnings: Vec::new(),
+        }
+    }
+}

@@ -1,0 +1,46 @@
+//! Frames for tracking. A [`FrameSource`] hands out [`FrameSet`]s — one image per camera, in
+//! the rig's order — from a recording folder ([`RecordingSource`]), plain per-camera image
+//! folders ([`FolderSource`]), one video file per camera ([`VideoSource`]) or live cameras
+//! ([`LiveSource`]); the last two run the `ffmpeg` program. Offline sources hand out every
+//! frame; a live source always hands out the newest and counts the frames it had to drop.
+
+mod error;
+mod ffmpeg;
+mod folders;
+mod frame;
+mod live;
+mod recording;
+mod video;
+
+pub use error::InputError;
+pub use ffmpeg::{FFMPEG_PACKAGE_HINT, ffmpeg_available};
+pub use folders::{FolderSource, natural_order};
+pub use frame::{FrameImage, FrameSet};
+
+pub use live::{LiveCamera, LiveSource};
+pub use recording::RecordingSource;
+pub use video::{CameraVideo, VideoSource};
+
+/// Where frames come from.
+pub trait FrameSource: Send {
+    /// The next frame set; `None` at the end of the input. An `Err` whose
+    /// [`InputError::ends_input`] is false concerns one frame only (the caller records it and
+    /// asks for the next).
+    fn next_frame(&mut self) -> Option<Result<FrameSet, InputError>>;
+
+    /// Frames in the input, when known in advance (offline input).
+    fn len_hint(&self) -> Option<usize> {
+        None
+    }
+
+    /// True for live input (cameras): frames arrive on their own clock and the newest wins.
+    fn is_live(&self) -> bool {
+        false
+    }
+
+    /// Frame sets dropped so far because newer ones arrived before they were taken (live
+    /// input; the largest count over the cameras).
+    fn dropped(&self) -> u64 {
+        0
+    }
+}
