@@ -238,11 +238,39 @@ pub enum RigCommand {
 #[derive(Debug, Args)]
 pub struct TrackArgs {
     /// Recording folder (the layout `flexshape simulate` writes: rig.toml, calibration/,
-    /// background/, frames/).
-    pub recording: PathBuf,
+    /// background/, frames/). Or give the frames with `--images`, `--video` or `--camera`.
+    #[arg(required_unless_present_any = ["images", "video", "camera"])]
+    pub recording: Option<PathBuf>,
+    /// Plain image folder of one camera, NAME=DIR (repeat per camera): images with the same
+    /// file name in every folder make one frame, in natural order of the names.
+    #[arg(long, value_name = "NAME=DIR", value_parser = parse_named_path, conflicts_with_all = ["recording", "video", "camera"])]
+    pub images: Vec<(String, PathBuf)>,
+    /// Video file of one camera, NAME=FILE (repeat per camera), decoded by ffmpeg; the n-th
+    /// frames of all videos make frame n.
+    #[arg(long, value_name = "NAME=FILE", value_parser = parse_named_path, conflicts_with_all = ["recording", "images", "camera"])]
+    pub video: Vec<(String, PathBuf)>,
+    /// Live camera, NAME=INPUT (repeat per camera): a V4L2 device (/dev/video0), a stream URL,
+    /// or a video file played in real time; read by ffmpeg. Tracking always takes the newest
+    /// frame of every camera and counts the frames it drops.
+    #[arg(long, value_name = "NAME=INPUT", value_parser = parse_named_path, conflicts_with_all = ["recording", "images", "video"])]
+    pub camera: Vec<(String, PathBuf)>,
+    /// The rig: a rig TOML or a folder of OpenCV camera files (NAME.yml). Default: the
+    /// recording's rig.toml; needed with `--images`, `--video` and `--camera`.
+    #[arg(long, value_name = "FILE|DIR")]
+    pub rig: Option<PathBuf>,
+    /// Folder of background images, NAME.png per camera (`flexshape background` makes them).
+    /// Default: the recording's background/; needed with `--images`, `--video`, `--camera`.
+    #[arg(long, value_name = "DIR")]
+    pub backgrounds: Option<PathBuf>,
     /// Output file for the JSON Lines records; `-` for standard output.
     #[arg(long, default_value = "-")]
     pub out: PathBuf,
+    /// Also write a CSV summary, one row per frame (tip, arc length, curvature, …).
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Also write each frame's carved voxels as a PLY point cloud, DIR/NNNNNN.ply.
+    #[arg(long, value_name = "DIR")]
+    pub ply: Option<PathBuf>,
     /// Carving volume as XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in world mm (default: the rig's volume;
     /// a rig without one has the 256 mm cube centred on the origin).
     #[arg(long, value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", value_parser = parse_box)]
@@ -250,6 +278,22 @@ pub struct TrackArgs {
     /// Voxel edge in mm (default: the rig volume's).
     #[arg(long, value_name = "MM")]
     pub voxel: Option<f64>,
+    /// Frames processed at once (default: the number of cores).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    #[command(flatten)]
+    pub viewer: ViewerArgs,
+}
+
+/// The live web viewer.
+#[derive(Debug, Args)]
+pub struct ViewerArgs {
+    /// Serve the live viewer at ADDR (default 127.0.0.1:8080; port 0 picks a free port).
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8080")]
+    pub viewer: Option<String>,
+    /// Allow the viewer on a non-loopback address (anyone who can reach it sees the cameras).
+    #[arg(long)]
+    pub allow_remote: bool,
 }
 
 /// Settings of the simulated rig shared by `demo` and `simulate`.
@@ -417,4 +461,16 @@ fn parse_box(s: &str) -> Result<[f64; 6], String> {
         return Err(format!("each minimum must be below its maximum: {s}"));
     }
     Ok(b)
+}
+
+/// `NAME=PATH` → (NAME, PATH).
+fn parse_named_path(s: &str) -> Result<(String, PathBuf), String> {
+    match s.split_once('=') {
+        Some((name, path)) if !name.is_empty() && !path.is_empty() => {
+            Ok((name.to_string(), PathBuf::from(path)))
+        }
+        _ => Err(format!(
+            "`{s}` is not NAME=PATH (a camera name from the rig, then its input)"
+        )),
+    }
 }

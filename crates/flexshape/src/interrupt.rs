@@ -26,6 +26,11 @@ impl Interrupt {
         Interrupt(flag)
     }
 
+    /// The flag itself, for loops that poll it.
+    pub fn flag(&self) -> &AtomicBool {
+        &self.0
+    }
+
     /// True once Ctrl-C was pressed.
     pub fn requested(&self) -> bool {
         self.0.load(Ordering::SeqCst)

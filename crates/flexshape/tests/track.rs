@@ -122,3 +122,165 @@ fn track_reports_missing_input_clearly() {
     let o = flexshape(&["track", rec.to_str().unwrap(), "--volume", "1,2,3"]);
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("six numbers"));
 }
+
+/// The JSON Lines of a run: records, then the summary.
+fn read_lines(path: &std::path::Path) -> (Vec<Value>, Value) {
+    let mut lines: Vec<Value> = std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let summary = lines.pop().unwrap()["summary"].clone();
+    assert!(summary.is_object(), "the last line is the summary");
+    (lines, summary)
+}
+
+fn ffmpeg_or_skip() -> bool {
+    if flexshape_input::ffmpeg_available() {
+        return true;
+    }
+    assert!(
+        std::env::var("FLEXSHAPE_REQUIRE_FFMPEG").as_deref() != Ok("1"),
+        "FLEXSHAPE_REQUIRE_FFMPEG=1 but ffmpeg is not installed"
+    );
+    eprintln!("skipped the video part: ffmpeg is not installed (apt install ffmpeg)");
+    false
+}
+
+#[test]
+fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "4"]);
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    let (csv, ply) = (path("shapes.csv"), path("clouds"));
+    common::run(&[
+        "track",
+        r,
+        "--out",
+        &path("rec.jsonl"),
+        "--csv",
+        &csv,
+        "--ply",
+        &ply,
+        "--threads",
+        "3",
+    ]);
+    let (from_recording, summary) = read_lines(dir.path().join("rec.jsonl").as_path());
+    assert_eq!(summary["ok"], 4);
+    // CSV: a header and one row per frame with the record's tip.
+    let rows: Vec<String> = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .map(String::from)
+        .collect();
+    assert_eq!(rows.len(), 5);
+    assert!(rows[0].starts_with("frame,image,status,tip_x"));
+    let cells: Vec<&str> = rows[2].split(',').collect();
+    assert_eq!((cells[0], cells[2]), ("1", "ok"));
+    let tip_x: f64 = cells[3].parse().unwrap();
+    assert!((tip_x - from_recording[1]["tip"][0].as_f64().unwrap()).abs() < 1e-3);
+    // PLY: one cloud per frame with the record's voxel count.
+    let header = std::fs::read_to_string(dir.path().join("clouds/000002.ply")).unwrap();
+    let voxels = from_recording[2]["voxels"].as_u64().unwrap();
+    assert!(
+        header.contains(&format!("element vertex {voxels}\n")),
+        "PLY vertex count"
+    );
+
+    let rig = rec.join("rig.toml").display().to_string();
+    let bg = rec.join("background").display().to_string();
+    let cams = ["cam0", "cam1", "cam2"];
+    let folders: Vec<String> = cams
+        .iter()
+        .map(|c| format!("{c}={}", rec.join("frames").join(c).display()))
+        .collect();
+    let mut args = vec!["track", "--rig", &rig, "--backgrounds", &bg];
+    for f in &folders {
+        args.extend(["--images", f]);
+    }
+    let folder_out = path("folders.jsonl");
+    args.extend(["--out", &folder_out]);
+    common::run(&args);
+    let (from_folders, _) = read_lines(dir.path().join("folders.jsonl").as_path());
+    let same = |a: &[Value], b: &[Value], what: &str| {
+        assert_eq!(a.len(), b.len(), "{what}");
+        for (x, y) in a.iter().zip(b) {
+            assert_eq!(x["frame"], y["frame"], "{what}");
+            assert_eq!(
+                x["centerline"], y["centerline"],
+                "{what}: frame {}",
+                x["frame"]
+            );
+        }
+    };
+    same(&from_recording, &from_folders, "image folders");
+    assert_eq!(from_folders[3]["image"], "000003");
+
+    // Without a rig or backgrounds, or with a camera missing: clear errors.
+    let e = common::fails(&["track", "--images", &folders[0]]);
+    assert!(e.contains("--rig"), "{e}");
+    let e = common::fails(&["track", "--rig", &rig, "--images", &folders[0]]);
+    assert!(e.contains("--backgrounds"), "{e}");
+    let e = common::fails(&[
+        "track",
+        "--rig",
+        &rig,
+        "--backgrounds",
+        &bg,
+        "--images",
+        &folders[0],
+    ]);
+    assert!(
+        e.contains("camera `cam1`") && e.contains("--images cam1="),
+        "{e}"
+    );
+
+    if !ffmpeg_or_skip() {
+        return;
+    }
+    // One lossless video per camera gives exactly the recording's shapes.
+    let videos: Vec<String> = cams
+        .iter()
+        .map(|c| {
+            let video = dir.path().join(format!("{c}.mkv"));
+            let status = std::process::Command::new("ffmpeg")
+                .args(["-y", "-loglevel", "error", "-framerate", "10", "-i"])
+                .arg(rec.join("frames").join(c).join("%06d.png"))
+                .args(["-c:v", "png"])
+                .arg(&video)
+                .status()
+                .unwrap();
+            assert!(status.success());
+            format!("{c}={}", video.display())
+        })
+        .collect();
+    let mut args = vec!["track", "--rig", &rig, "--backgrounds", &bg];
+    for v in &videos {
+        args.extend(["--video", v]);
+    }
+    let video_out = path("videos.jsonl");
+    args.extend(["--out", &video_out]);
+    common::run(&args);
+    let (from_videos, _) = read_lines(dir.path().join("videos.jsonl").as_path());
+    same(&from_recording, &from_videos, "videos");
+
+    // The same videos as live cameras (played in real time): every record it writes is a
+    // good shape, and frames taken plus frames dropped are the video's.
+    let mut args = vec!["track", "--rig", &rig, "--backgrounds", &bg];
+    for v in &videos {
+        args.extend(["--camera", v]);
+    }
+    let live_out = path("live.jsonl");
+    args.extend(["--out", &live_out]);
+    common::run(&args);
+    let (live, summary) = read_lines(dir.path().join("live.jsonl").as_path());
+    assert!(!live.is_empty());
+    assert!(
+        live.iter()
+            .all(|r| r["status"] == "ok" && r["latency_ms"].as_f64().unwrap() > 0.0)
+    );
+    let taken = summary["frames"].as_u64().unwrap() + summary["dropped"].as_u64().unwrap();
+    assert!(taken <= 4, "{summary}");
+}

@@ -3,6 +3,7 @@
 
 mod pipeline;
 mod record;
+mod runner;
 
 use flexshape_carve::CarveError;
 use flexshape_shape::ShapeError;
@@ -11,9 +12,10 @@ use thiserror::Error;
 
 pub use pipeline::{Pipeline, StageTimings, Tracked};
 pub use record::{
-    StageSummary, SummaryLine, TrackArcFit, TrackBand, TrackCompression, TrackRecord, TrackSummary,
-    quantile, stage_summaries,
+    StageSummary, SummaryLine, Tally, TrackArcFit, TrackBand, TrackCompression, TrackRecord,
+    TrackSummary, quantile, stage_summaries,
 };
+pub use runner::{Processed, RunEnd, run};
 
 /// Why a frame (or the pipeline's setup) failed.
 #[derive(Debug, Error)]

@@ -123,6 +123,19 @@ impl Pipeline {
         &self.names
     }
 
+    /// The calibrated image size (width, height) of every camera, in order.
+    pub fn image_sizes(&self) -> Vec<(u32, u32)> {
+        self.cameras
+            .iter()
+            .map(|c| (c.intrinsics.width, c.intrinsics.height))
+            .collect()
+    }
+
+    /// The cameras, in order.
+    pub fn cameras(&self) -> &[Camera] {
+        &self.cameras
+    }
+
     /// The carved volume.
     pub fn volume(&self) -> &Volume {
         self.carver.volume()

@@ -7,6 +7,7 @@ use flexshape_shape::Status;
 use serde::{Deserialize, Serialize};
 
 use crate::pipeline::{StageTimings, Tracked};
+use crate::runner::{Processed, RunEnd};
 
 /// A band on the centerline.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -74,6 +75,12 @@ pub struct TrackRecord {
     /// The frame's role in a model experiment, with `tendon_displacements`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub role: Option<PoseRole>,
+    /// The input's name of the frame (plain image folders: the file name without extension).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image: Option<String>,
+    /// From capture (live) or reading (offline) to the end of the chain, ms.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub latency_ms: Option<f64>,
 }
 
 /// A measured axial strain.
@@ -152,6 +159,8 @@ impl TrackRecord {
                 .collect(),
             tendon_displacements: None,
             role: None,
+            image: None,
+            latency_ms: None,
         }
     }
 
@@ -162,6 +171,20 @@ impl TrackRecord {
             self.role = Some(c.role);
         }
         self
+    }
+
+    /// The record of a frame from the runner: its shape or its error, command, name and
+    /// latency.
+    pub fn from_processed(p: &Processed) -> Self {
+        let record = match &p.result {
+            Ok(t) => TrackRecord::from_tracked(p.frame, t),
+            Err(e) => TrackRecord::error(p.frame, e.clone()),
+        };
+        TrackRecord {
+            image: p.name.clone(),
+            latency_ms: Some(p.latency_ms),
+            ..record.with_command(p.command.clone())
+        }
     }
 
     /// The record of a frame that could not be processed.
@@ -182,6 +205,8 @@ impl TrackRecord {
             compression: Vec::new(),
             tendon_displacements: None,
             role: None,
+            image: None,
+            latency_ms: None,
         }
     }
 }
@@ -195,6 +220,85 @@ pub struct StageSummary {
     pub median_ms: f64,
     /// 95th percentile, ms.
     pub p95_ms: f64,
+}
+
+/// Counts and times of a run so far, for progress and the summary.
+#[derive(Debug, Clone)]
+pub struct Tally {
+    started: std::time::Instant,
+    timings: Vec<StageTimings>,
+    latencies: Vec<f64>,
+    ok: usize,
+    errors: usize,
+    frames: usize,
+}
+
+impl Default for Tally {
+    fn default() -> Self {
+        Tally {
+            started: std::time::Instant::now(),
+            timings: Vec::new(),
+            latencies: Vec::new(),
+            ok: 0,
+            errors: 0,
+            frames: 0,
+        }
+    }
+}
+
+impl Tally {
+    /// Starts counting now.
+    pub fn new() -> Self {
+        Tally::default()
+    }
+
+    /// Counts one record.
+    pub fn add(&mut self, record: &TrackRecord) {
+        self.frames += 1;
+        match record.status.as_str() {
+            "ok" => self.ok += 1,
+            "error" => self.errors += 1,
+            _ => {}
+        }
+        if record.status != "error" {
+            self.timings.push(record.timings_ms);
+        }
+        if let Some(l) = record.latency_ms {
+            self.latencies.push(l);
+        }
+    }
+
+    /// Frames counted.
+    pub fn frames(&self) -> usize {
+        self.frames
+    }
+
+    /// Seconds since the tally started.
+    pub fn seconds(&self) -> f64 {
+        self.started.elapsed().as_secs_f64()
+    }
+
+    /// The summary of the run, given how it ended.
+    pub fn summary(&self, end: &RunEnd) -> TrackSummary {
+        let seconds = self.seconds();
+        let mut latencies = self.latencies.clone();
+        TrackSummary {
+            frames: self.frames,
+            ok: self.ok,
+            errors: self.errors,
+            stopped: end.stopped || end.input_error.is_some(),
+            seconds,
+            fps: self.frames as f64 / seconds.max(1e-9),
+            stages: stage_summaries(&self.timings),
+            dropped: end.dropped,
+            latency_ms: (!latencies.is_empty()).then(|| StageSummary {
+                stage: "latency".into(),
+                median_ms: quantile(&mut latencies, 0.5),
+                p95_ms: quantile(&mut latencies, 0.95),
+            }),
+            input_error: end.input_error.as_ref().map(|e| e.to_string()),
+        }
+    }
 }
 
 /// The last line of a run: `{"summary": {…}}`.
@@ -214,29 +318,15 @@ pub struct TrackSummary {
     pub fps: f64,
     /// Per-stage times.
     pub stages: Vec<StageSummary>,
-}
-
-impl TrackSummary {
-    /// Summarises per-frame timings.
-    pub fn new(
-        records: &[StageTimings],
-        ok: usize,
-        errors: usize,
-        stopped: bool,
-        seconds: f64,
-    ) -> Self {
-        let frames = records.len() + errors;
-        let stages = stage_summaries(records);
-        TrackSummary {
-            frames,
-            ok,
-            errors,
-            stopped,
-            seconds,
-            fps: frames as f64 / seconds.max(1e-9),
-            stages,
-        }
-    }
+    /// Frame sets a live input dropped because newer ones arrived first.
+    #[serde(default)]
+    pub dropped: u64,
+    /// From capture or reading to the end of the chain.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub latency_ms: Option<StageSummary>,
+    /// The input error that ended the stream early, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input_error: Option<String>,
 }
 
 /// The summary as its own line.

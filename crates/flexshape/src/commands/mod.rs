@@ -13,6 +13,7 @@ mod silhouettes;
 mod simulate;
 mod track;
 mod validate;
+mod viewer;
 
 use flexshape_sim::{Catheter, RenderSettings, SimConfig, SimRigConfig};
 
@@ -72,4 +73,9 @@ fn sim_config(args: &SimArgs) -> SimConfig {
         occluders: args.occluders,
         seed: args.seed,
     }
+}
+
+/// Cores available to this process (at least 1).
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
 }

@@ -1,36 +1,243 @@
-//! `flexshape track`: every frame of a recording through the sensing chain, as JSON Lines.
+//! `flexshape track`: every frame of a recording, image folders, videos or live cameras through
+//! the sensing chain, as JSON Lines (plus optional CSV rows, PLY clouds and the live viewer).
 //!
-//! Each record is written whole and flushed before the next frame is read. A frame that cannot
-//! be read or processed gets a record with status `error` and the run goes on; Ctrl-C stops
-//! after the current frame. The last line is always the summary.
+//! Each record is written whole and flushed as soon as its frame is done; frames are processed
+//! several at a time but written in input order. A frame that cannot be read or processed gets
+//! a record with status `error` and the run goes on; Ctrl-C or a broken input stops taking
+//! frames, the frames in flight are still written, and the last line is always the summary.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::Path;
-use std::time::Instant;
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
+use flexshape_input::{FolderSource, FrameSource, LiveSource, RecordingSource, VideoSource};
 use flexshape_recording::RecordingReader;
-use flexshape_rig::Volume;
+use flexshape_rig::{Rig, Volume};
 use flexshape_silhouette::BackgroundModel;
-use flexshape_track::{Pipeline, SummaryLine, TrackRecord, TrackSummary};
+use flexshape_track::{Pipeline, Processed, SummaryLine, Tally, TrackRecord};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use crate::cli::TrackArgs;
 use crate::interrupt::Interrupt;
 
+/// The rig, its backgrounds and where frames come from.
+struct Input {
+    rig: Rig,
+    /// What to name when the rig is wrong.
+    rig_name: String,
+    backgrounds: Vec<BackgroundModel>,
+    source: Box<dyn FrameSource>,
+}
+
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let stop = Interrupt::install();
-    let rec = RecordingReader::open(&args.recording)
-        .with_context(|| format!("cannot open the recording {}", args.recording.display()))?;
-    let rig = rec.rig();
-    let volume = volume(&rig.volume, args)?;
-    let backgrounds = rig
-        .cameras
+    let mut input = open_input(args)?;
+    let volume = volume(&input.rig.volume, args)?;
+    let pipeline = Pipeline::new(&input.rig, &input.backgrounds, &volume)
+        .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
+    let mut sinks = Sinks::open(args)?;
+    let mut viewer = super::viewer::start(&args.viewer, &pipeline)?;
+    let bar = progress(input.source.as_ref());
+    let mut tally = Tally::new();
+    let mut failure = None;
+    let threads = args.threads.unwrap_or_else(super::cores);
+    let end = flexshape_track::run(
+        input.source.as_mut(),
+        &pipeline,
+        threads,
+        stop.flag(),
+        |p: Processed| {
+            let record = TrackRecord::from_processed(&p);
+            for w in &p.warnings {
+                bar.suspend(|| eprintln!("frame {:06}: {w}", p.frame));
+            }
+            if record.status == "error" {
+                let reason = record.reason.as_deref().unwrap_or("");
+                bar.suspend(|| eprintln!("frame {:06}: {reason}", p.frame));
+            }
+            tally.add(&record);
+            bar.inc(1);
+            if let Err(e) = sinks.write(&record, &p) {
+                failure = Some(e);
+                return ControlFlow::Break(());
+            }
+            if let Some(v) = &mut viewer {
+                v.publish(p, record, None);
+            }
+            ControlFlow::Continue(())
+        },
+    );
+    bar.finish_and_clear();
+    let summary = tally.summary(&end);
+    sinks.out.write(&SummaryLine {
+        summary: summary.clone(),
+    })?;
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    eprintln!(
+        "{} frames ({} ok, {} errors{}{}) in {:.2} s, {:.1} frames/s{}; median ms: {}",
+        summary.frames,
+        summary.ok,
+        summary.errors,
+        if input.source.is_live() {
+            format!(", {} dropped", summary.dropped)
+        } else {
+            String::new()
+        },
+        if end.stopped { ", stopped early" } else { "" },
+        summary.seconds,
+        summary.fps,
+        summary
+            .latency_ms
+            .as_ref()
+            .map(|l| format!(
+                ", latency {:.1} ms median / {:.1} ms p95",
+                l.median_ms, l.p95_ms
+            ))
+            .unwrap_or_default(),
+        summary
+            .stages
+            .iter()
+            .map(|s| format!("{} {:.2}", s.stage, s.median_ms))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    if let Some(e) = end.input_error {
+        bail!("the input broke after {} frames: {e}", summary.frames);
+    }
+    Ok(())
+}
+
+fn progress(source: &dyn FrameSource) -> ProgressBar {
+    let (bar, template) = match source.len_hint() {
+        Some(n) => (
+            ProgressBar::new(n as u64),
+            "tracking [{bar:40}] {pos}/{len} frames, {per_sec}, eta {eta}",
+        ),
+        None => (
+            ProgressBar::new_spinner(),
+            "tracking {spinner} {pos} frames, {per_sec}",
+        ),
+    };
+    bar.with_style(
+        ProgressStyle::with_template(template)
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    )
+}
+
+/// The rig, backgrounds and frame source the arguments name.
+fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
+    if let Some(dir) = &args.recording {
+        let rec = RecordingReader::open(dir)
+            .with_context(|| format!("cannot open the recording {}", dir.display()))?;
+        let mut rig = rec.rig().clone();
+        let mut rig_name = rec.layout().rig().display().to_string();
+        if let Some(path) = &args.rig {
+            let other = load_rig(path)?;
+            let names = |r: &Rig| r.cameras.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
+            if names(&other) != names(&rig) {
+                bail!(
+                    "--rig {} has cameras {:?} but the recording has {:?}; give a rig of the same cameras",
+                    path.display(),
+                    names(&other),
+                    names(&rig)
+                );
+            }
+            (rig, rig_name) = (other, path.display().to_string());
+        }
+        let backgrounds = match &args.backgrounds {
+            Some(dir) => load_backgrounds(&rig, |name| dir.join(format!("{name}.png")))?,
+            None => load_backgrounds(&rig, |name| rec.layout().background(name))?,
+        };
+        return Ok(Input {
+            rig,
+            rig_name,
+            backgrounds,
+            source: Box::new(RecordingSource::new(rec)),
+        });
+    }
+    let what = if !args.images.is_empty() {
+        "--images"
+    } else if !args.video.is_empty() {
+        "--video"
+    } else {
+        "--camera"
+    };
+    let Some(rig_path) = &args.rig else {
+        bail!("{what} needs the rig: give --rig RIG.toml or --rig CALIBRATION_DIR");
+    };
+    let rig = load_rig(rig_path)?;
+    let Some(bg_dir) = &args.backgrounds else {
+        bail!(
+            "{what} needs a background image per camera: give --backgrounds DIR holding NAME.png for each camera (make them with `flexshape background`)"
+        );
+    };
+    let backgrounds = load_backgrounds(&rig, |name| bg_dir.join(format!("{name}.png")))?;
+    let size = |name: &str| {
+        rig.camera(name)
+            .map(|c| (c.camera.intrinsics.width, c.camera.intrinsics.height))
+    };
+    let source: Box<dyn FrameSource> = if !args.images.is_empty() {
+        let folders = per_camera(&rig, &args.images, what)?;
+        let source = FolderSource::open(&folders)?;
+        if !source.unpaired().is_empty() {
+            eprintln!(
+                "left out {} images not present for every camera: {}",
+                source.unpaired().len(),
+                source.unpaired().join(", ")
+            );
+        }
+        Box::new(source)
+    } else if !args.video.is_empty() {
+        let videos: Vec<_> = per_camera(&rig, &args.video, what)?
+            .into_iter()
+            .map(|(name, path)| {
+                let s = size(&name).unwrap_or_default();
+                (name, path, s)
+            })
+            .collect();
+        Box::new(VideoSource::open(&videos)?)
+    } else {
+        let cameras: Vec<_> = per_camera(&rig, &args.camera, what)?
+            .into_iter()
+            .map(|(name, input)| {
+                let s = size(&name).unwrap_or_default();
+                (name, input.display().to_string(), s)
+            })
+            .collect();
+        Box::new(LiveSource::open(&cameras)?)
+    };
+    Ok(Input {
+        rig,
+        rig_name: rig_path.display().to_string(),
+        backgrounds,
+        source,
+    })
+}
+
+/// A rig TOML, or a folder of OpenCV camera files (with the default volume).
+fn load_rig(path: &Path) -> anyhow::Result<Rig> {
+    if path.is_dir() {
+        Rig::from_calibration_dir(path, Volume::default())
+    } else {
+        Rig::load(path)
+    }
+    .with_context(|| format!("{} is not a valid rig", path.display()))
+}
+
+fn load_backgrounds(
+    rig: &Rig,
+    path_of: impl Fn(&str) -> PathBuf,
+) -> anyhow::Result<Vec<BackgroundModel>> {
+    rig.cameras
         .iter()
         .map(|cam| {
-            let path = rec.layout().background(&cam.name);
+            let path = path_of(&cam.name);
             BackgroundModel::load(&path).with_context(|| {
                 format!(
                     "camera {}: tracking needs its background image {} (make one with `flexshape background`)",
@@ -39,86 +246,45 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
                 )
             })
         })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let pipeline = Pipeline::new(rig, &backgrounds, &volume).with_context(|| {
-        format!(
-            "cannot set up tracking for {}",
-            rec.layout().rig().display()
-        )
-    })?;
-    let mut out = Output::open(&args.out)?;
-    let frames = rec.frames().to_vec();
-    let bar = ProgressBar::new(frames.len() as u64).with_style(
-        ProgressStyle::with_template(
-            "tracking [{bar:40}] {pos}/{len} frames, {per_sec}, eta {eta}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar())
-        .progress_chars("=> "),
-    );
-    let start = Instant::now();
-    let (mut timings, mut ok, mut errors, mut stopped) = (Vec::new(), 0, 0, false);
-    for &frame in &frames {
-        if stop.requested() {
-            stopped = true;
-            break;
+        .collect()
+}
+
+/// The inputs in the rig's camera order, each camera exactly once.
+fn per_camera(
+    rig: &Rig,
+    given: &[(String, PathBuf)],
+    what: &str,
+) -> anyhow::Result<Vec<(String, PathBuf)>> {
+    for (name, _) in given {
+        if rig.camera(name).is_none() {
+            bail!(
+                "{what} {name}=…: the rig has no camera `{name}` (its cameras: {})",
+                rig.cameras
+                    .iter()
+                    .map(|c| c.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
         }
-        let images: Result<Vec<_>, _> = (0..rig.cameras.len())
-            .map(|cam| rec.read_frame(cam, frame))
-            .collect();
-        let record = match images {
-            Err(e) => TrackRecord::error(frame, format!("cannot read the frame: {e}")),
-            Ok(images) => match pipeline.process(&images.iter().collect::<Vec<_>>()) {
-                Ok(t) => {
-                    timings.push(t.timings);
-                    TrackRecord::from_tracked(frame, &t)
-                }
-                Err(e) => TrackRecord::error(frame, e.to_string()),
-            },
-        };
-        let record = match rec.read_command(frame) {
-            Ok(command) => record.with_command(command),
-            Err(e) => {
-                bar.suspend(|| eprintln!("frame {frame:06}: {e}; its command is left out"));
-                record
-            }
-        };
-        match record.status.as_str() {
-            "ok" => ok += 1,
-            "error" => {
-                errors += 1;
-                bar.suspend(|| {
-                    eprintln!(
-                        "frame {frame:06}: {}",
-                        record.reason.as_deref().unwrap_or("")
-                    )
-                });
-            }
-            _ => {}
+        if given.iter().filter(|(n, _)| n == name).count() > 1 {
+            bail!("{what} names camera `{name}` twice");
         }
-        out.write(&record)?;
-        bar.inc(1);
     }
-    bar.finish_and_clear();
-    let summary = TrackSummary::new(&timings, ok, errors, stopped, start.elapsed().as_secs_f64());
-    out.write(&SummaryLine {
-        summary: summary.clone(),
-    })?;
-    eprintln!(
-        "{} frames ({} ok, {} errors{}) in {:.2} s, {:.1} frames/s; median ms: {}",
-        summary.frames,
-        summary.ok,
-        summary.errors,
-        if stopped { ", stopped early" } else { "" },
-        summary.seconds,
-        summary.fps,
-        summary
-            .stages
-            .iter()
-            .map(|s| format!("{} {:.2}", s.stage, s.median_ms))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    Ok(())
+    rig.cameras
+        .iter()
+        .map(|c| {
+            given
+                .iter()
+                .find(|(n, _)| *n == c.name)
+                .cloned()
+                .with_context(|| {
+                    format!(
+                        "camera `{}` of the rig has no input: give {what} {}=…",
+                        c.name, c.name
+                    )
+                })
+        })
+        .collect()
 }
 
 /// The volume to carve: the rig's, or the one given on the command line.
@@ -135,7 +301,82 @@ fn volume(rig: &Volume, args: &TrackArgs) -> anyhow::Result<Volume> {
     Volume::from_bounds(min, max, voxel).context("invalid --volume / --voxel")
 }
 
-/// The JSON Lines sink: a file or standard output, flushed after every record.
+/// Where records go: the JSON Lines stream, and optionally CSV rows and PLY clouds.
+struct Sinks {
+    out: Output,
+    csv: Option<Output>,
+    ply: Option<PathBuf>,
+}
+
+const CSV_HEADER: &str = "frame,image,status,tip_x,tip_y,tip_z,tip_dx,tip_dy,tip_dz,arc_length_mm,curvature_per_mm,bands,voxels,latency_ms,silhouettes_ms,carve_ms,bands_ms,shape_ms";
+
+impl Sinks {
+    fn open(args: &TrackArgs) -> anyhow::Result<Self> {
+        let out = Output::open(&args.out)?;
+        let csv = match &args.csv {
+            Some(path) => {
+                let mut csv = Output::open(path)?;
+                csv.line(CSV_HEADER)?;
+                Some(csv)
+            }
+            None => None,
+        };
+        if let Some(dir) = &args.ply {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create the PLY folder {}", dir.display()))?;
+        }
+        Ok(Sinks {
+            out,
+            csv,
+            ply: args.ply.clone(),
+        })
+    }
+
+    fn write(&mut self, record: &TrackRecord, p: &Processed) -> anyhow::Result<()> {
+        self.out.write(record)?;
+        if let Some(csv) = &mut self.csv {
+            csv.line(&csv_row(record))?;
+        }
+        if let (Some(dir), Ok(t)) = (&self.ply, &p.result) {
+            let path = dir.join(format!("{:06}.ply", record.frame));
+            t.occupancy
+                .to_cloud_with_bands(&t.bands)
+                .write_ply(&path)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        Ok(())
+    }
+}
+
+fn csv_row(r: &TrackRecord) -> String {
+    let opt3 = |v: Option<[f64; 3]>| match v {
+        Some([x, y, z]) => format!("{x:.4},{y:.4},{z:.4}"),
+        None => ",,".into(),
+    };
+    let t = r.timings_ms;
+    format!(
+        "{},{},{},{},{},{:.4},{},{},{},{},{:.3},{:.3},{:.3},{:.3}",
+        r.frame,
+        r.image.as_deref().unwrap_or("").replace(',', ";"),
+        r.status,
+        opt3(r.tip),
+        opt3(r.tip_direction),
+        r.arc_length,
+        r.arc_fit
+            .as_ref()
+            .map(|f| format!("{:.7}", f.curvature))
+            .unwrap_or_default(),
+        r.bands.len(),
+        r.voxels,
+        r.latency_ms.map(|l| format!("{l:.3}")).unwrap_or_default(),
+        t.silhouettes,
+        t.carve,
+        t.bands,
+        t.shape
+    )
+}
+
+/// A line sink: a file or standard output, flushed after every line.
 struct Output {
     name: String,
     sink: Box<dyn Write>,
@@ -150,7 +391,7 @@ impl Output {
             });
         }
         if path.is_dir() {
-            bail!("--out {} is a folder; give a file name", path.display());
+            bail!("{} is a folder; give a file name", path.display());
         }
         let file =
             File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
@@ -161,10 +402,14 @@ impl Output {
     }
 
     fn write(&mut self, record: &impl Serialize) -> anyhow::Result<()> {
-        let mut line = serde_json::to_string(record).context("cannot encode a record")?;
-        line.push('\n');
+        let line = serde_json::to_string(record).context("cannot encode a record")?;
+        self.line(&line)
+    }
+
+    fn line(&mut self, line: &str) -> anyhow::Result<()> {
         self.sink
             .write_all(line.as_bytes())
+            .and_then(|_| self.sink.write_all(b"\n"))
             .and_then(|_| self.sink.flush())
             .with_context(|| format!("cannot write to {}", self.name))
     }

@@ -1,0 +1,224 @@
+//! Frames in flight: workers take frame sets from a [`FrameSource`], decode them and run the
+//! [`Pipeline`]; the caller's sink gets the results in input order. Queues are bounded: no
+//! more than `window` frames are taken ahead of the last one handed to the sink, so a slow
+//! sink slows the input instead of filling memory. Offline input is processed whole; live
+//! input always yields its newest frames (the source drops and counts the rest).
+
+use std::collections::BTreeMap;
+use std::ops::ControlFlow;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::sync::{Condvar, Mutex};
+use std::time::Instant;
+
+use flexshape_input::{FrameSet, FrameSource, InputError};
+use flexshape_recording::{Command, Truth};
+use image::RgbImage;
+use rayon::prelude::*;
+
+use crate::{Pipeline, Tracked};
+
+/// One frame set after the chain, in input order.
+#[derive(Debug)]
+pub struct Processed {
+    /// Frame number (the input's).
+    pub frame: u64,
+    /// The input's name of the frame, if any.
+    pub name: Option<String>,
+    /// Commanded tendon displacements, if the input has them.
+    pub command: Option<Command>,
+    /// Ground truth, if the input has it.
+    pub truth: Option<Truth>,
+    /// Problems that did not stop the frame.
+    pub warnings: Vec<String>,
+    /// The decoded images, one per camera (empty when they could not be read).
+    pub images: Vec<RgbImage>,
+    /// What the chain gave, or why the frame failed.
+    pub result: Result<Tracked, String>,
+    /// When the frame was captured (live) or read (offline).
+    pub captured: Instant,
+    /// From capture or reading to the end of the chain, ms.
+    pub latency_ms: f64,
+    /// Frame sets the (live) source had dropped when this one was taken.
+    pub dropped: u64,
+}
+
+/// How a run ended.
+#[derive(Debug, Default)]
+pub struct RunEnd {
+    /// Frame sets handed to the sink.
+    pub frames: u64,
+    /// Frame sets the live source dropped.
+    pub dropped: u64,
+    /// True when stopped by the flag or the sink before the input ended.
+    pub stopped: bool,
+    /// The error that ended the input early, if any.
+    pub input_error: Option<InputError>,
+}
+
+/// Frame-taking state shared by the workers.
+struct Window {
+    taken: u64,
+    handed: u64,
+    closed: bool,
+}
+
+/// The source and what it said last, behind one lock.
+struct Puller<'a, S: ?Sized> {
+    source: &'a mut S,
+    ended: bool,
+    error: Option<InputError>,
+}
+
+/// Runs every frame of `source` through `pipeline` on `workers` threads (at least 1), handing
+/// each result to `sink` in input order. Stops taking frames when `stop` is set or the sink
+/// breaks; frames already taken still reach the sink, so nothing processed is lost.
+pub fn run<S: FrameSource + ?Sized>(
+    source: &mut S,
+    pipeline: &Pipeline,
+    workers: usize,
+    stop: &AtomicBool,
+    mut sink: impl FnMut(Processed) -> ControlFlow<()>,
+) -> RunEnd {
+    let workers = workers.max(1);
+    let window_len = (2 * workers) as u64;
+    let window = Mutex::new(Window {
+        taken: 0,
+        handed: 0,
+        closed: false,
+    });
+    let moved = Condvar::new();
+    let puller = Mutex::new(Puller {
+        source,
+        ended: false,
+        error: None,
+    });
+    let (tx, rx) = mpsc::channel::<(u64, Processed)>();
+    let mut end = RunEnd::default();
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            let tx = tx.clone();
+            let (window, moved, puller) = (&window, &moved, &puller);
+            scope.spawn(move || {
+                while let Some((seq, set, dropped)) = take(window, moved, puller, stop, window_len)
+                {
+                    if tx.send((seq, process(pipeline, set, dropped))).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+        drop(tx);
+        let mut pending = BTreeMap::new();
+        let mut next = 0u64;
+        for (seq, processed) in rx {
+            pending.insert(seq, processed);
+            while let Some(p) = pending.remove(&next) {
+                next += 1;
+                end.frames += 1;
+                let flow = sink(p);
+                let Ok(mut w) = window.lock() else { return };
+                w.handed = next;
+                if flow.is_break() {
+                    w.closed = true;
+                    end.stopped = true;
+                }
+                drop(w);
+                moved.notify_all();
+            }
+        }
+    });
+    if let Ok(p) = puller.into_inner() {
+        end.dropped = p.source.dropped();
+        end.input_error = p.error;
+        end.stopped |= !p.ended && end.input_error.is_none();
+    }
+    end
+}
+
+/// Takes the next frame set when the window allows; `None` when the run is over.
+fn take<S: FrameSource + ?Sized>(
+    window: &Mutex<Window>,
+    moved: &Condvar,
+    puller: &Mutex<Puller<'_, S>>,
+    stop: &AtomicBool,
+    window_len: u64,
+) -> Option<(u64, FrameSet, u64)> {
+    {
+        let mut w = window.lock().ok()?;
+        while w.taken >= w.handed + window_len && !w.closed && !stop.load(Ordering::SeqCst) {
+            w = moved.wait(w).ok()?;
+        }
+        if w.closed || stop.load(Ordering::SeqCst) {
+            return None;
+        }
+    }
+    let mut p = puller.lock().ok()?;
+    if p.ended || p.error.is_some() {
+        return None;
+    }
+    let next = p.source.next_frame();
+    let mut w = window.lock().ok()?;
+    let seq = w.taken;
+    match next {
+        None => {
+            p.ended = true;
+            None
+        }
+        Some(Err(e)) if e.ends_input() => {
+            p.error = Some(e);
+            None
+        }
+        Some(result) => {
+            w.taken += 1;
+            let set = result.unwrap_or_else(|e| {
+                let mut set = FrameSet::new(seq, Vec::new());
+                set.warnings.push(format!("cannot read the frame: {e}"));
+                set
+            });
+            Some((seq, set, p.source.dropped()))
+        }
+    }
+}
+
+/// Decodes one frame set and runs the chain on it.
+fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64) -> Processed {
+    let names = pipeline.camera_names();
+    let sizes = pipeline.image_sizes();
+    let images: Result<Vec<RgbImage>, String> = if set.images.len() != names.len() {
+        Err(set.warnings.last().cloned().unwrap_or_else(|| {
+            format!(
+                "{} images for a rig of {} cameras",
+                set.images.len(),
+                names.len()
+            )
+        }))
+    } else {
+        set.images
+            .into_par_iter()
+            .zip(names.par_iter().zip(sizes))
+            .map(|(image, (name, size))| image.load(name, size))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| format!("cannot read the frame: {e}"))
+    };
+    let (images, result) = match images {
+        Ok(images) => {
+            let refs: Vec<&RgbImage> = images.iter().collect();
+            let result = pipeline.process(&refs).map_err(|e| e.to_string());
+            (images, result)
+        }
+        Err(e) => (Vec::new(), Err(e)),
+    };
+    Processed {
+        frame: set.frame,
+        name: set.name,
+        command: set.command,
+        truth: set.truth,
+        warnings: set.warnings,
+        images,
+        result,
+        captured: set.captured,
+        latency_ms: set.captured.elapsed().as_secs_f64() * 1e3,
+        dropped,
+    }
+}

@@ -1,0 +1,153 @@
+//! Frames for the browser: a JSON message with the figures, the shape and a subsampled cloud,
+//! and binary messages with each camera's frame (JPEG) and silhouette (PNG) at half size.
+
+use std::io::Cursor;
+
+use flexshape_silhouette::Silhouette;
+use flexshape_track::{Processed, TrackRecord, Tracked};
+use image::codecs::jpeg::JpegEncoder;
+use image::{ImageFormat, RgbImage};
+use serde::Serialize;
+
+/// Live figures shown beside the frame.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Stats {
+    /// Frames handed to the viewer so far.
+    pub frames: usize,
+    /// Frames per second over the last second or so.
+    pub fps: f64,
+    /// Capture (or reading) to shape, ms.
+    pub latency_ms: f64,
+    /// Frame sets a live input dropped so far.
+    pub dropped: u64,
+    /// Centerline RMS against truth, mm (simulated input).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truth_rms_mm: Option<f64>,
+    /// Tip error against truth, mm (simulated input).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truth_tip_mm: Option<f64>,
+}
+
+/// One tracked frame as tracking hands it over.
+pub struct Update {
+    record: TrackRecord,
+    images: Vec<RgbImage>,
+    tracked: Option<Tracked>,
+    stats: Stats,
+}
+
+impl Update {
+    /// A frame from the runner with its record and the figures so far (takes the images and
+    /// results without copying them).
+    pub fn new(processed: Processed, record: TrackRecord, stats: Stats) -> Self {
+        Update {
+            record,
+            images: processed.images,
+            tracked: processed.result.ok(),
+            stats,
+        }
+    }
+}
+
+/// Most points sent per frame (the cloud is thinned evenly beyond this).
+const MAX_POINTS: usize = 12_000;
+
+#[derive(Serialize)]
+struct FrameMessage<'a> {
+    #[serde(rename = "type")]
+    kind: &'static str,
+    record: &'a TrackRecord,
+    stats: &'a Stats,
+    /// Flat x, y, z, … of voxel centres, 0.1 mm resolution.
+    cloud: Vec<f32>,
+    /// Per cloud point: 0 outside bands, else the band's number.
+    cloud_band: Vec<u16>,
+}
+
+/// The JSON of a frame.
+pub(crate) fn frame_json(update: &Update) -> String {
+    let (mut cloud, mut cloud_band) = (Vec::new(), Vec::new());
+    if let Some(t) = &update.tracked {
+        let c = t.occupancy.to_cloud_with_bands(&t.bands);
+        let step = c.points.len().div_ceil(MAX_POINTS).max(1);
+        for (p, &b) in c.points.iter().zip(&c.band).step_by(step) {
+            cloud.extend(p.map(|v| (v * 10.0).round() / 10.0));
+            cloud_band.push(b);
+        }
+    }
+    let message = FrameMessage {
+        kind: "frame",
+        record: &update.record,
+        stats: &update.stats,
+        cloud,
+        cloud_band,
+    };
+    serde_json::to_string(&message).unwrap_or_else(|e| {
+        format!("{{\"type\":\"error\",\"message\":\"cannot encode frame: {e}\"}}")
+    })
+}
+
+/// Binary messages: `[kind, camera, payload…]`, kind 0 = frame JPEG, 1 = silhouette PNG.
+pub(crate) fn image_messages(update: &Update) -> Vec<Vec<u8>> {
+    let mut out = Vec::new();
+    for (cam, image) in update.images.iter().enumerate() {
+        let mut bytes = vec![0u8, cam as u8];
+        let small = half_size(image);
+        let mut jpeg = JpegEncoder::new_with_quality(&mut bytes, 80);
+        if jpeg.encode_image(&small).is_ok() {
+            out.push(bytes);
+        }
+    }
+    if let Some(t) = &update.tracked {
+        for (cam, s) in t.silhouettes.iter().enumerate() {
+            let mut bytes = Cursor::new(vec![1u8, cam as u8]);
+            bytes.set_position(2);
+            if silhouette_image(s)
+                .write_to(&mut bytes, ImageFormat::Png)
+                .is_ok()
+            {
+                out.push(bytes.into_inner());
+            }
+        }
+    }
+    out
+}
+
+/// A 2×2 box average: half the width and height.
+fn half_size(image: &RgbImage) -> RgbImage {
+    let (w, h) = (image.width() / 2, image.height() / 2);
+    RgbImage::from_fn(w.max(1), h.max(1), |x, y| {
+        let mut sum = [0u32; 3];
+        for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let p = image.get_pixel(
+                (2 * x + dx).min(image.width() - 1),
+                (2 * y + dy).min(image.height() - 1),
+            );
+            for (s, v) in sum.iter_mut().zip(p.0) {
+                *s += v as u32;
+            }
+        }
+        image::Rgb(sum.map(|s| (s / 4) as u8))
+    })
+}
+
+/// The silhouette at half size: object light grey, marker bands red, background dark.
+fn silhouette_image(s: &Silhouette) -> RgbImage {
+    let (w, h) = (s.object.width() as u32 / 2, s.object.height() as u32 / 2);
+    RgbImage::from_fn(w.max(1), h.max(1), |x, y| {
+        let (px, py) = (2 * x as usize, 2 * y as usize);
+        let any = |m: &flexshape_silhouette::BitMask| {
+            [(0, 0), (1, 0), (0, 1), (1, 1)].iter().any(|&(dx, dy)| {
+                let (qx, qy) = (px + dx, py + dy);
+                qx < m.width() && qy < m.height() && m.get(qx, qy)
+            })
+        };
+        if any(&s.markers) {
+            image::Rgb([235, 40, 40])
+        } else if any(&s.object) {
+            image::Rgb([225, 225, 225])
+        } else {
+            image::Rgb([24, 26, 32])
+        }
+    })
+}

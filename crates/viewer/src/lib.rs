@@ -1,0 +1,126 @@
+//! The live web viewer, served by the flexshape binary itself (no internet needed): each
+//! camera's frame and silhouette with marker bands, the carved cloud with the fitted
+//! centerline, bands and tip in three orthogonal views and a rotatable 3-D view, and live
+//! figures (fps, latency, drops, arc length, curvature, tip).
+//!
+//! Tracking hands every frame to [`Viewer::publish`], which only swaps it into a one-slot
+//! mailbox: encoding (JPEG/PNG, JSON) happens on the viewer's own thread at a capped rate, and
+//! every browser gets the newest encoded frame when it is ready for one, so a slow browser or
+//! a slow network never slows tracking. World frame, mm.
+
+mod encode;
+mod server;
+
+use std::net::{SocketAddr, TcpListener};
+use std::sync::Arc;
+
+use thiserror::Error;
+use tokio::sync::watch;
+
+pub use encode::{Stats, Update};
+
+/// Why the viewer could not start.
+#[derive(Debug, Error)]
+pub enum ViewerError {
+    /// The address is not `HOST:PORT`.
+    #[error("viewer address `{0}` is not HOST:PORT (e.g. 127.0.0.1:8080)")]
+    Address(String),
+    /// A non-loopback address without the explicit flag.
+    #[error(
+        "viewer address {0} is reachable from other machines, which would show them the cameras; use 127.0.0.1, or confirm with --allow-remote"
+    )]
+    Remote(SocketAddr),
+    /// The port could not be bound.
+    #[error(
+        "cannot serve the viewer on {addr}: {source} (is another program using the port? try another one, or port 0 for any free one)"
+    )]
+    Bind {
+        /// The address.
+        addr: SocketAddr,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The server's thread or runtime could not start.
+    #[error("cannot start the viewer's server: {0}")]
+    Runtime(std::io::Error),
+}
+
+/// What the page shows around the frames: camera names and the carving volume.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Scene {
+    /// Camera names, in the rig's order.
+    pub cameras: Vec<String>,
+    /// The carving volume's corners, world mm: `[xmin, ymin, zmin, xmax, ymax, zmax]`.
+    pub volume: [f64; 6],
+    /// Voxel edge, mm.
+    pub voxel: f64,
+}
+
+/// A running viewer. Dropping it leaves the server running until the process ends.
+pub struct Viewer {
+    url: String,
+    addr: SocketAddr,
+    mailbox: watch::Sender<Option<Arc<Update>>>,
+}
+
+impl Viewer {
+    /// Serves the viewer at `addr` (`HOST:PORT`; port 0 picks a free port). A non-loopback
+    /// address is refused unless `allow_remote`, and then logged as a warning.
+    pub fn start(addr: &str, allow_remote: bool, scene: Scene) -> Result<Viewer, ViewerError> {
+        let addr: SocketAddr = addr
+            .parse()
+            .map_err(|_| ViewerError::Address(addr.to_string()))?;
+        if !addr.ip().is_loopback() {
+            if !allow_remote {
+                return Err(ViewerError::Remote(addr));
+            }
+            tracing::warn!(
+                "the viewer at {addr} is reachable from other machines: anyone who can reach it sees the cameras"
+            );
+        }
+        let listener =
+            TcpListener::bind(addr).map_err(|source| ViewerError::Bind { addr, source })?;
+        let bound = listener
+            .local_addr()
+            .map_err(|source| ViewerError::Bind { addr, source })?;
+        listener
+            .set_nonblocking(true)
+            .map_err(|source| ViewerError::Bind { addr, source })?;
+        let (mailbox, updates) = watch::channel(None);
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .thread_name("viewer")
+            .enable_all()
+            .build()
+            .map_err(ViewerError::Runtime)?;
+        std::thread::Builder::new()
+            .name("viewer".into())
+            .spawn(move || runtime.block_on(server::serve(listener, scene, updates)))
+            .map_err(ViewerError::Runtime)?;
+        let host = if bound.ip().is_unspecified() {
+            "127.0.0.1".to_string()
+        } else {
+            bound.ip().to_string()
+        };
+        Ok(Viewer {
+            url: format!("http://{host}:{}/", bound.port()),
+            addr: bound,
+            mailbox,
+        })
+    }
+
+    /// The page's address, e.g. `http://127.0.0.1:8080/`.
+    pub fn url(&self) -> &str {
+        &self.url
+    }
+
+    /// The bound socket address.
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// Offers a frame to the browsers; replaces any frame not yet encoded. Never blocks.
+    pub fn publish(&self, update: Update) {
+        self.mailbox.send_replace(Some(Arc::new(update)));
+    }
+}

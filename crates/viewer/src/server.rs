@@ -1,0 +1,153 @@
+//! The HTTP side: the page, its script, and a WebSocket per browser that always sends the
+//! newest encoded frame.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::Router;
+use axum::extract::State;
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::http::header;
+use axum::response::{Html, IntoResponse};
+use axum::routing::get;
+use tokio::sync::watch;
+
+use crate::Scene;
+use crate::encode::{Update, frame_json, image_messages};
+
+const PAGE: &str = include_str!("../assets/index.html");
+const SCRIPT: &str = include_str!("../assets/viewer.js");
+
+/// Frames are encoded at most this often; camera images at most every `IMAGE_EVERY`.
+const FRAME_EVERY: Duration = Duration::from_millis(40);
+const IMAGE_EVERY: Duration = Duration::from_millis(150);
+
+/// What every browser is sent: the newest frame and the newest images.
+#[derive(Default)]
+struct Encoded {
+    frame: Option<Arc<str>>,
+    images: Option<Arc<Vec<Vec<u8>>>>,
+    /// Increases when `images` changes.
+    image_seq: u64,
+}
+
+#[derive(Clone)]
+struct AppState {
+    hello: Arc<str>,
+    encoded: watch::Receiver<Arc<Encoded>>,
+}
+
+/// Serves until the process ends.
+pub(crate) async fn serve(
+    listener: std::net::TcpListener,
+    scene: Scene,
+    updates: watch::Receiver<Option<Arc<Update>>>,
+) {
+    let hello = serde_json::json!({"type": "hello", "scene": scene}).to_string();
+    let (encoded_tx, encoded) = watch::channel(Arc::new(Encoded::default()));
+    tokio::spawn(encode_newest(updates, encoded_tx));
+    let state = AppState {
+        hello: hello.into(),
+        encoded,
+    };
+    let app = Router::new()
+        .route("/", get(|| async { Html(PAGE) }))
+        .route(
+            "/viewer.js",
+            get(|| async { ([(header::CONTENT_TYPE, "text/javascript")], SCRIPT) }),
+        )
+        .route("/health", get(|| async { "ok" }))
+        .route("/ws", get(socket))
+        .with_state(state);
+    let listener = match tokio::net::TcpListener::from_std(listener) {
+        Ok(l) => l,
+        Err(e) => {
+            tracing::error!("viewer: cannot listen: {e}");
+            return;
+        }
+    };
+    if let Err(e) = axum::serve(listener, app).await {
+        tracing::error!("viewer: server stopped: {e}");
+    }
+}
+
+/// Encodes the newest update at a capped rate, on a blocking thread.
+async fn encode_newest(
+    mut updates: watch::Receiver<Option<Arc<Update>>>,
+    out: watch::Sender<Arc<Encoded>>,
+) {
+    let mut last_images = tokio::time::Instant::now() - IMAGE_EVERY;
+    let mut image_seq = 0;
+    let mut images: Option<Arc<Vec<Vec<u8>>>> = None;
+    while updates.changed().await.is_ok() {
+        let Some(update) = updates.borrow_and_update().clone() else {
+            continue;
+        };
+        let with_images = last_images.elapsed() >= IMAGE_EVERY;
+        let encoded = tokio::task::spawn_blocking(move || {
+            let frame: Arc<str> = frame_json(&update).into();
+            let imgs = with_images.then(|| Arc::new(image_messages(&update)));
+            (frame, imgs)
+        })
+        .await;
+        let Ok((frame, new_images)) = encoded else {
+            continue;
+        };
+        if let Some(i) = new_images {
+            images = Some(i);
+            image_seq += 1;
+            last_images = tokio::time::Instant::now();
+        }
+        out.send_replace(Arc::new(Encoded {
+            frame: Some(frame),
+            images: images.clone(),
+            image_seq,
+        }));
+        tokio::time::sleep(FRAME_EVERY).await;
+    }
+}
+
+async fn socket(ws: WebSocketUpgrade, State(state): State<AppState>) -> impl IntoResponse {
+    ws.on_upgrade(move |socket| stream(socket, state))
+}
+
+/// Sends the scene, then the newest frame whenever there is a newer one than the last sent.
+async fn stream(mut socket: WebSocket, state: AppState) {
+    let AppState { hello, mut encoded } = state;
+    if socket
+        .send(Message::Text(hello.as_ref().into()))
+        .await
+        .is_err()
+    {
+        return;
+    }
+    let mut sent_images = 0;
+    loop {
+        let newest = encoded.borrow_and_update().clone();
+        if let Some(frame) = &newest.frame
+            && socket
+                .send(Message::Text(frame.as_ref().into()))
+                .await
+                .is_err()
+        {
+            return;
+        }
+        if newest.image_seq != sent_images
+            && let Some(images) = &newest.images
+        {
+            for image in images.iter() {
+                if socket
+                    .send(Message::Binary(image.clone().into()))
+                    .await
+                    .is_err()
+                {
+                    return;
+                }
+            }
+            sent_images = newest.image_seq;
+        }
+        if encoded.changed().await.is_err() {
+            return;
+        }
+    }
+}
