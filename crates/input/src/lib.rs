@@ -1,7 +1,8 @@
 //! Frames for tracking. A [`FrameSource`] hands out [`FrameSet`]s — one image per camera, in
 //! the rig's order — from a recording folder ([`RecordingSource`]), plain per-camera image
 //! folders ([`FolderSource`]), one video file per camera ([`VideoSource`]) or live cameras
-//! ([`LiveSource`]); the last two run the `ffmpeg` program. Offline sources hand out every
+//! ([`LiveSource`]); the last two run the `ffmpeg` program. [`NewestSource`] wraps any producer
+//! thread (the simulated rig of the live demo). Offline sources hand out every
 //! frame; a live source always hands out the newest and counts the frames it had to drop.
 
 mod error;
@@ -9,6 +10,7 @@ mod ffmpeg;
 mod folders;
 mod frame;
 mod live;
+mod newest;
 mod recording;
 mod video;
 
@@ -18,6 +20,7 @@ pub use folders::{FolderSource, natural_order};
 pub use frame::{FrameImage, FrameSet};
 
 pub use live::{LiveCamera, LiveSource};
+pub use newest::NewestSource;
 pub use recording::RecordingSource;
 pub use video::{CameraVideo, VideoSource};
 

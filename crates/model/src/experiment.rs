@@ -74,52 +74,124 @@ pub fn experiment(model: &Model, plan: &ExperimentPlan) -> Result<Vec<CommandedP
         let (mx, mz) = (t.dz / km[0], -t.dx / km[1]);
         let norm = mx.hypot(mz);
         let k = plan.register_bend_angle / l1;
-        out.push(taut_pose(
-            model,
-            [k * mx / norm, k * mz / norm],
-            plan.preload_strain,
-            Role::Register,
-        )?);
+        out.push(CommandedPose {
+            role: Role::Register,
+            ..taut_command(model, [k * mx / norm, k * mz / norm], plan.preload_strain)?
+        });
     }
     let golden = TAU * (1.0 - (5f64.sqrt() - 1.0) / 2.0);
     for i in 0..plan.poses {
         let u = (i as f64 + 0.5) / plan.poses as f64;
         let k = plan.max_bend_angle * u.sqrt() / l1;
         let phi = golden * i as f64;
-        out.push(taut_pose(
+        out.push(taut_command(
             model,
             [k * phi.cos(), k * phi.sin()],
             plan.preload_strain,
-            Role::Pose,
         )?);
     }
     Ok(out)
 }
 
-/// The minimum-norm command for `kappa` at proximal compression `eps0`, raising `eps0` by
-/// half each time until no tendon is slack.
-fn taut_pose(
+/// The minimum-norm command for curvatures `kappa` (1/mm) at proximal compression `eps0`,
+/// raising `eps0` by half each time until no tendon is slack. Its role is [`Role::Pose`].
+pub fn taut_command(
     model: &Model,
     kappa: [f64; 2],
     eps0: f64,
-    role: Role,
 ) -> Result<CommandedPose, ModelError> {
     let mut eps0 = eps0.max(1e-5);
     for _ in 0..40 {
         let y = model.inverse(&Vector4::new(kappa[0], kappa[1], eps0, 0.0))?;
         let f = model.forward(&y)?;
         if f.slack.is_empty() && f.tensions.iter().all(|t| *t > 0.0) {
-            return Ok(CommandedPose { y, q: f.q, role });
+            return Ok(CommandedPose {
+                y,
+                q: f.q,
+                role: Role::Pose,
+            });
         }
         eps0 *= 1.5;
     }
     Err(ModelError::NoTautSet)
 }
 
+/// A continuous sweep of the workspace in time, as the demo drives the catheter: the bending
+/// plane turns steadily while the bending angle swings between straight and the maximum.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sweep {
+    /// Largest bending angle `κ·L1`, radians.
+    pub max_bend_angle: f64,
+    /// Seconds from straight to fully bent and back.
+    pub bend_period: f64,
+    /// Seconds per turn of the bending plane.
+    pub turn_period: f64,
+    /// Proximal compression asked of every pose (raised where a tendon would go slack).
+    pub preload_strain: f64,
+}
+
+impl Default for Sweep {
+    fn default() -> Self {
+        Sweep {
+            max_bend_angle: 120f64.to_radians(),
+            bend_period: 4.0,
+            turn_period: 11.0,
+            preload_strain: 0.004,
+        }
+    }
+}
+
+impl Sweep {
+    /// The command at time `t` seconds into the sweep.
+    pub fn command(&self, model: &Model, t: f64) -> Result<CommandedPose, ModelError> {
+        let swing = 0.5 - 0.5 * (TAU * t / self.bend_period).cos();
+        let k = self.max_bend_angle * swing / model.params().distal_length;
+        let phi = TAU * t / self.turn_period;
+        taut_command(model, [k * phi.cos(), k * phi.sin()], self.preload_strain)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::ManipulatorParams;
+
+    #[test]
+    fn the_sweep_is_taut_continuous_and_covers_the_workspace() {
+        let m = Model::new(ManipulatorParams::paper_like()).unwrap();
+        let sweep = Sweep::default();
+        let l1 = m.params().distal_length;
+        let (mut largest, mut planes) = (0.0f64, Vec::new());
+        let mut previous: Option<Vector4<f64>> = None;
+        for i in 0..=300 {
+            let t = i as f64 * 0.04;
+            let c = sweep.command(&m, t).unwrap();
+            assert!(m.forward(&c.y).unwrap().slack.is_empty(), "t = {t}");
+            let bend = c.q[0].hypot(c.q[1]) * l1;
+            largest = largest.max(bend);
+            if bend > 0.5 {
+                planes.push(c.q[1].atan2(c.q[0]));
+            }
+            // 40 ms apart, the curvature moves by a small step (no jumps between frames).
+            if let Some(p) = previous {
+                let step = ((c.q[0] - p[0]).hypot(c.q[1] - p[1])) * l1;
+                assert!(step < 0.12, "t = {t}: the bend jumps by {step:.3} rad");
+            }
+            previous = Some(c.q);
+        }
+        assert!((largest - sweep.max_bend_angle).abs() < 0.02, "{largest}");
+        // The bending plane goes all the way round within the 12 s.
+        let mut sorted = planes.clone();
+        sorted.sort_by(f64::total_cmp);
+        let widest_gap = sorted
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(TAU - (sorted[sorted.len() - 1] - sorted[0]), f64::max);
+        assert!(
+            widest_gap < 0.8,
+            "bending planes leave a gap of {widest_gap:.2} rad"
+        );
+    }
 
     #[test]
     fn every_loaded_pose_is_taut_and_bends_as_asked() {

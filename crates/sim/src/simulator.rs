@@ -143,6 +143,40 @@ impl Simulator {
         self.write_commanded_recording(dir, poses, &[], overwrite, on_frame)
     }
 
+    /// Creates a recording folder with this rig and its backgrounds, ready for
+    /// [`Simulator::write_frame`].
+    pub fn create_recording(
+        &self,
+        dir: &Path,
+        overwrite: bool,
+    ) -> Result<RecordingWriter, SimError> {
+        let writer = RecordingWriter::create(dir, &self.rig, overwrite)?;
+        for (cam, bg) in self.rig.cameras.iter().zip(self.backgrounds()) {
+            writer.write_background(&cam.name, &bg)?;
+        }
+        Ok(writer)
+    }
+
+    /// Writes a rendered frame: images, exact masks, truth, and its command if any.
+    pub fn write_frame(
+        &self,
+        writer: &RecordingWriter,
+        sim: &SimFrame,
+        command: Option<&Command>,
+    ) -> Result<(), SimError> {
+        let frame = sim.truth.frame;
+        for (cam, view) in self.rig.cameras.iter().zip(&sim.views) {
+            writer.write_frame(&cam.name, frame, &view.image)?;
+            writer.write_truth_mask(&cam.name, frame, &view.mask)?;
+            writer.write_truth_markers(&cam.name, frame, &view.markers)?;
+        }
+        writer.write_truth(&sim.truth)?;
+        if let Some(c) = command {
+            writer.write_command(c)?;
+        }
+        Ok(())
+    }
+
     /// As [`Simulator::write_recording`], also writing `commands[i]` (the tendon displacements
     /// that put the catheter in `poses[i]`) as `commands/<frame:06>.json`; `commands` is
     /// empty or one per pose.
@@ -160,27 +194,16 @@ impl Simulator {
                 format!("{} commands for {} poses", commands.len(), poses.len()),
             ));
         }
-        let writer = RecordingWriter::create(dir, &self.rig, overwrite)?;
-        let names: Vec<&str> = self.rig.cameras.iter().map(|c| c.name.as_str()).collect();
-        for (name, bg) in names.iter().zip(self.backgrounds()) {
-            writer.write_background(name, &bg)?;
-        }
+        let writer = self.create_recording(dir, overwrite)?;
         for (i, pose) in poses.iter().enumerate() {
             let frame = i as u64;
             let sim = self.render(frame, pose)?;
-            for (name, view) in names.iter().zip(&sim.views) {
-                writer.write_frame(name, frame, &view.image)?;
-                writer.write_truth_mask(name, frame, &view.mask)?;
-                writer.write_truth_markers(name, frame, &view.markers)?;
-            }
-            writer.write_truth(&sim.truth)?;
-            if let Some((y, role)) = commands.get(i) {
-                writer.write_command(&Command {
-                    frame,
-                    tendon_displacements: y.clone(),
-                    role: *role,
-                })?;
-            }
+            let command = commands.get(i).map(|(y, role)| Command {
+                frame,
+                tendon_displacements: y.clone(),
+                role: *role,
+            });
+            self.write_frame(&writer, &sim, command.as_ref())?;
             if on_frame(&sim).is_break() {
                 return Ok(frame + 1);
             }

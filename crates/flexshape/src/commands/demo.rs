@@ -1,42 +1,130 @@
 //! `flexshape demo`: the whole system on the built-in simulated rig.
 //!
-//! Each frame of the simulated sweep goes through the sensing chain — silhouettes → voxel
-//! carving → marker bands → shape (centerline spline, tip, band positions, circular-arc fit) —
-//! and the demo reports each stage against the simulator's ground truth.
+//! The tendon-driven model sweeps the simulated catheter through its workspace (the bending
+//! plane turning while the bend swings from straight to the maximum); three simulated cameras
+//! film it; every frame goes through the sensing chain — silhouettes → voxel carving → marker
+//! bands → shape — exactly as `flexshape track` runs it, and is measured against the
+//! simulator's ground truth. By default the cameras run live at `--fps` and the viewer shows
+//! it all until Ctrl-C; `--no-viewer` renders frames as fast as tracking takes them and
+//! prints one row per frame.
 
 use std::ops::ControlFlow;
-use std::time::Instant;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use flexshape_camera::nalgebra::Point3;
 use flexshape_curve::Polyline;
-use flexshape_shape::{ShapeRecord, Status};
-use flexshape_silhouette::{BackgroundModel, BitMask};
-use flexshape_sim::{SimFrame, Simulator};
-use flexshape_track::Pipeline;
+use flexshape_input::{FrameImage, FrameSet, FrameSource, InputError, NewestSource};
+use flexshape_model::{ManipulatorParams, Model, Sweep};
+use flexshape_recording::{Command, PoseRole, RecordingWriter, Truth};
+use flexshape_silhouette::BackgroundModel;
+use flexshape_sim::{CatheterPose, Simulator};
+use flexshape_track::{Pipeline, Processed, Tally, TrackRecord, Tracked, quantile};
 
 use crate::cli::DemoArgs;
 use crate::interrupt::Interrupt;
 
-/// The sensing chain, set up once for the simulated rig.
-struct Stages {
-    pipeline: Pipeline,
+/// Where the viewer goes when no address is given.
+const DEFAULT_VIEWER: &str = "127.0.0.1:8080";
+
+/// The simulated rig filming the model-driven catheter.
+struct Rig {
+    sim: Simulator,
+    model: Model,
+    sweep: Sweep,
+    writer: Option<RecordingWriter>,
+    /// Rendering runs in its own thread pool so that tracking's parallel work never queues
+    /// behind it (the cores are shared fairly instead).
+    pool: rayon::ThreadPool,
+    /// Total rendering time, µs, and frames rendered.
+    render_us: AtomicU64,
+    rendered: AtomicU64,
 }
 
-/// One frame measured against its truth.
-struct Measured {
-    /// Silhouette IoU against the exact mask, per camera.
-    iou: Vec<f64>,
-    /// Occupied voxels.
-    voxels: usize,
-    /// Share of the truth centerline samples inside the volume that lie in occupied voxels.
-    hull_covers: f64,
-    /// The shape and its errors against truth.
-    shape: ShapeRecord,
-    errors: Option<ShapeErrors>,
-    silhouette_ms: f64,
-    carve_ms: f64,
-    shape_ms: f64,
+impl Rig {
+    /// Frame `n` at `fps`: the model's command at that time, rendered (and written).
+    fn frame(&self, n: u64, fps: f64) -> Result<FrameSet, InputError> {
+        let failed = |message: String| InputError::Ffmpeg {
+            camera: "simulator".into(),
+            input: format!("frame {n}"),
+            message,
+        };
+        let command = self
+            .sweep
+            .command(&self.model, n as f64 / fps)
+            .map_err(|e| failed(format!("the model has no command: {e}")))?;
+        let q = command.q;
+        let pose = CatheterPose::arc(&self.sim.config().catheter, [q[0], q[1]], [q[2], q[3]], 0.0);
+        let started = Instant::now();
+        let rendered = self
+            .pool
+            .install(|| self.sim.render(n, &pose))
+            .map_err(|e| failed(e.to_string()))?;
+        self.render_us
+            .fetch_add(started.elapsed().as_micros() as u64, Ordering::Relaxed);
+        self.rendered.fetch_add(1, Ordering::Relaxed);
+        let command = Command {
+            frame: n,
+            tendon_displacements: command.y.iter().copied().collect(),
+            role: PoseRole::Pose,
+        };
+        if let Some(w) = &self.writer {
+            self.sim
+                .write_frame(w, &rendered, Some(&command))
+                .map_err(|e| failed(format!("cannot write the recording: {e}")))?;
+        }
+        let images = rendered
+            .views
+            .into_iter()
+            .map(|v| FrameImage::Decoded(v.image))
+            .collect();
+        let mut set = FrameSet::new(n, images);
+        set.truth = Some(rendered.truth);
+        set.command = Some(command);
+        Ok(set)
+    }
+}
+
+/// Headless input: each frame rendered when tracking asks for it.
+struct OnDemand {
+    rig: Arc<Rig>,
+    next: u64,
+    frames: Option<u64>,
+    fps: f64,
+}
+
+impl FrameSource for OnDemand {
+    fn next_frame(&mut self) -> Option<Result<FrameSet, InputError>> {
+        if self.frames.is_some_and(|n| self.next >= n) {
+            return None;
+        }
+        self.next += 1;
+        Some(self.rig.frame(self.next - 1, self.fps))
+    }
+
+    fn len_hint(&self) -> Option<usize> {
+        self.frames.map(|n| n as usize)
+    }
+}
+
+/// Live input: the simulated cameras render on their own clock at `fps`; tracking takes the
+/// newest frame (the rest are dropped and counted).
+fn live_source(rig: Arc<Rig>, frames: Option<u64>, fps: f64) -> NewestSource {
+    let start = Instant::now();
+    let mut n = 0u64;
+    NewestSource::spawn(move || {
+        if frames.is_some_and(|f| n >= f) {
+            return None;
+        }
+        let due = start + Duration::from_secs_f64(n as f64 / fps);
+        if let Some(wait) = due.checked_duration_since(Instant::now()) {
+            std::thread::sleep(wait);
+        }
+        n += 1;
+        Some(rig.frame(n - 1, fps))
+    })
 }
 
 /// A shape against the simulator's truth, mm (curvature relative).
@@ -48,75 +136,25 @@ struct ShapeErrors {
     band: f64,
     /// Estimated and true curvature of the bending section, 1/mm.
     curvature: Option<(f64, f64)>,
+    /// Share of the true centerline samples in the volume that lie in occupied voxels.
+    hull_covers: f64,
 }
 
-impl Stages {
-    fn new(sim: &Simulator) -> anyhow::Result<Self> {
-        let backgrounds = sim
-            .backgrounds()
-            .iter()
-            .map(|bg| BackgroundModel::from_frames(std::slice::from_ref(bg)))
-            .collect::<Result<Vec<_>, _>>()
-            .context("cannot model the simulated backgrounds")?;
-        let rig = sim.rig();
-        // The simulated rig's `[processing.shape]` describes its catheter (bands, sections).
-        let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume)
-            .context("cannot set up the sensing chain")?;
-        Ok(Stages { pipeline })
-    }
-
-    fn measure(&self, frame: &SimFrame) -> anyhow::Result<Measured> {
-        let n = frame.truth.frame;
-        let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
-        let tracked = self
-            .pipeline
-            .process(&images)
-            .with_context(|| format!("frame {n}"))?;
-        let iou = tracked
-            .silhouettes
-            .iter()
-            .zip(&frame.views)
-            .map(|(s, v)| s.object.iou(&BitMask::from_gray(&v.mask)))
-            .collect();
-        let (occupancy, shape, timings) = (tracked.occupancy, tracked.shape, tracked.timings);
-        let volume = self.pipeline.volume();
-        let inside: Vec<Point3<f64>> = frame
-            .truth
-            .centerline
-            .iter()
-            .map(|p| Point3::from(*p))
-            .filter(|p| volume.contains(p))
-            .collect();
-        let covered = inside
-            .iter()
-            .filter(|p| occupancy.contains_point(p))
-            .count();
-        let errors = shape_errors(frame, &shape, &inside);
-        Ok(Measured {
-            iou,
-            voxels: occupancy.len(),
-            hull_covers: covered as f64 / inside.len().max(1) as f64,
-            shape,
-            errors,
-            silhouette_ms: timings.silhouettes,
-            carve_ms: timings.carve + timings.bands,
-            shape_ms: timings.shape,
-        })
-    }
-}
-
-/// The shape's errors against truth (`None` without a shape).
-fn shape_errors(
-    frame: &SimFrame,
-    shape: &ShapeRecord,
-    inside: &[Point3<f64>],
-) -> Option<ShapeErrors> {
-    if shape.points.len() < 2 {
+/// The tracked shape's errors against truth (`None` without a shape).
+fn shape_errors(pipeline: &Pipeline, truth: &Truth, t: &Tracked) -> Option<ShapeErrors> {
+    let shape = &t.shape;
+    let volume = pipeline.volume();
+    let inside: Vec<Point3<f64>> = truth
+        .centerline
+        .iter()
+        .map(|p| Point3::from(*p))
+        .filter(|p| volume.contains(p))
+        .collect();
+    if shape.points.len() < 2 || inside.is_empty() {
         return None;
     }
     let curve = Polyline::new(shape.points.iter().map(|&p| Point3::from(p)).collect()).ok()?;
     let sum2: f64 = inside.iter().map(|p| curve.closest(p).1.powi(2)).sum();
-    let truth = &frame.truth;
     let band = truth
         .bands
         .iter()
@@ -134,72 +172,238 @@ fn shape_errors(
         (Some([kx, kz]), Some(fit)) => Some((fit.curvature, kx.hypot(kz))),
         _ => None,
     };
+    let covered = inside
+        .iter()
+        .filter(|p| t.occupancy.contains_point(p))
+        .count();
     Some(ShapeErrors {
-        centerline_rms: (sum2 / inside.len().max(1) as f64).sqrt(),
+        centerline_rms: (sum2 / inside.len() as f64).sqrt(),
         tip: (Point3::from(shape.tip) - Point3::from(truth.tip)).norm(),
         band,
         curvature,
+        hull_covers: covered as f64 / inside.len() as f64,
     })
 }
 
-/// Worst figures over the frames so far.
+/// Figures over the frames so far.
 #[derive(Default)]
-struct Worst {
-    iou: f64,
-    cover: f64,
-    ok: usize,
-    rms: f64,
-    tip: f64,
+struct Figures {
+    rms: Vec<f64>,
+    tip: Vec<f64>,
     band: f64,
     curvature: f64,
-    seen: bool,
+    cover: Option<f64>,
+    chain_ms: Vec<f64>,
 }
 
-impl Worst {
-    fn add(&mut self, m: &Measured) {
-        if !self.seen {
-            (self.iou, self.cover, self.seen) = (1.0, 1.0, true);
-        }
-        self.iou = m.iou.iter().copied().fold(self.iou, f64::min);
-        self.cover = self.cover.min(m.hull_covers);
-        if m.shape.status == Status::Ok {
-            self.ok += 1;
-        }
-        if let Some(e) = &m.errors {
-            self.rms = self.rms.max(e.centerline_rms);
-            self.tip = self.tip.max(e.tip);
-            self.band = self.band.max(e.band);
-            if let Some((fit, truth)) = e.curvature
-                && truth >= 1.0 / 200.0
-            {
-                self.curvature = self.curvature.max((fit / truth - 1.0).abs());
-            }
+impl Figures {
+    fn add(&mut self, e: &ShapeErrors) {
+        self.rms.push(e.centerline_rms);
+        self.tip.push(e.tip);
+        self.band = self.band.max(e.band);
+        self.cover = Some(self.cover.map_or(e.hull_covers, |c| c.min(e.hull_covers)));
+        if let Some((fit, truth)) = e.curvature
+            && truth >= 1.0 / 200.0
+        {
+            self.curvature = self.curvature.max((fit / truth - 1.0).abs());
         }
     }
-}
 
-/// A short word for a status without a shape.
-fn status_text(status: &Status) -> String {
-    match status {
-        Status::Ok => "ok".into(),
-        Status::NoObject { .. } => "no object".into(),
-        Status::Ambiguous { .. } => "ambiguous".into(),
-        Status::LeavesVolume => "leaves volume".into(),
-        Status::BandsMissing { found, expected } => format!("{found}/{expected} bands"),
+    fn worst(v: &[f64]) -> f64 {
+        v.iter().copied().fold(0.0, f64::max)
+    }
+
+    fn median(v: &[f64]) -> f64 {
+        quantile(&mut v.to_vec(), 0.5)
     }
 }
 
 pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let stop = Interrupt::install();
     let setup = Instant::now();
-    let sim =
-        Simulator::new(super::sim_config(&args.sim)).context("cannot set up the simulated rig")?;
-    let stages = Stages::new(&sim)?;
-    let setup_ms = setup.elapsed().as_secs_f64() * 1e3;
+    let model = match &args.model {
+        Some(path) => super::model::load(path)?,
+        None => Model::new(ManipulatorParams::paper_like())
+            .context("the built-in manipulator model is invalid")?,
+    };
+    anyhow::ensure!(
+        args.fps.is_finite() && args.fps > 0.0,
+        "--fps must be a positive number of frames per second"
+    );
+    let mut config = super::sim_config(&args.sim);
+    config.catheter = super::catheter_for(&config.catheter, model.params());
+    let sim = Simulator::new(config).context("cannot set up the simulated rig")?;
+    let backgrounds = sim
+        .backgrounds()
+        .iter()
+        .map(|bg| BackgroundModel::from_frames(std::slice::from_ref(bg)))
+        .collect::<Result<Vec<_>, _>>()
+        .context("cannot model the simulated backgrounds")?;
+    // The simulated rig's `[processing.shape]` describes its catheter (bands, sections).
+    let pipeline = Pipeline::new(sim.rig(), &backgrounds, &sim.rig().volume)
+        .context("cannot set up the sensing chain")?;
+    let writer = match &args.out {
+        Some(dir) => Some(
+            sim.create_recording(dir, false)
+                .with_context(|| format!("cannot write the recording to {}", dir.display()))?,
+        ),
+        None => None,
+    };
+    introduce(&sim, setup);
+    let mut viewer = if args.no_viewer {
+        None
+    } else {
+        let addr = args.viewer.as_deref().unwrap_or(DEFAULT_VIEWER);
+        let started = super::viewer::start_at(addr, args.allow_remote, &pipeline);
+        Some(match started {
+            // The default port may be taken: any free one will do.
+            Err(e) if args.viewer.is_none() => {
+                eprintln!("{e:#}; using a free port instead");
+                super::viewer::start_at("127.0.0.1:0", false, &pipeline)?
+            }
+            other => other?,
+        })
+    };
+    let rig = Arc::new(Rig {
+        sim,
+        model,
+        sweep: Sweep::default(),
+        writer,
+        pool: rayon::ThreadPoolBuilder::new()
+            .num_threads(super::cores())
+            .thread_name(|i| format!("render-{i}"))
+            .build()
+            .context("cannot start the simulator's threads")?,
+        render_us: AtomicU64::new(0),
+        rendered: AtomicU64::new(0),
+    });
+    let mut source: Box<dyn FrameSource> = if args.no_viewer {
+        println!("{}", table_header());
+        Box::new(OnDemand {
+            rig: rig.clone(),
+            next: 0,
+            frames: args.frames,
+            fps: args.fps,
+        })
+    } else {
+        println!(
+            "live: simulated cameras at {} frames/s; open the viewer's address above; Ctrl-C stops",
+            args.fps
+        );
+        Box::new(live_source(rig.clone(), args.frames, args.fps))
+    };
+    let mut tally = Tally::new();
+    let mut figures = Figures::default();
+    let mut last_status = Instant::now();
+    // Headless, frames are rendered on demand: one worker keeps rendering and tracking apart,
+    // so the chain's figures are its own.
+    let threads = args
+        .threads
+        .unwrap_or(if args.no_viewer { 1 } else { super::cores() });
+    let end = flexshape_track::run(
+        source.as_mut(),
+        &pipeline,
+        threads,
+        stop.flag(),
+        |p: Processed| {
+            let record = TrackRecord::from_processed(&p);
+            tally.add(&record);
+            let errors = match (&p.truth, &p.result) {
+                (Some(truth), Ok(t)) => shape_errors(&pipeline, truth, t),
+                _ => None,
+            };
+            if let Some(e) = &errors {
+                figures.add(e);
+            }
+            if let Ok(t) = &p.result {
+                figures
+                    .chain_ms
+                    .push(t.timings.stages().iter().map(|s| s.1).sum());
+            }
+            if args.no_viewer {
+                let bend_length = rig.sim.config().catheter.bend_length;
+                println!("{}", table_row(&p, &record, errors.as_ref(), bend_length));
+            } else if last_status.elapsed() > Duration::from_secs(2) {
+                last_status = Instant::now();
+                println!(
+                    "frame {:>6}: {:.1} frames/s tracked, {} dropped, latency {:.1} ms; centerline rms {:.3} mm (worst so far {:.3}), tip {:.2} mm",
+                    p.frame,
+                    tally.frames() as f64 / tally.seconds(),
+                    p.dropped,
+                    p.latency_ms,
+                    errors.as_ref().map_or(f64::NAN, |e| e.centerline_rms),
+                    Figures::worst(&figures.rms),
+                    errors.as_ref().map_or(f64::NAN, |e| e.tip),
+                );
+            }
+            if let Some(v) = &mut viewer {
+                let truth = errors.as_ref().map(|e| (e.centerline_rms, e.tip));
+                v.publish(p, record, truth);
+            }
+            ControlFlow::Continue(())
+        },
+    );
+    let summary = tally.summary(&end);
+    if let Some(e) = end.input_error {
+        return Err(e).context("the simulated rig stopped");
+    }
+    if summary.frames == 0 {
+        return Ok(());
+    }
+    let n = figures.rms.len();
+    println!(
+        "\n{} frames, {} ok; against truth over {n} frames: centerline rms median {:.3} mm, worst {:.3} mm; tip median {:.2} mm, worst {:.2} mm; band centre worst {:.2} mm; arc-fit curvature worst {:.2} %; the carved hull holds ≥ {:.1} % of the true centerline",
+        summary.frames,
+        summary.ok,
+        Figures::median(&figures.rms),
+        Figures::worst(&figures.rms),
+        Figures::median(&figures.tip),
+        Figures::worst(&figures.tip),
+        figures.band,
+        figures.curvature * 100.0,
+        figures.cover.unwrap_or(0.0) * 100.0,
+    );
+    let chain = Figures::median(&figures.chain_ms);
+    println!(
+        "speed: the chain takes {chain:.2} ms per frame (median; {}), {:.0} frames/s per worker; {threads} worker{} tracked {:.1} frames/s{}{}",
+        summary
+            .stages
+            .iter()
+            .map(|s| format!("{} {:.2}", s.stage, s.median_ms))
+            .collect::<Vec<_>>()
+            .join(", "),
+        1e3 / chain.max(1e-9),
+        if threads == 1 { "" } else { "s" },
+        summary.fps,
+        if args.no_viewer {
+            format!(
+                " while rendering the simulated cameras ({:.1} ms per frame) on the same cores",
+                rig.render_us.load(Ordering::Relaxed) as f64
+                    / 1e3
+                    / rig.rendered.load(Ordering::Relaxed).max(1) as f64
+            )
+        } else {
+            String::new()
+        },
+        match (&summary.latency_ms, args.no_viewer) {
+            (Some(l), false) => format!(
+                "; latency {:.1} ms median, {:.1} ms p95; {} frames dropped",
+                l.median_ms, l.p95_ms, summary.dropped
+            ),
+            _ => String::new(),
+        }
+    );
+    if let Some(dir) = &args.out {
+        println!("wrote {} frames to {}", summary.frames, dir.display());
+    }
+    Ok(())
+}
+
+fn introduce(sim: &Simulator, setup: Instant) {
     let c = sim.config();
     let v = &sim.rig().volume;
     println!(
-        "flexshape demo: simulated rig of {} cameras at {}×{}, volume {}×{}×{} voxels of {} mm, catheter r = {} mm with a {} mm bending section",
+        "flexshape demo: simulated rig of {} cameras at {}×{}, volume {}×{}×{} voxels of {} mm; catheter r = {} mm with a {} mm bending section, driven by the tendon model",
         c.rig.cameras,
         c.rig.width,
         c.rig.height,
@@ -211,17 +415,17 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         c.catheter.bend_length
     );
     println!(
-        "stages: simulator → silhouettes → voxel carving → marker bands → shape (centerline, tip, bands, arc fit); errors against the simulator's truth"
+        "stages: model → simulator → silhouettes → voxel carving → marker bands → shape (centerline, tip, bands, arc fit); errors against the simulator's truth"
     );
-    println!("set up in {setup_ms:.0} ms\n");
-    let names: Vec<&str> = sim.rig().cameras.iter().map(|c| c.name.as_str()).collect();
-    let iou_header = format!("silhouette IoU ({})", names.join("/"));
-    println!(
-        "{:>5} {:>6} {:>7}  {:<w$}  {:>6} {:>6} {:>6} {:>7} {:>6} {:>7} {:>13}  {:>6} {:>6} {:>6} {:>7}",
+    println!("set up in {:.0} ms\n", setup.elapsed().as_secs_f64() * 1e3);
+}
+
+fn table_header() -> String {
+    format!(
+        "{:>5} {:>6} {:>7}  {:>6} {:>6} {:>5}  {:>7} {:>6} {:>7} {:>13}  {:>6} {:>6} {:>6} {:>6}",
         "frame",
         "bend°",
         "plane°",
-        iou_header,
         "voxels",
         "hull⊇",
         "bands",
@@ -231,122 +435,56 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         "κ fit/true 1/m",
         "sil ms",
         "carve",
+        "bands",
         "shape",
-        "render",
-        w = iou_header.len()
-    );
-    let mut render_ms = Vec::new();
-    let mut worst = Worst::default();
-    let (mut sil_total, mut carve_total, mut shape_total) = (0.0, 0.0, 0.0);
-    let mut failure = None;
-    let mut last = Instant::now();
-    let mut report = |frame: &SimFrame| {
-        let ms = last.elapsed().as_secs_f64() * 1e3;
-        render_ms.push(ms);
-        let m = match stages.measure(frame) {
-            Ok(m) => m,
-            Err(e) => {
-                failure = Some(e);
-                return ControlFlow::Break(());
-            }
-        };
-        worst.add(&m);
-        sil_total += m.silhouette_ms;
-        carve_total += m.carve_ms;
-        shape_total += m.shape_ms;
-        let truth = &frame.truth;
-        let [kx, kz] = truth.kappa.unwrap_or([0.0, 0.0]);
-        let [_, e1] = truth.eps.unwrap_or([0.0, 0.0]);
-        let ious: Vec<String> = m.iou.iter().map(|i| format!("{i:.3}")).collect();
-        let errors = match &m.errors {
-            Some(e) => format!(
-                "{:>7.3} {:>6.2} {:>7.2} {:>13}",
-                e.centerline_rms,
-                e.tip,
-                e.band,
-                e.curvature
-                    .map(|(fit, t)| format!("{:.2}/{:.2}", fit * 1e3, t * 1e3))
-                    .unwrap_or_else(|| "-".into())
-            ),
-            None => format!("{:>36}", status_text(&m.shape.status)),
-        };
-        println!(
-            "{:>5} {:>6.1} {:>7.1}  {:<w$}  {:>6} {:>5.1}% {:>6} {errors}  {:>6.2} {:>6.2} {:>6.2} {ms:>7.1}",
-            truth.frame,
-            (kx.hypot(kz) * c.catheter.bend_length * (1.0 - e1)).to_degrees(),
-            kz.atan2(kx).to_degrees(),
-            ious.join("/"),
-            m.voxels,
-            m.hull_covers * 100.0,
-            m.shape.bands.len(),
-            m.silhouette_ms,
-            m.carve_ms,
-            m.shape_ms,
-            w = iou_header.len(),
-        );
-        last = Instant::now();
-        if stop.requested() {
-            ControlFlow::Break(())
-        } else {
-            ControlFlow::Continue(())
+    )
+}
+
+fn table_row(
+    p: &Processed,
+    record: &TrackRecord,
+    errors: Option<&ShapeErrors>,
+    bend_length: f64,
+) -> String {
+    let (bend, plane) = match &p.truth {
+        Some(t) => {
+            let [kx, kz] = t.kappa.unwrap_or([0.0, 0.0]);
+            let [_, e1] = t.eps.unwrap_or([0.0, 0.0]);
+            (
+                (kx.hypot(kz) * bend_length * (1.0 - e1)).to_degrees(),
+                kz.atan2(kx).to_degrees(),
+            )
         }
+        None => (f64::NAN, f64::NAN),
     };
-    let poses = sim.sweep(args.frames);
-    match &args.out {
-        Some(dir) => {
-            let written = sim
-                .write_recording(dir, &poses, false, &mut report)
-                .with_context(|| format!("cannot write the recording to {}", dir.display()))?;
-            println!("\nwrote {written} frames to {}", dir.display());
-        }
-        None => {
-            for (i, pose) in poses.iter().enumerate() {
-                let frame = sim
-                    .render(i as u64, pose)
-                    .with_context(|| format!("frame {i}"))?;
-                if report(&frame).is_break() {
-                    break;
-                }
-            }
-        }
-    }
-    if let Some(e) = failure {
-        return Err(e);
-    }
-    let n = render_ms.len();
-    if n == 0 {
-        return Ok(());
-    }
-    println!(
-        "\n{n} frames: silhouette IoU ≥ {:.4}; the carved hull holds {:.1} % of the true centerline at worst",
-        worst.iou,
-        worst.cover * 100.0
-    );
-    println!(
-        "shape: {} of {n} frames ok; worst centerline rms {:.3} mm, tip {:.2} mm, band centre {:.2} mm, arc-fit curvature {:.2} %",
-        worst.ok,
-        worst.rms,
-        worst.tip,
-        worst.band,
-        worst.curvature * 100.0
-    );
-    println!(
-        "per frame on average: silhouettes {:.2} ms, carving + bands {:.2} ms, shape {:.2} ms (timed inside the demo loop; `cargo bench` gives steady figures)",
-        sil_total / n as f64,
-        carve_total / n as f64,
-        shape_total / n as f64
-    );
-    render_ms.sort_by(f64::total_cmp);
-    let mean = render_ms.iter().sum::<f64>() / n as f64;
-    println!(
-        "simulating {} cameras takes {mean:.1} ms per frame on average (median {:.1} ms){}",
-        names.len(),
-        render_ms[n / 2],
-        if args.out.is_some() {
-            ", including writing PNGs"
-        } else {
-            ""
-        }
-    );
-    Ok(())
+    let measured = match errors {
+        Some(e) => format!(
+            "{:>5.1}% {:>5}  {:>7.3} {:>6.2} {:>7.2} {:>13}",
+            e.hull_covers * 100.0,
+            record.bands.len(),
+            e.centerline_rms,
+            e.tip,
+            e.band,
+            e.curvature
+                .map(|(fit, t)| format!("{:.2}/{:.2}", fit * 1e3, t * 1e3))
+                .unwrap_or_else(|| "-".into())
+        ),
+        None => format!(
+            "{:>44}",
+            format!(
+                "{}{}",
+                record.status,
+                record
+                    .reason
+                    .as_deref()
+                    .map(|r| format!(": {r}"))
+                    .unwrap_or_default()
+            )
+        ),
+    };
+    let t = record.timings_ms;
+    format!(
+        "{:>5} {bend:>6.1} {plane:>7.1}  {:>6} {measured}  {:>6.2} {:>6.2} {:>6.2} {:>6.2}",
+        record.frame, record.voxels, t.silhouettes, t.carve, t.bands, t.shape
+    )
 }

@@ -15,6 +15,7 @@ mod track;
 mod validate;
 mod viewer;
 
+use flexshape_model::ManipulatorParams;
 use flexshape_sim::{Catheter, RenderSettings, SimConfig, SimRigConfig};
 
 use crate::cli::{Cli, Command, ModelCommand, RigCommand, SimArgs, ValidateCommand};
@@ -64,6 +65,7 @@ fn sim_config(args: &SimArgs) -> SimConfig {
             shadows: args.shadows,
             noise_sigma: args.noise,
             seed: args.seed,
+            supersampling: args.supersampling.unwrap_or(defaults.render.supersampling),
             ..defaults.render
         },
         catheter: Catheter {
@@ -78,4 +80,20 @@ fn sim_config(args: &SimArgs) -> SimConfig {
 /// Cores available to this process (at least 1).
 fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// The simulated catheter built as the model describes it: its proximal section `L0` long
+/// (most of it below the volume) and its bending section `L1`, with the bending base where the
+/// default catheter has it, so the model's `ε0` moves the bending base as on a real rig.
+pub(crate) fn catheter_for(default: &Catheter, params: &ManipulatorParams) -> Catheter {
+    let bend_base = default.base.position + default.base.tangent() * default.proximal_length;
+    Catheter {
+        proximal_length: params.proximal_length,
+        bend_length: params.distal_length,
+        base: flexshape_curve::Frame {
+            position: bend_base - default.base.tangent() * params.proximal_length,
+            rotation: default.base.rotation,
+        },
+        ..default.clone()
+    }
 }

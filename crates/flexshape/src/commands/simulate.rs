@@ -4,11 +4,9 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use anyhow::Context;
-use flexshape_model::{ExperimentPlan, ManipulatorParams, Role};
+use flexshape_model::{ExperimentPlan, Role};
 use flexshape_recording::PoseRole;
-use flexshape_sim::{
-    BoardRenderer, Catheter, CatheterPose, PrintedBoard, Simulator, calibration_views,
-};
+use flexshape_sim::{BoardRenderer, CatheterPose, PrintedBoard, Simulator, calibration_views};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::cli::{ChessboardsArgs, SimulateArgs, SimulateWhat};
@@ -27,7 +25,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         None => None,
         Some(path) => {
             let model = super::model::load(path)?;
-            config.catheter = catheter_for(&config.catheter, model.params());
+            config.catheter = super::catheter_for(&config.catheter, model.params());
             let plan = ExperimentPlan {
                 poses: args.poses,
                 ..ExperimentPlan::default()
@@ -92,22 +90,6 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         out.join("rig.toml").display()
     );
     Ok(())
-}
-
-/// The simulated catheter built as the model describes it: its proximal section `L0` long
-/// (most of it below the volume) and its bending section `L1`, with the bending base where the
-/// default catheter has it, so the model's `ε0` moves the bending base as on a real rig.
-fn catheter_for(default: &Catheter, params: &ManipulatorParams) -> Catheter {
-    let bend_base = default.base.position + default.base.tangent() * default.proximal_length;
-    Catheter {
-        proximal_length: params.proximal_length,
-        bend_length: params.distal_length,
-        base: flexshape_curve::Frame {
-            position: bend_base - default.base.tangent() * params.proximal_length,
-            rotation: default.base.rotation,
-        },
-        ..default.clone()
-    }
 }
 
 /// `flexshape simulate chessboards`.
