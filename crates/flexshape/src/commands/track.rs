@@ -79,7 +79,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         return Err(e);
     }
     eprintln!(
-        "{} frames ({} ok, {} errors{}{}) in {:.2} s, {:.1} frames/s{}; median ms: {}",
+        "{} frames ({} ok, {} errors{}{}) in {:.2} s, {:.1} frames/s{}; ms per stage, median/p95: {}",
         summary.frames,
         summary.ok,
         summary.errors,
@@ -102,7 +102,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         summary
             .stages
             .iter()
-            .map(|s| format!("{} {:.2}", s.stage, s.median_ms))
+            .map(|s| format!("{} {:.2}/{:.2}", s.stage, s.median_ms, s.p95_ms))
             .collect::<Vec<_>>()
             .join(", ")
     );
