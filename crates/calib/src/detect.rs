@@ -5,7 +5,8 @@
 //! whole `cols × rows` rectangle; it is then turned (never mirrored) so the grid's long side
 //! is the board's `cols`, and turned by 180° when needed so the origin is the inner corner
 //! whose outer corner square is dark — the board's own corner, the same in every camera
-//! that sees its front.
+//! that sees its front. When calib-targets' grid growth gives no whole board, our own
+//! assembly (`lattice`) tries its corner cloud.
 
 use calib_targets::chessboard::ChessboardParams;
 use calib_targets::core::ImageRefiner;
@@ -47,6 +48,21 @@ pub fn detect(image: &GrayImage, board: &Board) -> Result<Detection, CalibError>
             Ok(d) => return Ok(d),
             Err(e) => why = e,
         }
+    }
+    // calib-targets stitched no whole board: assemble one ourselves from its corner cloud.
+    let candidates: Vec<(Point2<f64>, f64)> = ct::detect_corners(image, &chess)
+        .iter()
+        .map(|c| {
+            (
+                Point2::new(c.position.x as f64, c.position.y as f64),
+                c.strength as f64,
+            )
+        })
+        .collect();
+    if let Some(grid) = crate::lattice::assemble(image, &candidates, board.cols, board.rows)
+        && let Ok(d) = label(&grid, board, image)
+    {
+        return Ok(d);
     }
     Err(CalibError::NotDetected(why))
 }

@@ -21,6 +21,7 @@ mod detect;
 mod extrinsics;
 pub mod homography;
 mod intrinsics;
+mod lattice;
 pub mod zhang;
 
 use thiserror::Error;
