@@ -2,6 +2,8 @@
 
 mod common;
 
+use std::path::Path;
+
 use common::flexshape;
 
 use flexshape_camera::nalgebra::Point3;
@@ -135,18 +137,6 @@ fn read_lines(path: &std::path::Path) -> (Vec<Value>, Value) {
     (lines, summary)
 }
 
-fn ffmpeg_or_skip() -> bool {
-    if flexshape_input::ffmpeg_available() {
-        return true;
-    }
-    assert!(
-        std::env::var("FLEXSHAPE_REQUIRE_FFMPEG").as_deref() != Ok("1"),
-        "FLEXSHAPE_REQUIRE_FFMPEG=1 but ffmpeg is not installed"
-    );
-    eprintln!("skipped the video part: ffmpeg is not installed (apt install ffmpeg)");
-    false
-}
-
 #[test]
 fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
     let dir = tempfile::tempdir().unwrap();
@@ -196,14 +186,17 @@ fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
         .iter()
         .map(|c| format!("{c}={}", rec.join("frames").join(c).display()))
         .collect();
-    let mut args = vec!["track", "--rig", &rig, "--backgrounds", &bg];
-    for f in &folders {
-        args.extend(["--images", f]);
-    }
-    let folder_out = path("folders.jsonl");
-    args.extend(["--out", &folder_out]);
-    common::run(&args);
-    let (from_folders, _) = read_lines(dir.path().join("folders.jsonl").as_path());
+    // Tracks with one `flag NAME=…` per camera; the records and the summary.
+    let track_inputs = |flag: &str, inputs: &[String]| {
+        let out = path(&format!("{}.jsonl", flag.trim_start_matches('-')));
+        let mut args = vec!["track", "--rig", &rig, "--backgrounds", &bg, "--out", &out];
+        for i in inputs {
+            args.extend([flag, i]);
+        }
+        common::run(&args);
+        read_lines(Path::new(&out))
+    };
+    let (from_folders, _) = track_inputs("--images", &folders);
     let same = |a: &[Value], b: &[Value], what: &str| {
         assert_eq!(a.len(), b.len(), "{what}");
         for (x, y) in a.iter().zip(b) {
@@ -237,7 +230,7 @@ fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
         "{e}"
     );
 
-    if !ffmpeg_or_skip() {
+    if !common::ffmpeg_or_skip() {
         return;
     }
     // One lossless video per camera gives exactly the recording's shapes.
@@ -256,28 +249,14 @@ fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
             format!("{c}={}", video.display())
         })
         .collect();
-    let mut args = vec!["track", "--rig", &rig, "--backgrounds", &bg];
-    for v in &videos {
-        args.extend(["--video", v]);
-    }
-    let video_out = path("videos.jsonl");
-    args.extend(["--out", &video_out]);
-    common::run(&args);
-    let (from_videos, _) = read_lines(dir.path().join("videos.jsonl").as_path());
+    let (from_videos, _) = track_inputs("--video", &videos);
     same(&from_recording, &from_videos, "videos");
 
     // The same videos as live cameras (played in real time): each ffmpeg stream starts on its
     // own, so (as with unsynchronised cameras) a set may pair neighbouring frames; every record
     // is still a processed frame with its latency, and frames taken plus dropped are the
     // video's.
-    let mut args = vec!["track", "--rig", &rig, "--backgrounds", &bg];
-    for v in &videos {
-        args.extend(["--camera", v]);
-    }
-    let live_out = path("live.jsonl");
-    args.extend(["--out", &live_out]);
-    common::run(&args);
-    let (live, summary) = read_lines(dir.path().join("live.jsonl").as_path());
+    let (live, summary) = track_inputs("--camera", &videos);
     let statuses: Vec<&Value> = live.iter().map(|r| &r["status"]).collect();
     assert!(!live.is_empty(), "{summary}");
     assert!(

@@ -1,19 +1,12 @@
 //! One simulated frame through the pipeline, and its record against truth.
 
-use flexshape_silhouette::BackgroundModel;
-use flexshape_sim::{SimConfig, Simulator};
-use flexshape_track::{Pipeline, TrackError, TrackRecord};
+mod common;
+
+use flexshape_track::{TrackError, TrackRecord};
 
 #[test]
 fn a_frame_becomes_a_record_in_world_coordinates() {
-    let sim = Simulator::new(SimConfig::default()).unwrap();
-    let backgrounds: Vec<_> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
-        .collect();
-    let rig = sim.rig();
-    let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume).unwrap();
+    let (sim, pipeline) = common::simulated_chain();
     let frame = sim.render(2, &sim.sweep(3)[2]).unwrap();
     let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
     let tracked = pipeline.process(&images).unwrap();

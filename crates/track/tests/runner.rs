@@ -1,12 +1,12 @@
 //! Frames in flight: the runner hands results over in input order, whatever the number of
 //! workers, keeps going past a bad frame, stops cleanly, and reports an input that breaks.
 
+mod common;
+
 use std::ops::ControlFlow;
 use std::sync::atomic::AtomicBool;
 
 use flexshape_input::{FrameImage, FrameSet, FrameSource, InputError};
-use flexshape_silhouette::BackgroundModel;
-use flexshape_sim::{SimConfig, Simulator};
 use flexshape_track::{Pipeline, Processed, Tally, TrackRecord, run};
 
 /// Pre-rendered frames; `bad` frames have an image of the wrong size, and the source breaks
@@ -32,14 +32,7 @@ impl FrameSource for Frames {
 }
 
 fn setup(n: usize, bad: &[usize]) -> (Pipeline, Vec<FrameSet>) {
-    let sim = Simulator::new(SimConfig::default()).unwrap();
-    let backgrounds: Vec<_> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
-        .collect();
-    let rig = sim.rig();
-    let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume).unwrap();
+    let (sim, pipeline) = common::simulated_chain();
     let sets = sim
         .sweep(n)
         .iter()

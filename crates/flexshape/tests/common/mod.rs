@@ -51,3 +51,17 @@ pub fn ink(png: &Path) -> (f64, usize) {
         colours.len(),
     )
 }
+
+/// True when ffmpeg is installed; otherwise says the test is skipped, or fails when
+/// `FLEXSHAPE_REQUIRE_FFMPEG=1` (CI).
+pub fn ffmpeg_or_skip() -> bool {
+    if flexshape_input::ffmpeg_available() {
+        return true;
+    }
+    assert!(
+        std::env::var("FLEXSHAPE_REQUIRE_FFMPEG").as_deref() != Ok("1"),
+        "FLEXSHAPE_REQUIRE_FFMPEG=1 but ffmpeg is not installed"
+    );
+    eprintln!("skipped the video part: ffmpeg is not installed (apt install ffmpeg)");
+    false
+}
