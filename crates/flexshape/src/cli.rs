@@ -425,8 +425,8 @@ pub struct DemoArgs {
     #[arg(long)]
     pub allow_remote: bool,
     /// Frame rate of the simulated cameras in the live demo (rendering three 640×480 views
-    /// takes about 80 ms of two cores; faster rates than the machine renders just run flat out).
-    #[arg(long, default_value_t = 10.0)]
+    /// takes about 45 ms of two cores; faster rates than the machine renders just run flat out).
+    #[arg(long, default_value_t = 12.0)]
     pub fps: f64,
     /// The manipulator model that drives the catheter (default: `flexshape model template`).
     #[arg(long, value_name = "PARAMS.toml")]

@@ -9,7 +9,7 @@ use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::sync::{Condvar, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use flexshape_input::{FrameSet, FrameSource, InputError};
 use flexshape_recording::{Command, Truth};
@@ -147,7 +147,8 @@ fn take<S: FrameSource + ?Sized>(
     {
         let mut w = window.lock().ok()?;
         while w.taken >= w.handed + window_len && !w.closed && !stop.load(Ordering::SeqCst) {
-            w = moved.wait(w).ok()?;
+            // A stop is a flag, not a notification: look again now and then.
+            w = moved.wait_timeout(w, Duration::from_millis(50)).ok()?.0;
         }
         if w.closed || stop.load(Ordering::SeqCst) {
             return None;

@@ -383,7 +383,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                     / rig.rendered.load(Ordering::Relaxed).max(1) as f64
             )
         } else {
-            String::new()
+            " (sharing the cores with the simulated cameras' rendering)".to_string()
         },
         match (&summary.latency_ms, args.no_viewer) {
             (Some(l), false) => format!(

@@ -104,6 +104,11 @@ impl RectIndex {
         self.rects.is_empty()
     }
 
+    /// Rectangle `i`.
+    pub fn rect(&self, i: usize) -> &Rect {
+        &self.rects[i]
+    }
+
     /// Appends to `out` the indices of all rectangles overlapping `query`.
     pub fn query(&self, query: &Rect, out: &mut Vec<usize>) {
         for (c, chunk) in self.chunks.iter().enumerate() {

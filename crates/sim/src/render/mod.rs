@@ -307,6 +307,7 @@ impl Renderer {
         let n = self.settings.supersampling as usize;
         let mut cands = Vec::new();
         let mut shadow_cands = Vec::new();
+        let mut pixel_cands = Vec::new();
         for tx in 0..view.tiles_x {
             let rect = view.tile_rects[ty * view.tiles_x + tx];
             cands.clear();
@@ -329,8 +330,19 @@ impl Renderer {
                         linear[idx] = bg;
                         continue;
                     }
+                    // Only the tile's candidates whose bounds meet this pixel's can be hit by
+                    // its rays (same hits, in the same order, as testing them all).
+                    let pixel = view.pixel_rect(px, py);
+                    pixel_cands.clear();
+                    pixel_cands.extend(
+                        cands
+                            .iter()
+                            .copied()
+                            .filter(|&i| prep.primary.rect(i).overlaps(&pixel)),
+                    );
+                    let cands = &pixel_cands;
                     let centre = view.normalized(px, py, 0.5, 0.5);
-                    if let Some((t, Hit::Capsule(i))) = self.trace(prep, &cands, centre) {
+                    if let Some((t, Hit::Capsule(i))) = self.trace(prep, cands, centre) {
                         mask[idx] = 255;
                         let c = &prep.capsules[i];
                         let (_, s) = capsule_point(c, &ray_dir(centre), t);
@@ -348,7 +360,7 @@ impl Renderer {
                                 (sx as f64 + 0.5) / n as f64,
                                 (sy as f64 + 0.5) / n as f64,
                             );
-                            let col = match self.trace(prep, &cands, p) {
+                            let col = match self.trace(prep, cands, p) {
                                 None => bg,
                                 Some((t, hit)) => {
                                     if matches!(hit, Hit::Capsule(_)) {

@@ -91,6 +91,19 @@ impl CameraView {
     /// Normalized coordinates at position `(fx, fy) ∈ [0, 1)²` inside pixel `(px, py)`,
     /// interpolated bilinearly between the pixel's corners (distortion is smooth at that
     /// scale: the error is far below 1e-6 px).
+    /// The normalized-plane bounds of pixel `(px, py)`: every ray through the pixel passes
+    /// inside.
+    #[inline]
+    pub fn pixel_rect(&self, px: usize, py: usize) -> Rect {
+        let stride = self.width + 1;
+        let i = py * stride + px;
+        let mut r = Rect::EMPTY;
+        for c in [i, i + 1, i + stride, i + stride + 1] {
+            r.include(self.corners[c]);
+        }
+        r
+    }
+
     #[inline]
     pub fn normalized(&self, px: usize, py: usize, fx: f64, fy: f64) -> [f64; 2] {
         let stride = self.width + 1;
