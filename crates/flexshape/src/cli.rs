@@ -208,6 +208,9 @@ pub struct ModelFitArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Write the registered model frame to FILE (JSON), for `flexshape track --model-frame`.
+    #[arg(long, value_name = "FILE")]
+    pub save_frame: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -281,6 +284,10 @@ pub struct TrackArgs {
     /// Frames processed at once (default: the number of cores).
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
+    /// The manipulator model's frame (`flexshape model fit --save-frame` writes it): arc fits
+    /// then also give `kappa_x`, `kappa_z` as the model defines them.
+    #[arg(long, value_name = "FILE")]
+    pub model_frame: Option<PathBuf>,
     #[command(flatten)]
     pub viewer: ViewerArgs,
 }

@@ -34,6 +34,8 @@ fn simulated_experiment_recovers_the_stiffnesses() {
     let shapes = shapes.to_str().unwrap();
     run(&["track", rec, "--out", shapes]);
     let plots = dir.path().join("plots");
+    let frame = dir.path().join("frame.json");
+    let frame = frame.to_str().unwrap();
     let report: serde_json::Value = serde_json::from_str(&run(&[
         "model",
         "fit",
@@ -44,6 +46,8 @@ fn simulated_experiment_recovers_the_stiffnesses() {
         "--json",
         "--plots",
         plots.to_str().unwrap(),
+        "--save-frame",
+        frame,
     ]))
     .unwrap();
     // Fig. 10: sensed against model, drawn and not blank.
@@ -78,6 +82,60 @@ fn simulated_experiment_recovers_the_stiffnesses() {
     assert!(get("tip_error_percent", 1) < 1.0);
     assert!(get("registration_residual_deg", 0) < 1.0);
     assert!(get("registration_residual_deg", 1) < 0.5);
+
+    // With the saved model frame, tracking reports κx, κz as the model defines them: the
+    // simulator's truth (it posed the catheter by the model's q).
+    let with_frame = dir.path().join("with_frame.jsonl");
+    run(&[
+        "track",
+        rec,
+        "--out",
+        with_frame.to_str().unwrap(),
+        "--model-frame",
+        frame,
+    ]);
+    let (mut checked, mut worst) = (0, 0.0f64);
+    for line in std::fs::read_to_string(&with_frame).unwrap().lines() {
+        let record: serde_json::Value = serde_json::from_str(line).unwrap();
+        let (Some(fit), Some(n)) = (record.get("arc_fit"), record["frame"].as_u64()) else {
+            continue;
+        };
+        let truth: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(Path::new(rec).join(format!("truth/{n:06}.json"))).unwrap(),
+        )
+        .unwrap();
+        let k = |v: &serde_json::Value| v.as_f64().unwrap();
+        let (kx, kz) = (k(&truth["kappa"][0]), k(&truth["kappa"][1]));
+        if kx.hypot(kz) < 1e-3 || fit.is_null() {
+            continue;
+        }
+        let error = (k(&fit["kappa_x"]) - kx).hypot(k(&fit["kappa_z"]) - kz);
+        assert!(
+            error < 0.03 * kx.hypot(kz),
+            "frame {n}: κ ({}, {}) vs truth ({kx}, {kz})",
+            fit["kappa_x"],
+            fit["kappa_z"]
+        );
+        worst = worst.max(error / kx.hypot(kz));
+        checked += 1;
+    }
+    println!(
+        "κx, κz in the model frame: worst {:.2} % of κ over {checked} frames",
+        worst * 100.0
+    );
+    assert!(checked >= 25, "{checked} bent frames checked");
+    // A file that is not a rotation is refused by name.
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, r#"{"rotation": [[1,0,0],[0,1,0],[0,0,-1]]}"#).unwrap();
+    let e = fails(&[
+        "track",
+        rec,
+        "--out",
+        "-",
+        "--model-frame",
+        bad.to_str().unwrap(),
+    ]);
+    assert!(e.contains("bad.json") && e.contains("reflection"), "{e}");
 }
 
 #[test]

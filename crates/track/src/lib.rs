@@ -12,8 +12,8 @@ use thiserror::Error;
 
 pub use pipeline::{Pipeline, StageTimings, Tracked};
 pub use record::{
-    StageSummary, SummaryLine, Tally, TrackArcFit, TrackBand, TrackCompression, TrackRecord,
-    TrackSummary, quantile, stage_summaries,
+    ModelFrame, StageSummary, SummaryLine, Tally, TrackArcFit, TrackBand, TrackCompression,
+    TrackRecord, TrackSummary, quantile, stage_summaries,
 };
 pub use runner::{Processed, RunEnd, run};
 

@@ -33,6 +33,67 @@ pub struct TrackArcFit {
     pub residual_mm: f64,
     /// Section length, mm.
     pub length: f64,
+    /// Curvature about the manipulator model's x axis, 1/mm (with a registered model frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kappa_x: Option<f64>,
+    /// Curvature about the model's z axis, 1/mm (with a registered model frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kappa_z: Option<f64>,
+}
+
+/// The manipulator model's frame registered to the world (`flexshape model fit --save-frame`
+/// writes it): with it, arc fits also give κx and κz as the model defines them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelFrame {
+    /// Model frame → world rotation, rows (the columns are the model's x, y, z axes in world;
+    /// y runs along the proximal section toward the tip).
+    pub rotation: [[f64; 3]; 3],
+    /// The bending base of the relaxed reference pose, world mm, if one was sensed.
+    #[serde(default)]
+    pub reference_base: Option<[f64; 3]>,
+    /// Registration residuals, degrees: base axis, bending directions.
+    #[serde(default)]
+    pub residual_deg: [f64; 2],
+}
+
+impl ModelFrame {
+    /// Checks that `rotation` is a proper rotation (orthonormal to 1e-6, determinant +1).
+    pub fn validate(&self) -> Result<(), String> {
+        let r = &self.rotation;
+        for i in 0..3 {
+            for j in 0..3 {
+                let dot: f64 = (0..3).map(|k| r[k][i] * r[k][j]).sum();
+                let want = if i == j { 1.0 } else { 0.0 };
+                if !dot.is_finite() || (dot - want).abs() > 1e-6 {
+                    return Err(format!(
+                        "`rotation` is not orthonormal (columns {i}·{j} = {dot:.6})"
+                    ));
+                }
+            }
+        }
+        let det = r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
+            - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
+            + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]);
+        if det < 0.0 {
+            return Err("`rotation` is a reflection (determinant −1)".into());
+        }
+        Ok(())
+    }
+
+    /// `[κx, κz]` of an arc fit in the model frame, 1/mm: the world curvature vector (the arc's
+    /// rotation axis, tangent × bend direction, times its curvature) turned into the model.
+    pub fn kappa(&self, fit: &TrackArcFit) -> [f64; 2] {
+        let (t, b) = (fit.base_tangent, fit.bend_direction);
+        let axis = [
+            t[1] * b[2] - t[2] * b[1],
+            t[2] * b[0] - t[0] * b[2],
+            t[0] * b[1] - t[1] * b[0],
+        ];
+        let r = &self.rotation;
+        // Rᵀ · axis · κ, components x and z.
+        let component = |c: usize| (0..3).map(|k| r[k][c] * axis[k]).sum::<f64>() * fit.curvature;
+        [component(0), component(2)]
+    }
 }
 
 /// One frame.
@@ -126,6 +187,8 @@ impl TrackRecord {
                 bend_direction: std::array::from_fn(|i| bx * x[i] + bz * z[i]),
                 residual_mm: f.residual_mean,
                 length: f.length,
+                kappa_x: None,
+                kappa_z: None,
             }
         });
         TrackRecord {
@@ -169,6 +232,15 @@ impl TrackRecord {
         if let Some(c) = command {
             self.tendon_displacements = Some(c.tendon_displacements);
             self.role = Some(c.role);
+        }
+        self
+    }
+
+    /// Adds κx, κz in the model frame to the arc fit, if there is one.
+    pub fn with_model_frame(mut self, frame: &ModelFrame) -> Self {
+        if let Some(fit) = &mut self.arc_fit {
+            let [kx, kz] = frame.kappa(fit);
+            (fit.kappa_x, fit.kappa_z) = (Some(kx), Some(kz));
         }
         self
     }

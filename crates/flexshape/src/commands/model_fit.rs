@@ -12,7 +12,7 @@ use flexshape_model::{
 };
 use flexshape_plot::{Mark, PALETTE, Series3, orthographic_views};
 use flexshape_recording::PoseRole;
-use flexshape_track::TrackRecord;
+use flexshape_track::{ModelFrame, TrackRecord};
 use serde::Serialize;
 
 use crate::cli::ModelFitArgs;
@@ -106,7 +106,18 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
             args.data.display()
         );
     }
-    let report = fit(&model, &poses, skipped, args.tendons, args.plots.as_deref())?;
+    let (report, frame) = fit(&model, &poses, skipped, args.tendons, args.plots.as_deref())?;
+    if let Some(path) = &args.save_frame {
+        let m = frame.rotation.matrix();
+        let saved = ModelFrame {
+            rotation: std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)])),
+            reference_base: frame.reference_base.map(|p| [p.x, p.y, p.z]),
+            residual_deg: report.registration_residual_deg,
+        };
+        let text = serde_json::to_string_pretty(&saved)?;
+        std::fs::write(path, text + "\n")
+            .with_context(|| format!("cannot write the model frame to {}", path.display()))?;
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -203,7 +214,7 @@ fn fit(
     skipped: Vec<String>,
     with_tendons: bool,
     plots: Option<&Path>,
-) -> anyhow::Result<Report> {
+) -> anyhow::Result<(Report, SensorFrame)> {
     let is_reference = |y: &DVector<f64>, role: &Option<PoseRole>| match role {
         Some(r) => *r == PoseRole::Reference,
         None => y.iter().all(|v| *v == 0.0),
@@ -276,7 +287,7 @@ fn fit(
         }
     });
     let m = frame.rotation.matrix();
-    Ok(Report {
+    let report = Report {
         nominal: nominal.diagonal(),
         estimated: estimate.stiffness.diagonal(),
         estimated_from_data: estimate.estimated,
@@ -295,7 +306,8 @@ fn fit(
         ],
         rotation: std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)])),
         tendons,
-    })
+    };
+    Ok((report, frame))
 }
 
 fn print_table(r: &Report) {

@@ -16,7 +16,7 @@ use flexshape_input::{FolderSource, FrameSource, LiveSource, RecordingSource, Vi
 use flexshape_recording::RecordingReader;
 use flexshape_rig::{Rig, Volume};
 use flexshape_silhouette::BackgroundModel;
-use flexshape_track::{Pipeline, Processed, SummaryLine, Tally, TrackRecord};
+use flexshape_track::{ModelFrame, Pipeline, Processed, SummaryLine, Tally, TrackRecord};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
@@ -38,6 +38,11 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let volume = volume(&input.rig.volume, args)?;
     let pipeline = Pipeline::new(&input.rig, &input.backgrounds, &volume)
         .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
+    let model_frame = args
+        .model_frame
+        .as_deref()
+        .map(load_model_frame)
+        .transpose()?;
     let mut sinks = Sinks::open(args)?;
     let mut viewer = super::viewer::start(&args.viewer, &pipeline)?;
     let bar = progress(input.source.as_ref());
@@ -50,7 +55,10 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         threads,
         stop.flag(),
         |p: Processed| {
-            let record = TrackRecord::from_processed(&p);
+            let mut record = TrackRecord::from_processed(&p);
+            if let Some(f) = &model_frame {
+                record = record.with_model_frame(f);
+            }
             for w in &p.warnings {
                 bar.suspend(|| eprintln!("frame {:06}: {w}", p.frame));
             }
@@ -218,6 +226,22 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
         backgrounds,
         source,
     })
+}
+
+/// The model frame `flexshape model fit --save-frame` wrote.
+fn load_model_frame(path: &Path) -> anyhow::Result<ModelFrame> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read the model frame {}", path.display()))?;
+    let frame: ModelFrame = serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{}: not a model frame (write one with `flexshape model fit --save-frame`)",
+            path.display()
+        )
+    })?;
+    frame
+        .validate()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(frame)
 }
 
 /// A rig TOML, or a folder of OpenCV camera files (with the default volume).
