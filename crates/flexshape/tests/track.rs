@@ -267,3 +267,34 @@ fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
     let taken = summary["frames"].as_u64().unwrap() + summary["dropped"].as_u64().unwrap();
     assert!(taken <= 4, "{summary}");
 }
+
+#[test]
+fn videos_without_ffmpeg_name_the_package() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    common::run(&["simulate", "--out", rec.to_str().unwrap(), "--frames", "1"]);
+    let video = dir.path().join("cam.mp4");
+    std::fs::write(&video, b"whatever").unwrap();
+    let mut args = vec![
+        "track".to_string(),
+        "--rig".into(),
+        rec.join("rig.toml").display().to_string(),
+        "--backgrounds".into(),
+        rec.join("background").display().to_string(),
+    ];
+    for c in ["cam0", "cam1", "cam2"] {
+        args.extend(["--video".into(), format!("{c}={}", video.display())]);
+    }
+    // No ffmpeg on this PATH.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_flexshape"))
+        .args(&args)
+        .env("PATH", dir.path())
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        e.contains("`ffmpeg` program") && e.contains("apt install ffmpeg") && e.contains("cam0"),
+        "{e}"
+    );
+}

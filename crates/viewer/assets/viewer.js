@@ -64,7 +64,11 @@ function figures(m) {
   $("dropped").textContent = s.dropped;
   $("arc").textContent = `${fmt(r.arc_length, 1)} mm`;
   const k = r.arc_fit ? r.arc_fit.curvature : null;
-  $("curvature").textContent = k ? `${fmt(k * 1000, 2)} 1/m (r ${fmt(1 / k, 0)} mm)` : "–";
+  let curvature = k ? `${fmt(k * 1000, 2)} 1/m (r ${fmt(1 / k, 0)} mm)` : "–";
+  if (r.arc_fit && r.arc_fit.kappa_x !== undefined) {
+    curvature += `; κx ${fmt(r.arc_fit.kappa_x * 1000, 2)}, κz ${fmt(r.arc_fit.kappa_z * 1000, 2)} 1/m`;
+  }
+  $("curvature").textContent = curvature;
   $("tip").textContent = r.tip ? r.tip.map((v) => fmt(v, 1)).join(", ") + " mm" : "–";
   if (s.truth_rms_mm !== undefined) {
     $("truth-fig").hidden = false;
