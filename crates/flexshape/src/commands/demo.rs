@@ -21,7 +21,7 @@ use flexshape_model::{ManipulatorParams, Model, Sweep};
 use flexshape_recording::{Command, PoseRole, RecordingWriter, Truth};
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{CatheterPose, Simulator};
-use flexshape_track::{Pipeline, Processed, Tally, TrackRecord, Tracked, quantile};
+use flexshape_track::{ModelFrame, Pipeline, Processed, Tally, TrackRecord, Tracked, quantile};
 
 use crate::cli::DemoArgs;
 use crate::interrupt::Interrupt;
@@ -292,6 +292,14 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         );
         Box::new(live_source(rig.clone(), args.frames, args.fps))
     };
+    // The simulator built the catheter in the model's frame: its κx, κz are known exactly, so
+    // the records (and the viewer) carry them as a registered rig would.
+    let m = rig.sim.config().catheter.base.rotation.into_inner();
+    let model_frame = ModelFrame {
+        rotation: std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)])),
+        reference_base: None,
+        residual_deg: [0.0, 0.0],
+    };
     let mut tally = Tally::new();
     let mut figures = Figures::default();
     let mut last_status = Instant::now();
@@ -306,7 +314,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         threads,
         stop.flag(),
         |p: Processed| {
-            let record = TrackRecord::from_processed(&p);
+            let record = TrackRecord::from_processed(&p).with_model_frame(&model_frame);
             tally.add(&record);
             let errors = match (&p.truth, &p.result) {
                 (Some(truth), Ok(t)) => shape_errors(&pipeline, truth, t),
