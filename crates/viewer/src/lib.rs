@@ -32,13 +32,13 @@ pub enum ViewerError {
     Remote(SocketAddr),
     /// The port could not be bound.
     #[error(
-        "cannot serve the viewer on {addr}: {source} (is another program using the port? try another one, or port 0 for any free one)"
+        "cannot serve the viewer on {addr}: {error} (is another program using the port? try another one, or port 0 for any free one)"
     )]
     Bind {
         /// The address.
         addr: SocketAddr,
-        /// Underlying error.
-        source: std::io::Error,
+        /// What the system said.
+        error: std::io::Error,
     },
     /// The server's thread or runtime could not start.
     #[error("cannot start the viewer's server: {0}")]
@@ -79,13 +79,13 @@ impl Viewer {
             );
         }
         let listener =
-            TcpListener::bind(addr).map_err(|source| ViewerError::Bind { addr, source })?;
+            TcpListener::bind(addr).map_err(|error| ViewerError::Bind { addr, error })?;
         let bound = listener
             .local_addr()
-            .map_err(|source| ViewerError::Bind { addr, source })?;
+            .map_err(|error| ViewerError::Bind { addr, error })?;
         listener
             .set_nonblocking(true)
-            .map_err(|source| ViewerError::Bind { addr, source })?;
+            .map_err(|error| ViewerError::Bind { addr, error })?;
         let (mailbox, updates) = watch::channel(None);
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
