@@ -97,3 +97,14 @@ pub(crate) fn catheter_for(default: &Catheter, params: &ManipulatorParams) -> Ca
         ..default.clone()
     }
 }
+
+/// A rig TOML, or a folder of OpenCV camera files (with the default volume).
+pub(crate) fn load_rig(path: &std::path::Path) -> anyhow::Result<flexshape_rig::Rig> {
+    use anyhow::Context;
+    if path.is_dir() {
+        flexshape_rig::Rig::from_calibration_dir(path, flexshape_rig::Volume::default())
+    } else {
+        flexshape_rig::Rig::load(path)
+    }
+    .with_context(|| format!("{} is not a valid rig", path.display()))
+}

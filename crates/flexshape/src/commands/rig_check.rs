@@ -2,17 +2,10 @@
 
 use std::path::Path;
 
-use anyhow::Context;
 use flexshape_camera::nalgebra::Point3;
-use flexshape_rig::{Rig, Volume};
 
 pub fn run(path: &Path) -> anyhow::Result<()> {
-    let rig = if path.is_dir() {
-        Rig::from_calibration_dir(path, Volume::default())
-    } else {
-        Rig::load(path)
-    }
-    .with_context(|| format!("{} is not a valid rig", path.display()))?;
+    let rig = super::load_rig(path)?;
     let v = &rig.volume;
     let hi = v.max_corner();
     println!(

@@ -146,7 +146,7 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
         let mut rig = rec.rig().clone();
         let mut rig_name = rec.layout().rig().display().to_string();
         if let Some(path) = &args.rig {
-            let other = load_rig(path)?;
+            let other = super::load_rig(path)?;
             let names = |r: &Rig| r.cameras.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
             if names(&other) != names(&rig) {
                 bail!(
@@ -179,7 +179,7 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
     let Some(rig_path) = &args.rig else {
         bail!("{what} needs the rig: give --rig RIG.toml or --rig CALIBRATION_DIR");
     };
-    let rig = load_rig(rig_path)?;
+    let rig = super::load_rig(rig_path)?;
     let Some(bg_dir) = &args.backgrounds else {
         bail!(
             "{what} needs a background image per camera: give --backgrounds DIR holding NAME.png for each camera (make them with `flexshape background`)"
@@ -242,16 +242,6 @@ fn load_model_frame(path: &Path) -> anyhow::Result<ModelFrame> {
         .validate()
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     Ok(frame)
-}
-
-/// A rig TOML, or a folder of OpenCV camera files (with the default volume).
-fn load_rig(path: &Path) -> anyhow::Result<Rig> {
-    if path.is_dir() {
-        Rig::from_calibration_dir(path, Volume::default())
-    } else {
-        Rig::load(path)
-    }
-    .with_context(|| format!("{} is not a valid rig", path.display()))
 }
 
 fn load_backgrounds(
