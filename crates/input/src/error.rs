@@ -70,6 +70,14 @@ pub enum InputError {
         /// ffmpeg's own message, or what happened.
         message: String,
     },
+    /// Any other producer of frames (e.g. the simulator of the live demo) failed.
+    #[error("{producer}: {message}")]
+    Producer {
+        /// What produces the frames.
+        producer: String,
+        /// What went wrong.
+        message: String,
+    },
     /// One camera's video or stream ended before the others'.
     #[error(
         "camera `{camera}`: its input ended after {frames} frames while other cameras still had frames; the stream stops here (videos of one recording must have the same number of frames)"
@@ -91,6 +99,7 @@ impl InputError {
             InputError::FfmpegMissing { .. }
                 | InputError::Ffmpeg { .. }
                 | InputError::Ended { .. }
+                | InputError::Producer { .. }
                 | InputError::Cameras(_)
                 | InputError::NoFrames(_)
         )

@@ -46,9 +46,8 @@ struct Rig {
 impl Rig {
     /// Frame `n` at `fps`: the model's command at that time, rendered (and written).
     fn frame(&self, n: u64, fps: f64) -> Result<FrameSet, InputError> {
-        let failed = |message: String| InputError::Ffmpeg {
-            camera: "simulator".into(),
-            input: format!("frame {n}"),
+        let failed = |message: String| InputError::Producer {
+            producer: format!("the simulated rig, frame {n}"),
             message,
         };
         let command = self
