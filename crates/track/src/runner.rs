@@ -43,6 +43,24 @@ pub struct Processed {
     pub dropped: u64,
 }
 
+impl Processed {
+    /// A frame the source could not read (numbered by its place in the input).
+    fn unreadable(seq: u64, reason: String, dropped: u64) -> Self {
+        Processed {
+            frame: seq,
+            name: None,
+            command: None,
+            truth: None,
+            warnings: Vec::new(),
+            images: Vec::new(),
+            result: Err(reason),
+            captured: Instant::now(),
+            latency_ms: 0.0,
+            dropped,
+        }
+    }
+}
+
 /// How a run ended.
 #[derive(Debug, Default)]
 pub struct RunEnd {
@@ -102,7 +120,11 @@ pub fn run<S: FrameSource + ?Sized>(
             scope.spawn(move || {
                 while let Some((seq, set, dropped)) = take(window, moved, puller, stop, window_len)
                 {
-                    if tx.send((seq, process(pipeline, set, dropped))).is_err() {
+                    let processed = match set {
+                        Ok(set) => process(pipeline, set, dropped),
+                        Err(reason) => Processed::unreadable(seq, reason, dropped),
+                    };
+                    if tx.send((seq, processed)).is_err() {
                         return;
                     }
                 }
@@ -143,7 +165,7 @@ fn take<S: FrameSource + ?Sized>(
     puller: &Mutex<Puller<'_, S>>,
     stop: &AtomicBool,
     window_len: u64,
-) -> Option<(u64, FrameSet, u64)> {
+) -> Option<(u64, Result<FrameSet, String>, u64)> {
     {
         let mut w = window.lock().ok()?;
         while w.taken >= w.handed + window_len && !w.closed && !stop.load(Ordering::SeqCst) {
@@ -172,11 +194,7 @@ fn take<S: FrameSource + ?Sized>(
         }
         Some(result) => {
             w.taken += 1;
-            let set = result.unwrap_or_else(|e| {
-                let mut set = FrameSet::new(seq, Vec::new());
-                set.warnings.push(format!("cannot read the frame: {e}"));
-                set
-            });
+            let set = result.map_err(|e| format!("cannot read the frame: {e}"));
             Some((seq, set, p.source.dropped()))
         }
     }
@@ -187,13 +205,11 @@ fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64) -> Processed {
     let names = pipeline.camera_names();
     let sizes = pipeline.image_sizes();
     let images: Result<Vec<RgbImage>, String> = if set.images.len() != names.len() {
-        Err(set.warnings.last().cloned().unwrap_or_else(|| {
-            format!(
-                "{} images for a rig of {} cameras",
-                set.images.len(),
-                names.len()
-            )
-        }))
+        Err(format!(
+            "{} images for a rig of {} cameras",
+            set.images.len(),
+            names.len()
+        ))
     } else {
         set.images
             .into_par_iter()
