@@ -288,6 +288,11 @@ pub struct TrackArgs {
     /// then also give `kappa_x`, `kappa_z` as the model defines them.
     #[arg(long, value_name = "FILE")]
     pub model_frame: Option<PathBuf>,
+    /// How the centerline is found: `fit` (the tube fitted to every camera's outline and
+    /// checked against the images; the default) or `hull` (the visual hull's centerline alone,
+    /// unchecked). Overrides the rig's `[processing.fit] method`.
+    #[arg(long, value_enum)]
+    pub method: Option<MethodArg>,
     #[command(flatten)]
     pub viewer: ViewerArgs,
 }
@@ -404,6 +409,24 @@ pub struct BackgroundArgs {
     pub out: PathBuf,
 }
 
+/// `--method`: how the centerline is found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MethodArg {
+    /// The tube fitted to the sub-pixel outlines in every camera, checked against them.
+    Fit,
+    /// The visual hull's centerline alone.
+    Hull,
+}
+
+impl From<MethodArg> for flexshape_fit::Method {
+    fn from(m: MethodArg) -> Self {
+        match m {
+            MethodArg::Fit => flexshape_fit::Method::Fit,
+            MethodArg::Hull => flexshape_fit::Method::Hull,
+        }
+    }
+}
+
 #[derive(Debug, Args)]
 pub struct SilhouettesArgs {
     /// Recording folder.
@@ -411,7 +434,8 @@ pub struct SilhouettesArgs {
     /// Frame number.
     #[arg(long, default_value_t = 0)]
     pub frame: u64,
-    /// Write masks and debug overlays (camK_object.png, camK_markers.png, camK_debug.png) here.
+    /// Write masks and debug overlays (camK_object.png, camK_markers.png, camK_debug.png, and
+    /// camK_fit.png: the fitted tube's outline and what it leaves unexplained) here.
     #[arg(long)]
     pub out: Option<PathBuf>,
 }

@@ -221,7 +221,7 @@ fn bench_prints_per_stage_figures_as_json() {
             .iter()
             .map(|s| s["stage"].as_str().unwrap())
             .collect();
-        assert_eq!(stages, ["silhouettes", "carve", "bands", "shape"]);
+        assert_eq!(stages, ["silhouettes", "carve", "bands", "shape", "fit"]);
         assert!(r["throughput_fps"].as_f64().unwrap() > 0.0);
     }
     assert!(v["png_decode_ms"].as_f64().unwrap() > 0.0);

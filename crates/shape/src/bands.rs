@@ -10,6 +10,8 @@
 //! band width beyond the edge measured worse on the simulator: 0.67 mm against 0.54 mm.)
 
 use flexshape_carve::{Band, Occupancy};
+use flexshape_curve::Polyline;
+use nalgebra::Point3;
 
 use crate::centerline::Centerline;
 use crate::order::Slices;
@@ -103,4 +105,39 @@ pub(crate) fn compression(
             })
         })
         .collect()
+}
+
+/// The hull record's bands (`hull_length` its curve's length) placed on a new curve's record:
+/// each at its centre's nearest point on the new curve, except a band ending at the tip, which
+/// keeps its distance from the tip (its centre was placed from the tip in the first place).
+pub(crate) fn carried_over(
+    bands: &[BandOnCurve],
+    hull_length: f64,
+    record: &crate::ShapeRecord,
+) -> Vec<BandOnCurve> {
+    let points = record.points.iter().map(|&p| Point3::from(p)).collect();
+    let Ok(curve) = Polyline::new(points) else {
+        return Vec::new();
+    };
+    let mut out: Vec<BandOnCurve> = bands
+        .iter()
+        .map(|b| {
+            let arc = if b.at_tip {
+                record.length - (hull_length - b.arc_length)
+            } else {
+                curve.closest(&Point3::from(b.position)).0
+            }
+            .clamp(0.0, record.length);
+            let shift = arc - b.arc_length;
+            BandOnCurve {
+                arc_length: arc,
+                position: curve.point_at(arc).into(),
+                extent: b.extent.map(|e| (e + shift).clamp(0.0, record.length)),
+                voxels: b.voxels,
+                at_tip: b.at_tip,
+            }
+        })
+        .collect();
+    out.sort_by(|a, b| a.arc_length.total_cmp(&b.arc_length));
+    out
 }

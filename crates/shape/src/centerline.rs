@@ -20,6 +20,7 @@
 //! On the default simulated rig (20 frames) the errors along the tip direction were
 //! +0.2…+1.3 mm for the first, −1.1…+0.7 mm for the second, and −0.4…+0.65 mm for their mean.
 
+use flexshape_curve::BSpline3;
 use flexshape_rig::Volume;
 use nalgebra::Point3;
 
@@ -30,9 +31,27 @@ use crate::spline::{CubicSpline3, Derivatives, moving_average, polynomial_fit};
 /// Parameter step of the arc-length table, mm.
 const TABLE_STEP: f64 = 0.1;
 
+/// The smooth curve under a centerline.
+#[derive(Debug, Clone)]
+pub(crate) enum Smooth {
+    /// Through the hull's slices.
+    Natural(CubicSpline3),
+    /// Fitted elsewhere (to the images).
+    BSpline(BSpline3),
+}
+
+impl Smooth {
+    fn eval(&self, x: f64) -> Derivatives {
+        match self {
+            Smooth::Natural(s) => s.eval(x),
+            Smooth::BSpline(b) => b.eval(x),
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 pub(crate) struct Centerline {
-    spline: CubicSpline3,
+    spline: Smooth,
     /// Parameters of the table's entries (uniform, from the proximal end to the tip).
     params: Vec<f64>,
     /// Arc length at each entry, mm.
@@ -85,6 +104,7 @@ impl Centerline {
                 CubicSpline3::interpolating(&knots, &polynomial_fit(&knots, &data, degree))
             }
         };
+        let spline = Smooth::Natural(spline);
         let cap = match settings.tip_end {
             TipEnd::Rounded => radius,
             TipEnd::Flat => 0.0,
@@ -100,7 +120,31 @@ impl Centerline {
             end_param(slices, voxel, cap)
         }
         .max(start + voxel);
-        let steps = ((end - start) / TABLE_STEP).ceil().max(1.0) as usize;
+        Self::over(spline, start, end, TABLE_STEP)
+    }
+
+    /// A fitted curve over its whole parameter range `[0, 1]`, cut where it crosses the
+    /// volume's boundary at an end where `enters` / `leaves` say the tube runs through it.
+    pub fn fitted(curve: BSpline3, volume: &Volume, enters: bool, leaves: bool) -> Self {
+        let spline = Smooth::BSpline(curve);
+        let start = if enters {
+            crossing(&spline, volume, 0.0, -1.0)
+        } else {
+            0.0
+        };
+        let end = if leaves {
+            crossing(&spline, volume, 1.0, 1.0)
+        } else {
+            1.0
+        };
+        let speed = |u: f64| dot(spline.eval(u).d1, spline.eval(u).d1).sqrt().max(1e-9);
+        // About TABLE_STEP mm per entry.
+        let step = TABLE_STEP / speed(0.5);
+        Self::over(spline, start, end.max(start + step), step)
+    }
+
+    fn over(spline: Smooth, start: f64, end: f64, table_step: f64) -> Self {
+        let steps = ((end - start) / table_step).ceil().max(1.0) as usize;
         let params: Vec<f64> = (0..=steps)
             .map(|i| start + (end - start) * i as f64 / steps as f64)
             .collect();
@@ -165,15 +209,19 @@ impl Centerline {
 /// +1 at the distal one. The end slices of a tube crossing obliquely are partial and their axis
 /// point can lie outside the box, so the search runs inward from there, or outward when that
 /// point is inside.
-fn crossing(spline: &CubicSpline3, volume: &Volume, from: f64, outward: f64) -> f64 {
+fn crossing(spline: &Smooth, volume: &Volume, from: f64, outward: f64) -> f64 {
     let inside = |s: f64| volume.contains(&Point3::from(spline.eval(s).value));
+    let d1 = spline.eval(from).d1;
+    // A quarter voxel along the curve, in parameter units.
+    let speed = dot(d1, d1).sqrt().max(1e-9);
     let step = outward
         * volume
             .voxel_size
             .iter()
             .copied()
             .fold(f64::INFINITY, f64::min)
-        / 4.0;
+        / 4.0
+        / speed;
     let diagonal = volume
         .voxel_size
         .iter()
@@ -181,6 +229,7 @@ fn crossing(spline: &CubicSpline3, volume: &Volume, from: f64, outward: f64) -> 
         .map(|(v, &d)| (v * d as f64).powi(2))
         .sum::<f64>()
         .sqrt();
+    let diagonal = diagonal / speed;
     let (mut out, mut inn) = (from, from);
     if inside(from) {
         while inside(out) && (out - from).abs() < diagonal {

@@ -28,6 +28,8 @@ mod spline;
 use std::time::Instant;
 
 use flexshape_carve::{Band, Occupancy};
+use flexshape_curve::BSpline3;
+use flexshape_rig::Volume;
 use thiserror::Error;
 
 pub use arcfit::section_frame;
@@ -86,6 +88,66 @@ impl ShapeEstimator {
         let voxel = vs.iter().copied().fold(f64::INFINITY, f64::min);
         let radius = s.radius_mm.unwrap_or_else(|| estimate_radius(&slices, vs));
         let curve = centerline::Centerline::new(&slices, s, &occupancy.volume, radius);
+        let mut record = self.sampled(&curve, radius, slices.enters_volume);
+        let t2 = Instant::now();
+        record.bands = bands::locate(occupancy, bands, &slices, &curve, voxel);
+        if slices.leaves_volume {
+            record.status = Status::LeavesVolume;
+        }
+        let t3 = Instant::now();
+        self.finish(&mut record, &curve);
+        record.timings = Timings {
+            order_ms: (t1 - t0).as_secs_f64() * 1e3,
+            smooth_ms: (t2 - t1).as_secs_f64() * 1e3,
+            bands_ms: (t3 - t2).as_secs_f64() * 1e3,
+            arc_fit_ms: ms(t3),
+        };
+        record
+    }
+
+    /// The record of a centerline found another way — the tube fitted to the images — from
+    /// its proximal end (`u = 0`) to its tip (`u = 1`), cut at the volume's boundary at the
+    /// ends `open` says the tube runs through (`[proximal, tip]`). Status and bands come from
+    /// `hull`, the same frame's hull record, which must hold a shape: each band
+    /// keeps its place (its centre's nearest point on the new curve; a band ending at the tip
+    /// keeps its distance from the tip). `sigma` gives the 1-σ uncertainty across the tube
+    /// (mm) at a curve parameter, for the record's `sigma`.
+    pub fn record_from_curve(
+        &self,
+        curve: BSpline3,
+        volume: &Volume,
+        radius: f64,
+        open: [bool; 2],
+        hull: &ShapeRecord,
+        sigma: Option<&dyn Fn(f64) -> f64>,
+    ) -> ShapeRecord {
+        let t0 = Instant::now();
+        let curve = centerline::Centerline::fitted(curve, volume, open[0], open[1]);
+        let mut record = self.sampled(&curve, radius, open[0]);
+        record.status = hull.status.clone();
+        if let Some(sigma) = sigma {
+            record.sigma = record
+                .arc
+                .iter()
+                .map(|&a| sigma(curve.param_of(a)))
+                .collect();
+        }
+        let t1 = Instant::now();
+        record.bands = bands::carried_over(&hull.bands, hull.length, &record);
+        let t2 = Instant::now();
+        self.finish(&mut record, &curve);
+        record.timings = Timings {
+            order_ms: 0.0,
+            smooth_ms: (t1 - t0).as_secs_f64() * 1e3,
+            bands_ms: (t2 - t1).as_secs_f64() * 1e3,
+            arc_fit_ms: ms(t2),
+        };
+        record
+    }
+
+    /// The curve's samples, length, tip and radius in a record of status `ok`.
+    fn sampled(&self, curve: &centerline::Centerline, radius: f64, enters: bool) -> ShapeRecord {
+        let s = &self.settings;
         let length = curve.length();
         // Evenly spaced, a little closer than `sample_mm` so that no chord exceeds it (the arc
         // table is exact to ~1e-4 mm).
@@ -104,34 +166,28 @@ impl ShapeEstimator {
         record.tip = record.points[record.points.len() - 1];
         record.tip_direction = record.tangent[record.tangent.len() - 1];
         record.radius = radius;
-        record.enters_volume = slices.enters_volume;
-        let t2 = Instant::now();
-        record.bands = bands::locate(occupancy, bands, &slices, &curve, voxel);
-        record.compression = bands::compression(&s.sections, &record.bands, length);
-        if slices.leaves_volume {
-            record.status = Status::LeavesVolume;
-        } else if record.bands.len() < s.expected_bands {
+        record.enters_volume = enters;
+        record
+    }
+
+    /// Compression, the `bands_missing` status and the arc fit, once the bands are placed.
+    fn finish(&self, record: &mut ShapeRecord, curve: &centerline::Centerline) {
+        let s = &self.settings;
+        record.compression = bands::compression(&s.sections, &record.bands, record.length);
+        if record.status == Status::Ok && record.bands.len() < s.expected_bands {
             record.status = Status::BandsMissing {
                 found: record.bands.len(),
                 expected: s.expected_bands,
             };
         }
-        let t3 = Instant::now();
         if s.arc_fit.enabled {
             let start = s
                 .arc_fit
                 .from_band
                 .and_then(|b| record.bands.get(b))
                 .map_or(s.arc_fit.start_arc_mm, |b| b.arc_length);
-            record.arc_fit = arcfit::fit(&curve, start, &s.arc_fit);
+            record.arc_fit = arcfit::fit(curve, start, &s.arc_fit);
         }
-        record.timings = Timings {
-            order_ms: (t1 - t0).as_secs_f64() * 1e3,
-            smooth_ms: (t2 - t1).as_secs_f64() * 1e3,
-            bands_ms: (t3 - t2).as_secs_f64() * 1e3,
-            arc_fit_ms: ms(t3),
-        };
-        record
     }
 }
 

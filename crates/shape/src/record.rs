@@ -22,6 +22,13 @@ pub enum Status {
     /// The tube reaches the volume's boundary at both ends: its tip is outside the volume, so
     /// the curve stops at the boundary and `tip` is not the instrument's tip.
     LeavesVolume,
+    /// A shape was fitted, but it does not explain the images (a camera's outline residuals,
+    /// its overlap with a silhouette, or silhouette pixels it leaves unexplained are beyond the
+    /// self-check's limits): the shape is not to be trusted.
+    Inconsistent {
+        /// Which camera and which check, with the figures.
+        reason: String,
+    },
     /// A shape, but fewer bands than expected.
     BandsMissing {
         /// Bands found.
@@ -136,6 +143,10 @@ pub struct ShapeRecord {
     pub curvature: Vec<f64>,
     /// Torsion at each sample, 1/mm.
     pub torsion: Vec<f64>,
+    /// 1-σ uncertainty of each sample across the tube, mm, when the centerline was fitted to
+    /// the images (empty for the hull's centerline).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sigma: Vec<f64>,
     /// Tip (the centerline's end), world mm.
     pub tip: [f64; 3],
     /// Unit tangent at the tip.
@@ -165,6 +176,7 @@ impl ShapeRecord {
             tangent: Vec::new(),
             curvature: Vec::new(),
             torsion: Vec::new(),
+            sigma: Vec::new(),
             tip: [0.0; 3],
             tip_direction: [0.0; 3],
             radius: 0.0,

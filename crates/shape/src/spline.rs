@@ -15,14 +15,7 @@ pub struct CubicSpline3 {
     second: Vec<[f64; 3]>,
 }
 
-/// Position and its first three derivatives with respect to the parameter.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Derivatives {
-    pub value: [f64; 3],
-    pub d1: [f64; 3],
-    pub d2: [f64; 3],
-    pub d3: [f64; 3],
-}
+pub use flexshape_curve::Derivatives;
 
 impl CubicSpline3 {
     /// The penalised least-squares spline minimising `Σ wᵢ‖yᵢ − g(xᵢ)‖² + λ ∫‖g''‖²` (`λ = 0`

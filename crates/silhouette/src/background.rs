@@ -115,6 +115,11 @@ impl BackgroundModel {
         self.mean[i]
     }
 
+    /// Mean colours of every pixel, row-major (0–255 scale).
+    pub fn means(&self) -> &[[f32; 3]] {
+        &self.mean
+    }
+
     /// Spread of pixel index `i`, grey levels.
     pub fn spread(&self, i: usize) -> f32 {
         self.spread[i]

@@ -6,6 +6,7 @@ mod record;
 mod runner;
 
 use flexshape_carve::CarveError;
+use flexshape_fit::FitError;
 use flexshape_shape::ShapeError;
 use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
@@ -34,6 +35,9 @@ pub enum TrackError {
     /// Shape settings.
     #[error(transparent)]
     Shape(#[from] ShapeError),
+    /// The image fit.
+    #[error(transparent)]
+    Fit(#[from] FitError),
     /// One item per camera was expected.
     #[error("{found} {what} for a rig of {expected} cameras")]
     CameraCount {

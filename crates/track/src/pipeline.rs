@@ -1,10 +1,12 @@
 //! One frame through the sensing chain: silhouettes (cameras in parallel) → hierarchical
-//! carving → marker bands → shape.
+//! carving → marker bands → the hull's shape → the tube fitted to the images and checked
+//! against them.
 
 use std::time::Instant;
 
 use flexshape_camera::Camera;
 use flexshape_carve::{Band, BandRule, HierarchicalCarver, Occupancy, OutsideImage, find_bands};
+use flexshape_fit::{Fit, FitSettings, Method, TubeFitter, View};
 use flexshape_rig::{Rig, Volume};
 use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings};
 use flexshape_silhouette::{BackgroundModel, Silhouette, SilhouetteSettings, Silhouetter};
@@ -23,18 +25,22 @@ pub struct StageTimings {
     pub carve: f64,
     /// Marker bands in the carved volume.
     pub bands: f64,
-    /// Shape estimation.
+    /// Shape estimation from the hull.
     pub shape: f64,
+    /// The tube fitted to the images and its self-check (0 with the hull method).
+    #[serde(default)]
+    pub fit: f64,
 }
 
 impl StageTimings {
     /// The stages' names and times, in pipeline order.
-    pub fn stages(&self) -> [(&'static str, f64); 4] {
+    pub fn stages(&self) -> [(&'static str, f64); 5] {
         [
             ("silhouettes", self.silhouettes),
             ("carve", self.carve),
             ("bands", self.bands),
             ("shape", self.shape),
+            ("fit", self.fit),
         ]
     }
 }
@@ -48,8 +54,11 @@ pub struct Tracked {
     pub occupancy: Occupancy,
     /// Marker bands in them.
     pub bands: Vec<Band>,
-    /// The shape.
+    /// The shape: fitted to the images (method `fit`), or the hull's.
     pub shape: ShapeRecord,
+    /// The fitted tube and how well it explains each camera's image (method `fit`, when the
+    /// hull gave a shape to start from).
+    pub fit: Option<Fit>,
     /// Time per stage.
     pub timings: StageTimings,
 }
@@ -63,6 +72,8 @@ pub struct Pipeline {
     carver: HierarchicalCarver,
     band_rule: BandRule,
     shape: ShapeEstimator,
+    backgrounds: Vec<BackgroundModel>,
+    fitter: TubeFitter,
 }
 
 impl Pipeline {
@@ -97,14 +108,38 @@ impl Pipeline {
         let cameras: Vec<Camera> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
         let carver = HierarchicalCarver::new(&cameras, volume)?;
         let shape = ShapeEstimator::new(ShapeSettings::from_processing(&rig.processing)?)?;
+        let names: Vec<String> = rig.cameras.iter().map(|c| c.name.clone()).collect();
+        let fitter = TubeFitter::new(
+            cameras.clone(),
+            names.clone(),
+            FitSettings::from_processing(&rig.processing)?,
+        )?;
         Ok(Pipeline {
-            names: rig.cameras.iter().map(|c| c.name.clone()).collect(),
+            names,
             cameras,
             silhouetters,
             carver,
             band_rule: BandRule::default(),
             shape,
+            backgrounds: backgrounds.to_vec(),
+            fitter,
         })
+    }
+
+    /// Replaces the image fit's settings.
+    pub fn with_fit_settings(mut self, settings: FitSettings) -> Result<Self, TrackError> {
+        self.fitter = TubeFitter::new(self.cameras.clone(), self.names.clone(), settings)?;
+        Ok(self)
+    }
+
+    /// The image fit (to re-render a fitted tube or see its outline residuals).
+    pub fn fitter(&self) -> &TubeFitter {
+        &self.fitter
+    }
+
+    /// The image fit's settings (its `method` says whether the shape is fitted to the images).
+    pub fn fit_settings(&self) -> &FitSettings {
+        self.fitter.settings()
     }
 
     /// Replaces the shape stage's settings.
@@ -173,18 +208,40 @@ impl Pipeline {
         let bands = find_bands(&occupancy, &self.cameras, &markers, &self.band_rule)?;
         let bands_ms = ms(t);
         let t = Instant::now();
-        let shape = self.shape.estimate(&occupancy, &bands);
+        let hull = self.shape.estimate(&occupancy, &bands);
         let shape_ms = ms(t);
+        let t = Instant::now();
+        let (shape, fit) = match self.fitter.settings().method {
+            Method::Hull => (hull, None),
+            Method::Fit => {
+                let views: Vec<View> = images
+                    .iter()
+                    .zip(&self.backgrounds)
+                    .zip(&silhouettes)
+                    .map(|((image, bg), s)| View {
+                        image,
+                        background: bg.means(),
+                        silhouette: &s.object,
+                    })
+                    .collect();
+                let radius = self.shape.settings().radius_mm;
+                self.fitter
+                    .refine(&self.shape, self.carver.volume(), &views, &hull, radius)?
+            }
+        };
+        let fit_ms = ms(t);
         Ok(Tracked {
             silhouettes,
             occupancy,
             bands,
             shape,
+            fit,
             timings: StageTimings {
                 silhouettes: silhouettes_ms,
                 carve: carve_ms,
                 bands: bands_ms,
                 shape: shape_ms,
+                fit: fit_ms,
             },
         })
     }

@@ -2,6 +2,7 @@
 //! documented in `docs/formats.md` are a stable contract; others may be added. World frame,
 //! mm, radians.
 
+use flexshape_fit::CameraCheck;
 use flexshape_recording::{Command, PoseRole};
 use flexshape_shape::Status;
 use serde::{Deserialize, Serialize};
@@ -101,7 +102,8 @@ impl ModelFrame {
 pub struct TrackRecord {
     /// Frame number.
     pub frame: u64,
-    /// `ok`, `no_object`, `ambiguous`, `bands_missing` or `error`.
+    /// `ok`, `no_object`, `ambiguous`, `leaves_volume`, `inconsistent`, `bands_missing` or
+    /// `error`.
     pub status: String,
     /// Why, when the status is not `ok`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -142,6 +144,21 @@ pub struct TrackRecord {
     /// From capture (live) or reading (offline) to the end of the chain, ms.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub latency_ms: Option<f64>,
+    /// How the centerline was found: `fit` (the tube fitted to every camera's outline) or
+    /// `hull` (the visual hull's centerline alone).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<String>,
+    /// Tube radius, mm: fitted to the images, given in the rig, or the hull's estimate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    /// 1-σ uncertainty of each centerline point across the tube, mm (method `fit`), from the
+    /// fit's normal equations: how much a controller may trust each point.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub centerline_sigma: Vec<f64>,
+    /// How well the fitted tube explains each camera's image (method `fit`), in the rig's
+    /// order: outline residuals, their systematic offset, overlap with the silhouette.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub cameras: Vec<CameraCheck>,
 }
 
 /// A measured axial strain.
@@ -169,6 +186,7 @@ impl TrackRecord {
                     "the tube leaves the volume: the tip is outside it; enlarge the volume".into(),
                 ),
             ),
+            Status::Inconsistent { reason } => ("inconsistent", Some(reason.clone())),
             Status::BandsMissing { found, expected } => (
                 "bands_missing",
                 Some(format!("{found} of {expected} bands found")),
@@ -224,6 +242,10 @@ impl TrackRecord {
             role: None,
             image: None,
             latency_ms: None,
+            method: Some(if t.fit.is_some() { "fit" } else { "hull" }.into()),
+            radius: has_shape.then_some(s.radius),
+            centerline_sigma: s.sigma.clone(),
+            cameras: t.fit.as_ref().map_or_else(Vec::new, |f| f.cameras.clone()),
         }
     }
 
@@ -279,6 +301,10 @@ impl TrackRecord {
             role: None,
             image: None,
             latency_ms: None,
+            method: None,
+            radius: None,
+            centerline_sigma: Vec::new(),
+            cameras: Vec::new(),
         }
     }
 }

@@ -422,14 +422,14 @@ fn introduce(sim: &Simulator, setup: Instant) {
         c.catheter.bend_length
     );
     println!(
-        "stages: model → simulator → silhouettes → voxel carving → marker bands → shape (centerline, tip, bands, arc fit); errors against the simulator's truth"
+        "stages: model → simulator → silhouettes → voxel carving → marker bands → hull shape → tube fitted to every camera's outline and checked against the images (centerline, tip, bands, arc fit); errors against the simulator's truth"
     );
     println!("set up in {:.0} ms\n", setup.elapsed().as_secs_f64() * 1e3);
 }
 
 fn table_header() -> String {
     format!(
-        "{:>5} {:>6} {:>7}  {:>6} {:>6} {:>5}  {:>7} {:>6} {:>7} {:>13}  {:>6} {:>6} {:>6} {:>6}",
+        "{:>5} {:>6} {:>7}  {:>6} {:>6} {:>5}  {:>7} {:>6} {:>7} {:>13}  {:>6} {:>6} {:>6} {:>6} {:>6}",
         "frame",
         "bend°",
         "plane°",
@@ -444,6 +444,7 @@ fn table_header() -> String {
         "carve",
         "bands",
         "shape",
+        "fit",
     )
 }
 
@@ -491,7 +492,17 @@ fn table_row(
     };
     let t = record.timings_ms;
     format!(
-        "{:>5} {bend:>6.1} {plane:>7.1}  {:>6} {measured}  {:>6.2} {:>6.2} {:>6.2} {:>6.2}",
-        record.frame, record.voxels, t.silhouettes, t.carve, t.bands, t.shape
+        "{:>5} {bend:>6.1} {plane:>7.1}  {:>6} {measured}  {:>6.2} {:>6.2} {:>6.2} {:>6.2} {:>6.2}{}",
+        record.frame,
+        record.voxels,
+        t.silhouettes,
+        t.carve,
+        t.bands,
+        t.shape,
+        t.fit,
+        match (errors, record.status.as_str()) {
+            (Some(_), "ok") | (None, _) => String::new(),
+            (Some(_), status) => format!("  {status}: {}", record.reason.as_deref().unwrap_or("")),
+        }
     )
 }

@@ -245,7 +245,7 @@ pub fn report(dir: &Path, records: &[TrackRecord]) -> anyhow::Result<Vec<PathBuf
             &dir.join("arc_fits"),
         )?);
     }
-    let stages: Vec<HistogramSeries> = ["silhouettes", "carve", "bands", "shape"]
+    let stages: Vec<HistogramSeries> = ["silhouettes", "carve", "bands", "shape", "fit"]
         .iter()
         .enumerate()
         .map(|(k, name)| HistogramSeries {
@@ -254,7 +254,7 @@ pub fn report(dir: &Path, records: &[TrackRecord]) -> anyhow::Result<Vec<PathBuf
                 .iter()
                 .map(|r| {
                     let t = &r.timings_ms;
-                    [t.silhouettes, t.carve, t.bands, t.shape][k]
+                    [t.silhouettes, t.carve, t.bands, t.shape, t.fit][k]
                 })
                 .collect(),
             colour: PALETTE[k],

@@ -108,3 +108,20 @@ pub(crate) fn load_rig(path: &std::path::Path) -> anyhow::Result<flexshape_rig::
     }
     .with_context(|| format!("{} is not a valid rig", path.display()))
 }
+
+/// The pipeline with its centerline method set from `--method`, if given.
+pub(crate) fn with_method(
+    pipeline: flexshape_track::Pipeline,
+    method: Option<crate::cli::MethodArg>,
+) -> Result<flexshape_track::Pipeline, flexshape_track::TrackError> {
+    match method {
+        None => Ok(pipeline),
+        Some(m) => {
+            let settings = flexshape_fit::FitSettings {
+                method: m.into(),
+                ..pipeline.fit_settings().clone()
+            };
+            pipeline.with_fit_settings(settings)
+        }
+    }
+}

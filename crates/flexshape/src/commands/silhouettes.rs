@@ -3,10 +3,12 @@
 use std::time::Instant;
 
 use anyhow::{Context, bail};
+use flexshape_fit::{View, debug_image as fit_debug_image};
 use flexshape_recording::RecordingReader;
 use flexshape_silhouette::{
     BackgroundModel, BitMask, SilhouetteSettings, Silhouetter, debug_image,
 };
+use flexshape_track::{Pipeline, TrackRecord};
 
 use crate::cli::SilhouettesArgs;
 
@@ -30,6 +32,8 @@ pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     }
     println!("frame {:06} of {}", args.frame, args.recording.display());
+    let mut models = Vec::new();
+    let mut frames = Vec::new();
     for (i, cam) in rec.rig().cameras.iter().enumerate() {
         let bg_path = rec.layout().background(&cam.name);
         let model = BackgroundModel::load(&bg_path).with_context(|| {
@@ -83,9 +87,78 @@ pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
                 debug_image(&frame, &s).into(),
             )?;
         }
+        models.push(model);
+        frames.push(frame);
     }
+    fitted(&rec, &models, &frames, args)?;
     if let Some(out) = &args.out {
         println!("debug images written to {}", out.display());
+    }
+    Ok(())
+}
+
+/// The whole chain on the frame: the shape's status, how well the fitted tube explains each
+/// camera, and (with `--out`) `camK_fit.png` showing it.
+fn fitted(
+    rec: &RecordingReader,
+    models: &[BackgroundModel],
+    frames: &[image::RgbImage],
+    args: &SilhouettesArgs,
+) -> anyhow::Result<()> {
+    let rig = rec.rig();
+    let pipeline = Pipeline::new(rig, models, &rig.volume)
+        .with_context(|| format!("{}", rec.layout().rig().display()))?;
+    let images: Vec<&image::RgbImage> = frames.iter().collect();
+    let t = pipeline
+        .process(&images)
+        .with_context(|| format!("frame {:06}", args.frame))?;
+    let record = TrackRecord::from_tracked(args.frame, &t);
+    println!(
+        "shape: {}{} ({} method)",
+        record.status,
+        record
+            .reason
+            .as_deref()
+            .map(|r| format!(": {r}"))
+            .unwrap_or_default(),
+        record.method.as_deref().unwrap_or("-")
+    );
+    let Some(fit) = &t.fit else {
+        return Ok(());
+    };
+    for c in &fit.cameras {
+        println!(
+            "  {:<8} outline {}/{} found, residual {:.3} px RMS (mean {:+.3}), IoU {:.3}, {} px unexplained",
+            c.camera, c.found, c.samples, c.residual_px, c.offset_px, c.iou, c.unexplained_px
+        );
+    }
+    let Some(out) = &args.out else {
+        return Ok(());
+    };
+    let views: Vec<View> = frames
+        .iter()
+        .zip(models)
+        .zip(&t.silhouettes)
+        .map(|((image, bg), s)| View {
+            image,
+            background: bg.means(),
+            silhouette: &s.object,
+        })
+        .collect();
+    let outlines = pipeline.fitter().outline_residuals(&views, &fit.tube)?;
+    for (i, cam) in rig.cameras.iter().enumerate() {
+        let Some(rendered) = pipeline.fitter().render(i, &fit.tube) else {
+            continue;
+        };
+        let img = fit_debug_image(
+            &frames[i],
+            &outlines[i],
+            &rendered,
+            &t.silhouettes[i].object,
+        );
+        let path = out.join(format!("{}_fit.png", cam.name));
+        img.save(&path)
+            .with_context(|| format!("cannot write {}", path.display()))?;
     }
     Ok(())
 }

@@ -37,6 +37,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let mut input = open_input(args)?;
     let volume = volume(&input.rig.volume, args)?;
     let pipeline = Pipeline::new(&input.rig, &input.backgrounds, &volume)
+        .and_then(|p| super::with_method(p, args.method))
         .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
     let model_frame = args
         .model_frame

@@ -1,0 +1,299 @@
+//! Clamped uniform cubic B-splines in 3-D: the smooth centerline the tube fit moves. A curve of
+//! `n ≥ 4` control points has `n − 3` equal spans over the parameter `u ∈ [0, 1]`; it starts at
+//! the first control point and ends at the last, tangent to the control polygon there. Each
+//! point depends on four control points only, which keeps the fit's normal equations banded.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::polyline::CurveError;
+
+/// Position and its first three derivatives with respect to a curve's parameter (units: the
+/// curve's, per parameter unit to the power of the derivative's order).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Derivatives {
+    /// Position.
+    pub value: [f64; 3],
+    /// First derivative.
+    pub d1: [f64; 3],
+    /// Second derivative.
+    pub d2: [f64; 3],
+    /// Third derivative.
+    pub d3: [f64; 3],
+}
+
+/// The four basis functions that are non-zero at a parameter, and their derivatives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Basis {
+    /// Index of the control point that `weights[·][0]` belongs to.
+    pub first: usize,
+    /// `weights[d][j]`: the `d`-th derivative (0–3) of the basis function of control point
+    /// `first + j`.
+    pub weights: [[f64; 4]; 4],
+}
+
+/// A clamped uniform cubic B-spline over `u ∈ [0, 1]` (continued along its end tangents
+/// beyond).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BSpline3 {
+    control: Vec<[f64; 3]>,
+    knots: Vec<f64>,
+}
+
+impl BSpline3 {
+    /// The curve of these control points (at least 4, all finite).
+    pub fn new(control: Vec<[f64; 3]>) -> Result<Self, CurveError> {
+        if control.len() < 4 {
+            return Err(CurveError::Degenerate {
+                points: control.len(),
+                length: 0.0,
+            });
+        }
+        if let Some(index) = control
+            .iter()
+            .position(|p| p.iter().any(|v| !v.is_finite()))
+        {
+            return Err(CurveError::NotFinite { index });
+        }
+        let spans = control.len() - 3;
+        let mut knots = vec![0.0; 4];
+        knots.extend((1..spans).map(|i| i as f64 / spans as f64));
+        knots.extend([1.0; 4]);
+        Ok(BSpline3 { control, knots })
+    }
+
+    /// Least-squares fit of `n_control` control points to `points` at parameters `params` (in
+    /// `[0, 1]`), with a small penalty on the control polygon's second differences so that spans
+    /// without data stay well defined.
+    pub fn fit(params: &[f64], points: &[[f64; 3]], n_control: usize) -> Result<Self, CurveError> {
+        let n = n_control.max(4);
+        if params.len() != points.len() || points.len() < 2 {
+            return Err(CurveError::Degenerate {
+                points: points.len(),
+                length: 0.0,
+            });
+        }
+        let shape = BSpline3::new(vec![[0.0; 3]; n])?;
+        let mut a = DMatrix::<f64>::zeros(n, n);
+        let mut b = DMatrix::<f64>::zeros(n, 3);
+        for (&u, p) in params.iter().zip(points) {
+            let basis = shape.basis(u.clamp(0.0, 1.0));
+            for j in 0..4 {
+                let wj = basis.weights[0][j];
+                for k in 0..4 {
+                    a[(basis.first + j, basis.first + k)] += wj * basis.weights[0][k];
+                }
+                for c in 0..3 {
+                    b[(basis.first + j, c)] += wj * p[c];
+                }
+            }
+        }
+        let penalty = 1e-6 * points.len() as f64 / n as f64;
+        for k in 1..n - 1 {
+            let d = [(k - 1, 1.0), (k, -2.0), (k + 1, 1.0)];
+            for &(i, wi) in &d {
+                for &(j, wj) in &d {
+                    a[(i, j)] += penalty * wi * wj;
+                }
+            }
+        }
+        let chol = a.cholesky().ok_or(CurveError::Degenerate {
+            points: points.len(),
+            length: 0.0,
+        })?;
+        let x = chol.solve(&b);
+        BSpline3::new((0..n).map(|i| [x[(i, 0)], x[(i, 1)], x[(i, 2)]]).collect())
+    }
+
+    /// The control points.
+    pub fn control(&self) -> &[[f64; 3]] {
+        &self.control
+    }
+
+    /// Moves every control point by `delta` (3 values per point, in order).
+    pub fn displace(&mut self, delta: &DVector<f64>) {
+        for (i, p) in self.control.iter_mut().enumerate() {
+            for c in 0..3 {
+                p[c] += delta[3 * i + c];
+            }
+        }
+    }
+
+    /// The basis functions non-zero at `u` (clamped to `[0, 1]`) and their derivatives (de
+    /// Boor's recurrence, as in Piegl and Tiller's *The NURBS Book*, A2.3).
+    pub fn basis(&self, u: f64) -> Basis {
+        const P: usize = 3;
+        let u = u.clamp(0.0, 1.0);
+        let n = self.control.len();
+        let k = &self.knots;
+        let span = (P + k[P..n].partition_point(|&t| t <= u))
+            .saturating_sub(1)
+            .min(n - 1);
+        let mut ndu = [[0.0f64; 4]; 4];
+        let mut left = [0.0f64; 4];
+        let mut right = [0.0f64; 4];
+        ndu[0][0] = 1.0;
+        for j in 1..=P {
+            left[j] = u - k[span + 1 - j];
+            right[j] = k[span + j] - u;
+            let mut saved = 0.0;
+            for r in 0..j {
+                ndu[j][r] = right[r + 1] + left[j - r];
+                let temp = ndu[r][j - 1] / ndu[j][r];
+                ndu[r][j] = saved + right[r + 1] * temp;
+                saved = left[j - r] * temp;
+            }
+            ndu[j][j] = saved;
+        }
+        let mut w = [[0.0f64; 4]; 4];
+        for j in 0..=P {
+            w[0][j] = ndu[j][P];
+        }
+        for r in 0..=P as isize {
+            let mut a = [[0.0f64; 4]; 2];
+            let (mut s1, mut s2) = (0usize, 1usize);
+            a[0][0] = 1.0;
+            for d in 1..=P as isize {
+                let mut sum = 0.0;
+                let rk = r - d;
+                let pk = P as isize - d;
+                if r >= d {
+                    a[s2][0] = a[s1][0] / ndu[(pk + 1) as usize][rk as usize];
+                    sum = a[s2][0] * ndu[rk as usize][pk as usize];
+                }
+                let j1 = if rk >= -1 { 1 } else { -rk };
+                let j2 = if r - 1 <= pk { d - 1 } else { P as isize - r };
+                for j in j1..=j2 {
+                    let (ju, rkj) = (j as usize, (rk + j) as usize);
+                    a[s2][ju] = (a[s1][ju] - a[s1][ju - 1]) / ndu[(pk + 1) as usize][rkj];
+                    sum += a[s2][ju] * ndu[rkj][pk as usize];
+                }
+                if r <= pk {
+                    let du = d as usize;
+                    a[s2][du] = -a[s1][du - 1] / ndu[(pk + 1) as usize][r as usize];
+                    sum += a[s2][du] * ndu[r as usize][pk as usize];
+                }
+                w[d as usize][r as usize] = sum;
+                std::mem::swap(&mut s1, &mut s2);
+            }
+        }
+        let mut factor = P as f64;
+        for (d, row) in w.iter_mut().enumerate().skip(1) {
+            for v in row.iter_mut() {
+                *v *= factor;
+            }
+            factor *= (P - d) as f64;
+        }
+        Basis {
+            first: span - P,
+            weights: w,
+        }
+    }
+
+    /// Position and derivatives at `u`; beyond `[0, 1]` the curve goes on straight along its
+    /// end tangent.
+    pub fn eval(&self, u: f64) -> Derivatives {
+        let at = self.eval_inside(u.clamp(0.0, 1.0));
+        let du = u - u.clamp(0.0, 1.0);
+        if du == 0.0 {
+            return at;
+        }
+        Derivatives {
+            value: std::array::from_fn(|c| at.value[c] + at.d1[c] * du),
+            d1: at.d1,
+            d2: [0.0; 3],
+            d3: [0.0; 3],
+        }
+    }
+
+    fn eval_inside(&self, u: f64) -> Derivatives {
+        let b = self.basis(u);
+        let mut out = [[0.0f64; 3]; 4];
+        for (d, row) in out.iter_mut().enumerate() {
+            for j in 0..4 {
+                let p = self.control[b.first + j];
+                for c in 0..3 {
+                    row[c] += b.weights[d][j] * p[c];
+                }
+            }
+        }
+        Derivatives {
+            value: out[0],
+            d1: out[1],
+            d2: out[2],
+            d3: out[3],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wavy() -> BSpline3 {
+        BSpline3::new(
+            (0..9)
+                .map(|i| {
+                    let t = i as f64;
+                    [10.0 * t, 5.0 * (t * 0.7).sin(), 3.0 * (t * 0.4).cos()]
+                })
+                .collect(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn basis_sums_to_one_and_interpolates_the_ends() {
+        let c = wavy();
+        for i in 0..=100 {
+            let b = c.basis(i as f64 / 100.0);
+            assert!((b.weights[0].iter().sum::<f64>() - 1.0).abs() < 1e-12);
+            for d in 1..4 {
+                assert!(b.weights[d].iter().sum::<f64>().abs() < 1e-9, "{d}");
+            }
+        }
+        assert_eq!(c.eval(0.0).value, c.control()[0]);
+        let end = c.eval(1.0).value;
+        let last = c.control()[8];
+        assert!((0..3).all(|k| (end[k] - last[k]).abs() < 1e-12));
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let c = wavy();
+        let h = 1e-5;
+        for i in 1..50 {
+            let u = i as f64 / 50.0 + 0.003;
+            let (a, b, m) = (c.eval(u - h), c.eval(u + h), c.eval(u));
+            for k in 0..3 {
+                let fd1 = (b.value[k] - a.value[k]) / (2.0 * h);
+                let fd2 = (b.d1[k] - a.d1[k]) / (2.0 * h);
+                let fd3 = (b.d2[k] - a.d2[k]) / (2.0 * h);
+                assert!((fd1 - m.d1[k]).abs() < 1e-5 * (1.0 + m.d1[k].abs()));
+                assert!((fd2 - m.d2[k]).abs() < 1e-4 * (1.0 + m.d2[k].abs()));
+                assert!((fd3 - m.d3[k]).abs() < 1e-3 * (1.0 + m.d3[k].abs()));
+            }
+        }
+    }
+
+    #[test]
+    fn fit_reproduces_a_curve_it_can_represent() {
+        let c = wavy();
+        let params: Vec<f64> = (0..=400).map(|i| i as f64 / 400.0).collect();
+        let points: Vec<[f64; 3]> = params.iter().map(|&u| c.eval(u).value).collect();
+        let f = BSpline3::fit(&params, &points, 9).unwrap();
+        for (a, b) in f.control().iter().zip(c.control()) {
+            assert!((0..3).all(|k| (a[k] - b[k]).abs() < 1e-3), "{a:?} {b:?}");
+        }
+    }
+
+    #[test]
+    fn continues_straight_beyond_its_ends() {
+        let c = wavy();
+        let e = c.eval(1.0);
+        let past = c.eval(1.1).value;
+        for (k, p) in past.iter().enumerate() {
+            assert!((p - (e.value[k] + 0.1 * e.d1[k])).abs() < 1e-12);
+        }
+        assert!(BSpline3::new(vec![[0.0; 3]; 3]).is_err());
+    }
+}

@@ -1,0 +1,191 @@
+//! The self-check: does the fitted tube explain each camera's image? Per camera, the outline
+//! residuals (RMS and their mean, which a calibration error shows as a systematic offset), the
+//! share of outline samples where a boundary was found, and the fitted tube re-rendered into
+//! a mask and compared with the measured silhouette (IoU, and silhouette pixels it leaves
+//! unexplained — a missed distal part, a ghost of the hull).
+
+use flexshape_camera::Camera;
+use flexshape_silhouette::BitMask;
+use nalgebra::Point3;
+use serde::{Deserialize, Serialize};
+
+use crate::solve::Measured;
+use crate::tube::Tube;
+
+/// How well the fitted tube explains one camera's image.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CameraCheck {
+    /// The camera's name in the rig.
+    pub camera: String,
+    /// Outline samples predicted in the image.
+    pub samples: usize,
+    /// Samples where a boundary was found.
+    pub found: usize,
+    /// RMS of the outline residuals (predicted − measured, along the outline normal), pixels.
+    pub residual_px: f64,
+    /// Their mean, pixels (positive: the fitted outline lies outside the measured one). A mean
+    /// far from zero in one camera points at its calibration.
+    pub offset_px: f64,
+    /// 90th percentile of the residuals' size, pixels: a fit that explains the image keeps
+    /// nearly all of its outline within a few tenths of a pixel, whatever a few outliers do to
+    /// the RMS.
+    pub p90_px: f64,
+    /// Overlap of the re-rendered tube with the silhouette (intersection over union).
+    pub iou: f64,
+    /// Silhouette pixels farther than the check's distance from the re-rendered tube.
+    pub unexplained_px: usize,
+}
+
+/// Residual statistics of one camera's measured outline: samples, found, RMS and mean, each
+/// sample weighted by the outline length it stands for (a tube seen end-on crowds many
+/// samples into a few pixels).
+pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
+    let mut found: Vec<(f64, f64)> = measured
+        .iter()
+        .filter_map(|m| m.residual.map(|r| (r, m.point.weight)))
+        .collect();
+    let w = found.iter().map(|f| f.1).sum::<f64>().max(1e-12);
+    let rms = (found.iter().map(|(r, k)| k * r * r).sum::<f64>() / w).sqrt();
+    let mean = found.iter().map(|(r, k)| k * r).sum::<f64>() / w;
+    found.sort_by(|a, b| a.0.abs().total_cmp(&b.0.abs()));
+    let mut acc = 0.0;
+    let p90 = found
+        .iter()
+        .find(|(_, k)| {
+            acc += k;
+            acc >= 0.9 * w
+        })
+        .map_or(0.0, |(r, _)| r.abs());
+    Residuals {
+        samples: measured.len(),
+        found: found.len(),
+        rms,
+        mean,
+        p90,
+    }
+}
+
+/// Residual statistics of one camera's outline.
+pub(crate) struct Residuals {
+    pub samples: usize,
+    pub found: usize,
+    pub rms: f64,
+    pub mean: f64,
+    pub p90: f64,
+}
+
+/// The tube drawn into masks of the camera's image size: a disc per sphere of the swept
+/// surface, every half radius along the centerline, and separately the straight continuation
+/// of each open end until it leaves the image (the tube goes on beyond the volume, how far is
+/// not known: the check neither asks for nor objects to silhouette pixels there).
+pub(crate) fn render(camera: &Camera, tube: &Tube) -> (BitMask, BitMask) {
+    let (w, h) = (
+        camera.intrinsics.width as usize,
+        camera.intrinsics.height as usize,
+    );
+    let mut mask = BitMask::new(w, h);
+    let step = (tube.radius / 2.0).max(0.05);
+    let length = tube.length();
+    let n = (length / step).ceil() as usize;
+    for i in 0..=n {
+        let (c, _) = tube.frame(i as f64 / n as f64);
+        disc(&mut mask, camera, &c, tube.radius);
+    }
+    let mut beyond = BitMask::new(w, h);
+    for end in [0, 1] {
+        if tube.capped[end] {
+            continue;
+        }
+        let (c, dir) = tube.beyond(end);
+        let mut outside = 0;
+        for k in 1..100_000 {
+            let p = c + dir * (step * k as f64);
+            if disc(&mut beyond, camera, &p, tube.radius) {
+                outside = 0;
+            } else {
+                outside += 1;
+                if outside > 200 {
+                    break;
+                }
+            }
+        }
+    }
+    (mask, beyond)
+}
+
+/// Draws the image of a sphere (as a disc); false when it is not in the image.
+fn disc(mask: &mut BitMask, camera: &Camera, centre: &Point3<f64>, r: f64) -> bool {
+    let Some((_, c, radius)) = crate::outline::sphere(camera, *centre, r) else {
+        return false;
+    };
+    let (w, h) = (mask.width() as f64, mask.height() as f64);
+    let (cx, cy) = (c.x, c.y);
+    if cx + radius < 0.0 || cy + radius < 0.0 || cx - radius > w - 1.0 || cy - radius > h - 1.0 {
+        return false;
+    }
+    let y0 = (cy - radius).ceil().max(0.0) as usize;
+    let y1 = (cy + radius).floor().min(h - 1.0) as usize;
+    for y in y0..=y1 {
+        let dy = y as f64 - cy;
+        let half = (radius * radius - dy * dy).max(0.0).sqrt();
+        let x0 = (cx - half).ceil().max(0.0) as usize;
+        let x1 = (cx + half).floor().min(w - 1.0);
+        if x1 < 0.0 {
+            continue;
+        }
+        for x in x0..=x1 as usize {
+            mask.set(x, y, true);
+        }
+    }
+    true
+}
+
+/// IoU of the rendered tube with the silhouette (leaving out the pixels only the open ends'
+/// continuations cover), and the silhouette pixels farther than `explain_px` from both.
+pub(crate) fn overlap(
+    (tube, beyond): &(BitMask, BitMask),
+    silhouette: &BitMask,
+    explain_px: usize,
+) -> (f64, usize) {
+    let sure = beyond.and(&tube.not()).not();
+    let iou = tube.and(&sure).iou(&silhouette.and(&sure));
+    let near = tube.or(beyond).dilate(explain_px);
+    let unexplained = silhouette.and(&near.not()).count();
+    (iou, unexplained)
+}
+
+/// A camera's frame with what the self-check saw drawn on it: the fitted tube's outline points
+/// (green where the measured boundary lies within half a pixel, orange where it is farther,
+/// red where none was found), the re-rendered tube where the silhouette is not (magenta) and
+/// silhouette pixels the tube leaves unexplained (cyan; the open ends' straight continuations,
+/// whose extent is unknown, excepted).
+pub fn debug_image(
+    frame: &image::RgbImage,
+    outline: &[crate::OutlineResidual],
+    (tube, beyond): &(BitMask, BitMask),
+    silhouette: &BitMask,
+) -> image::RgbImage {
+    let mut out = frame.clone();
+    for (x, y, p) in out.enumerate_pixels_mut() {
+        let (x, y) = (x as usize, y as usize);
+        let (t, s) = (tube.get(x, y), silhouette.get(x, y));
+        if t && !s {
+            p.0 = [255, 0, 255];
+        } else if s && !t && !beyond.get(x, y) {
+            p.0 = [0, 255, 255];
+        }
+    }
+    for o in outline {
+        let (x, y) = (o.pixel[0].round(), o.pixel[1].round());
+        if x < 0.0 || y < 0.0 || x >= out.width() as f64 || y >= out.height() as f64 {
+            continue;
+        }
+        let colour = match o.residual {
+            Some(r) if r.abs() <= 0.5 => [0, 230, 0],
+            Some(_) => [255, 150, 0],
+            None => [255, 0, 0],
+        };
+        out.put_pixel(x as u32, y as u32, image::Rgb(colour));
+    }
+    out
+}

@@ -1,0 +1,470 @@
+//! The tube's predicted outline in one camera: points on its contour generators (where the
+//! viewing rays graze the surface), projected through the lens model, with the outline's
+//! normal in the image and how far the outline moves per millimetre the surface moves.
+//!
+//! The tube is the envelope of spheres of radius `r` centred on the centerline `C(u)`. At `u`
+//! its surface is the circle `C + r·n`, `n ⊥ C'`; a viewing ray from the camera centre `O`
+//! grazes it where `n·(C + r·n − O) = 0`, i.e. `n·(C − O) = −r`: two points, one each side. The
+//! caps are spheres about the end points; their grazing circle is cut to the half beyond the
+//! end. By the envelope theorem, moving the centerline by `δC(u)` and the radius by `δr` moves
+//! the surface at such a point by `n·δC(u) + δr` along `n`, and the image outline by that times
+//! `gain = m·(∂pixel/∂X)·n` along its image normal `m`: the fit's analytic Jacobian.
+
+use flexshape_camera::Camera;
+use flexshape_curve::Basis;
+use nalgebra::{Point3, Vector2, Vector3};
+
+use crate::tube::Tube;
+
+/// Which part of the tube a sample lies on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Part {
+    /// The side, at the centerline parameter's basis functions.
+    Side(Basis),
+    /// The cap at the proximal end (`0`) or the tip (`1`).
+    Cap(usize),
+}
+
+/// One predicted outline point.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct OutlinePoint {
+    /// Pixel (OpenCV convention).
+    pub pixel: Vector2<f64>,
+    /// Unit image normal, pointing out of the tube's image.
+    pub normal: Vector2<f64>,
+    /// Pixels the outline moves along `normal` per mm the surface moves along `surface`.
+    pub gain: f64,
+    /// Unit surface normal at the grazing point (world).
+    pub surface: Vector3<f64>,
+    /// Distance from the outline to the projected centerline, pixels (how far inside the
+    /// tube's image a search may look).
+    pub half_width: f64,
+    /// Share of an independent measurement this sample is: the outline length it stands for
+    /// in the image, in pixels, at most 1 (a tube seen end-on crowds many samples into a few
+    /// pixels of outline).
+    pub weight: f64,
+    /// Where on the tube.
+    pub part: Part,
+    /// Centerline parameter of the sample.
+    pub u: f64,
+    /// The grazing point, world mm.
+    pub world: Point3<f64>,
+}
+
+/// The outline of `tube` in `camera`, sampled about every `spacing_mm` along the centerline
+/// (both sides) and over the caps. Points the camera cannot project (behind it, beyond the
+/// lens model's fold) or that fall outside the image are left out.
+pub(crate) fn outline(
+    camera: &Camera,
+    tube: &Tube,
+    spacing_mm: f64,
+    clearance_px: f64,
+) -> Vec<OutlinePoint> {
+    let o = camera.centre();
+    let r = tube.radius;
+    let length = tube.length();
+    let n = (length / spacing_mm).ceil().max(4.0) as usize;
+    let len_per_sample = length / n as f64;
+    let mut out = Vec::with_capacity(2 * n + 40);
+    for i in 0..=n {
+        let u = i as f64 / n as f64;
+        let (c, t) = tube.frame(u);
+        let v = c - o;
+        let v_perp = v - t * v.dot(&t);
+        let d = v_perp.norm();
+        if d <= 1.5 * r {
+            continue;
+        }
+        let e1 = v_perp / d;
+        let e2 = t.cross(&e1);
+        let a = -r / d;
+        let b = (1.0 - a * a).sqrt();
+        let basis = tube.centerline.basis(u);
+        for side in [-1.0, 1.0] {
+            let normal = e1 * a + e2 * (side * b);
+            let sample = Sample {
+                part: Part::Side(basis),
+                u,
+                stride: Some((t, len_per_sample)),
+            };
+            if let Some(p) = grazing(camera, &c, &o, normal, r, sample) {
+                out.push(p);
+            }
+        }
+    }
+    caps(camera, tube, spacing_mm, &mut out);
+    let spheres = Spheres::new(camera, tube, clearance_px);
+    let eye = camera.centre();
+    out.retain(|p| !spheres.hide(&eye, p));
+    out
+}
+
+/// The caps' outline points, appended to `out`.
+fn caps(camera: &Camera, tube: &Tube, spacing_mm: f64, out: &mut Vec<OutlinePoint>) {
+    let o = camera.centre();
+    let r = tube.radius;
+    for (end, u) in [(0usize, 0.0), (1, 1.0)] {
+        if !tube.capped[end] {
+            continue;
+        }
+        let (c, t) = tube.frame(u);
+        // The cap's axis points away from the tube.
+        let axis = if end == 0 { -t } else { t };
+        let v = c - o;
+        let dist = v.norm();
+        if dist <= 1.5 * r {
+            continue;
+        }
+        let vh = v / dist;
+        let t_perp = axis - vh * axis.dot(&vh);
+        let tp = t_perp.norm();
+        // A tube seen end-on has no cap outline of its own.
+        if tp < 0.2 {
+            continue;
+        }
+        let f1 = t_perp / tp;
+        let f2 = vh.cross(&f1);
+        let s = (1.0 - (r / dist).powi(2)).sqrt();
+        // n·axis > 0 ⇔ cos φ > cos_min.
+        let cos_min = ((r / dist) * vh.dot(&axis) / (s * tp)).clamp(-1.0, 1.0);
+        let phi_max = cos_min.acos();
+        let count = ((2.0 * phi_max * r / spacing_mm).ceil() as usize).max(3);
+        for k in 0..count {
+            // Strictly inside the half, whose ends are the sides' last points.
+            let phi = phi_max * (2.0 * (k as f64 + 0.5) / count as f64 - 1.0);
+            let normal = -vh * (r / dist) + (f1 * phi.cos() + f2 * phi.sin()) * s;
+            let sample = Sample {
+                part: Part::Cap(end),
+                u,
+                stride: None,
+            };
+            if let Some(p) = grazing(camera, &c, &o, normal, r, sample) {
+                out.push(p);
+            }
+        }
+    }
+}
+
+/// Where a sample is on the tube.
+struct Sample {
+    part: Part,
+    u: f64,
+    /// For a side sample: the centerline's unit tangent and the tube length it stands for, mm.
+    stride: Option<(Vector3<f64>, f64)>,
+}
+
+/// The outline point of the surface point `centre + r·normal`.
+fn grazing(
+    camera: &Camera,
+    centre: &Point3<f64>,
+    eye: &Point3<f64>,
+    normal: Vector3<f64>,
+    r: f64,
+    sample: Sample,
+) -> Option<OutlinePoint> {
+    let x = centre + normal * r;
+    let (proj, j) = camera.project_with_jacobian(&x).ok()?;
+    let pixel = proj.pixel.coords;
+    let intr = &camera.intrinsics;
+    if pixel.x < 1.0
+        || pixel.y < 1.0
+        || pixel.x > intr.width as f64 - 2.0
+        || pixel.y > intr.height as f64 - 2.0
+    {
+        return None;
+    }
+    // The tangent plane holds the ray; any other direction in it maps onto the outline.
+    let along = j * normal.cross(&(x - eye));
+    let len = along.norm();
+    if len < 1e-12 {
+        return None;
+    }
+    let mut m = Vector2::new(-along.y, along.x) / len;
+    let push = j * normal;
+    let mut gain = m.dot(&push);
+    if gain < 0.0 {
+        m = -m;
+        gain = -gain;
+    }
+    if gain < 1e-6 {
+        return None;
+    }
+    let centre_px = camera.project(centre).ok()?.pixel.coords;
+    // Pixels of outline the sample stands for: the image of its stretch of tube along the
+    // outline.
+    let weight = sample.stride.map_or(1.0, |(t, mm)| {
+        let outline_dir = Vector2::new(-m.y, m.x);
+        ((j * t).dot(&outline_dir).abs() * mm).min(1.0)
+    });
+    Some(OutlinePoint {
+        pixel,
+        normal: m,
+        gain,
+        surface: normal,
+        half_width: (pixel - centre_px).dot(&m).max(0.0),
+        weight,
+        part: sample.part,
+        u: sample.u,
+        world: x,
+    })
+}
+
+/// The tube as spheres a quarter radius apart along its centerline, each open end continued
+/// straight until it leaves the image (the tube goes on beyond the volume), for visibility.
+/// An outline point counts only where its boundary is the tube's against the background:
+/// not when its viewing ray enters the tube in front of it (the tube crossing itself, or seen
+/// along its length), nor when the pixels just outside it show the tube too (another part
+/// behind or beside it).
+struct Spheres {
+    /// Centre (world), its pixel, and the sphere's image radius in pixels.
+    items: Vec<(Point3<f64>, Vector2<f64>, f64)>,
+    radius: f64,
+    /// How far outside an outline point the image must show background, pixels.
+    clearance: f64,
+    /// The spheres whose image (plus a pixel) meets each cell of a grid over the image.
+    grid: Grid,
+}
+
+/// Cells of `CELL` pixels over the image, each listing the spheres that may cover it.
+struct Grid {
+    columns: usize,
+    rows: usize,
+    /// Cell `i` holds `members[starts[i]..starts[i + 1]]`.
+    starts: Vec<u32>,
+    members: Vec<u32>,
+}
+
+/// Grid cell edge, pixels.
+const CELL: f64 = 8.0;
+
+impl Grid {
+    fn new(width: f64, height: f64, items: &[(Point3<f64>, Vector2<f64>, f64)]) -> Self {
+        let columns = (width / CELL).ceil().max(1.0) as usize;
+        let rows = (height / CELL).ceil().max(1.0) as usize;
+        let span = |lo: f64, hi: f64, n: usize| {
+            let a = (lo / CELL).floor().clamp(0.0, (n - 1) as f64) as usize;
+            let b = (hi / CELL).floor().clamp(0.0, (n - 1) as f64) as usize;
+            a..=b
+        };
+        let cells = |(_, px, rp): &(Point3<f64>, Vector2<f64>, f64)| {
+            let reach = rp + 1.0;
+            let xs = span(px.x - reach, px.x + reach, columns);
+            span(px.y - reach, px.y + reach, rows)
+                .flat_map(move |y| xs.clone().map(move |x| y * columns + x))
+        };
+        let mut counts = vec![0u32; columns * rows + 1];
+        for item in items {
+            for c in cells(item) {
+                counts[c + 1] += 1;
+            }
+        }
+        for i in 1..counts.len() {
+            counts[i] += counts[i - 1];
+        }
+        let mut fill = counts.clone();
+        let mut members = vec![0u32; counts[columns * rows] as usize];
+        for (i, item) in items.iter().enumerate() {
+            for c in cells(item) {
+                members[fill[c] as usize] = i as u32;
+                fill[c] += 1;
+            }
+        }
+        Grid {
+            columns,
+            rows,
+            starts: counts,
+            members,
+        }
+    }
+
+    /// The spheres that may cover pixel `p`.
+    fn near(&self, p: Vector2<f64>) -> &[u32] {
+        let x = (p.x / CELL).floor();
+        let y = (p.y / CELL).floor();
+        if x < 0.0 || y < 0.0 || x >= self.columns as f64 || y >= self.rows as f64 {
+            return &[];
+        }
+        let c = y as usize * self.columns + x as usize;
+        &self.members[self.starts[c] as usize..self.starts[c + 1] as usize]
+    }
+}
+
+impl Spheres {
+    fn new(camera: &Camera, tube: &Tube, clearance: f64) -> Self {
+        let r = tube.radius;
+        let n = (tube.length() / (r / 4.0)).ceil().max(4.0) as usize;
+        let mut items: Vec<_> = (0..=n)
+            .filter_map(|i| sphere(camera, tube.frame(i as f64 / n as f64).0, r))
+            .collect();
+        let (w, h) = (
+            camera.intrinsics.width as f64,
+            camera.intrinsics.height as f64,
+        );
+        for end in [0, 1] {
+            if tube.capped[end] {
+                continue;
+            }
+            let (c, dir) = tube.beyond(end);
+            for k in 1..=2000 {
+                let Some(s) = sphere(camera, c + dir * (k as f64 * r / 2.0), r) else {
+                    break;
+                };
+                let (px, rp) = (s.1, s.2);
+                if px.x < -rp || px.y < -rp || px.x > w + rp || px.y > h + rp {
+                    break;
+                }
+                items.push(s);
+            }
+        }
+        Spheres {
+            grid: Grid::new(w, h, &items),
+            items,
+            radius: r,
+            clearance,
+        }
+    }
+
+    fn hide(&self, eye: &Point3<f64>, p: &OutlinePoint) -> bool {
+        let to = p.world - eye;
+        let depth = to.norm();
+        let d = to / depth;
+        let limit = self.radius * 0.98;
+        // Just outside the outline and on out to the clearance, no other part of the tube may
+        // show (a part behind that reaches a pixel past this one moves the boundary there).
+        let covers_outside = [0.75, 1.5, self.clearance].iter().any(|&step| {
+            let q = p.pixel + p.normal * step;
+            self.grid.near(q).iter().any(|&i| {
+                let (_, px, rp) = &self.items[i as usize];
+                (px - q).norm() < rp - 0.25
+            })
+        });
+        covers_outside
+            || self.grid.near(p.pixel).iter().any(|&i| {
+                let (c, px, rp) = &self.items[i as usize];
+                if (px - p.pixel).norm() > *rp + 1.0 {
+                    return false;
+                }
+                let v = c - eye;
+                let along = v.dot(&d);
+                let miss = (v - d * along).norm();
+                miss < limit && along - (self.radius.powi(2) - miss * miss).sqrt() < depth - 0.01
+            })
+    }
+}
+
+/// A sphere's centre, pixel and image radius (the largest of two offsets across the ray).
+pub(crate) fn sphere(
+    camera: &Camera,
+    c: Point3<f64>,
+    r: f64,
+) -> Option<(Point3<f64>, Vector2<f64>, f64)> {
+    let px = camera.project(&c).ok()?.pixel.coords;
+    let ray = (c - camera.centre()).normalize();
+    let mut side = ray.cross(&Vector3::x());
+    if side.norm() < 0.1 {
+        side = ray.cross(&Vector3::y());
+    }
+    let side = side.normalize();
+    let radius = [side, ray.cross(&side)]
+        .iter()
+        .filter_map(|e| camera.project(&(c + e * r)).ok())
+        .map(|q| (q.pixel.coords - px).norm())
+        .fold(0.0, f64::max);
+    Some((c, px, radius))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flexshape_camera::{Distortion, Intrinsics, Pose};
+    use flexshape_curve::BSpline3;
+
+    fn camera() -> Camera {
+        let intr = Intrinsics::new(
+            640,
+            480,
+            800.0,
+            805.0,
+            322.0,
+            236.0,
+            Distortion::from_opencv(&[-0.2, 0.1, 0.001, -0.0005, -0.02]).unwrap(),
+        )
+        .unwrap();
+        Camera::new(
+            intr,
+            Pose::look_at(
+                Point3::new(40.0, -500.0, 120.0),
+                Point3::new(0.0, 0.0, 0.0),
+                Vector3::z(),
+            ),
+        )
+    }
+
+    fn tube() -> Tube {
+        let control = (0..8)
+            .map(|i| {
+                let t = i as f64;
+                [8.0 * (t * 0.5).sin(), 4.0 * t, 20.0 * t - 70.0]
+            })
+            .collect();
+        Tube {
+            centerline: BSpline3::new(control).unwrap(),
+            radius: 3.0,
+            capped: [false, true],
+        }
+    }
+
+    /// Smallest distance from `p` to the projection of the surface points around the circle
+    /// of the centerline at `u` — the outline point must be the extreme one along its normal.
+    #[test]
+    fn outline_points_are_extreme_along_their_normals() {
+        let cam = camera();
+        let tube = tube();
+        let pts = outline(&cam, &tube, 2.0, 2.0);
+        assert!(pts.len() > 60, "{}", pts.len());
+        for p in pts.iter().filter(|p| matches!(p.part, Part::Side(_))) {
+            let (c, t) = tube.frame(p.u);
+            let e1 = t.cross(&Vector3::x()).normalize();
+            let e2 = t.cross(&e1);
+            let mut best = f64::NEG_INFINITY;
+            for k in 0..3600 {
+                let a = k as f64 / 3600.0 * std::f64::consts::TAU;
+                let x = c + (e1 * a.cos() + e2 * a.sin()) * tube.radius;
+                let q = cam.project(&x).unwrap().pixel.coords;
+                best = best.max((q - p.pixel).dot(&p.normal));
+            }
+            assert!(best.abs() < 1e-3, "u {} overshoot {best}", p.u);
+        }
+    }
+
+    /// Moving the centerline and radius moves the outline by `gain·(n·δC + δr)`.
+    #[test]
+    fn gain_predicts_how_the_outline_moves() {
+        let cam = camera();
+        let tube = tube();
+        let pts = outline(&cam, &tube, 5.0, 2.0);
+        let delta = Vector3::new(0.03, -0.02, 0.025);
+        let dr = 0.01;
+        let mut moved = tube.clone();
+        moved.radius += dr;
+        let mut d = nalgebra::DVector::zeros(3 * moved.centerline.control().len());
+        for i in 0..moved.centerline.control().len() {
+            for c in 0..3 {
+                d[3 * i + c] = delta[c];
+            }
+        }
+        moved.centerline.displace(&d);
+        let after = outline(&cam, &moved, 5.0, 2.0);
+        assert_eq!(pts.len(), after.len());
+        for (a, b) in pts.iter().zip(&after) {
+            let predicted = a.gain * (a.surface.dot(&delta) + dr);
+            // The moved outline point lies on the moved outline; compare along the normal.
+            let measured = (b.pixel - a.pixel).dot(&a.normal);
+            assert!(
+                (measured - predicted).abs() < 2e-3 * (1.0 + predicted.abs()),
+                "{:?}: {measured} vs {predicted}",
+                a.part
+            );
+        }
+    }
+}

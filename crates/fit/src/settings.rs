@@ -1,0 +1,156 @@
+//! Settings of the image fit and its self-check (`[processing.fit]` in the rig file).
+
+use serde::{Deserialize, Serialize};
+
+use crate::FitError;
+
+/// How the centerline is estimated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// The tube fitted to the sub-pixel outlines in every camera, started from the hull.
+    #[default]
+    Fit,
+    /// The visual hull's centerline alone (the paper's method), not checked against the
+    /// images.
+    Hull,
+}
+
+/// Everything the fit can be told. Lengths in mm, image distances in pixels.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FitSettings {
+    /// Fit, or keep the hull's centerline.
+    pub method: Method,
+    /// Control-point spacing of the centerline, mm (fewer points: smoother, faster).
+    pub span_mm: f64,
+    /// Outline samples along the tube, mm apart.
+    pub spacing_mm: f64,
+    /// How far from the predicted outline a boundary is searched, pixels.
+    pub search_px: f64,
+    /// Residual beyond which a sample's weight falls (Huber), pixels.
+    pub huber_px: f64,
+    /// Weakest tube-to-background contrast a boundary may have, grey levels.
+    pub min_contrast: f64,
+    /// Gauss–Newton iterations at most.
+    pub max_iterations: usize,
+    /// Fit the radius (when the rig's `[processing.shape] radius_mm` does not give it).
+    pub fit_radius: bool,
+    /// An open end (running out of the volume) is continued by this much before fitting, mm.
+    pub extend_mm: f64,
+    /// Damping of each step's slide of a control point along the tube, px/mm.
+    pub slide_damping: f64,
+    /// Weight holding an open end in place along the tube, px/mm.
+    pub end_anchor: f64,
+    /// Self-check: largest outline residual RMS in any camera, pixels.
+    pub max_residual_px: f64,
+    /// Self-check: largest 90th percentile of the outline residuals' size in any camera,
+    /// pixels (sharp, low-noise images keep it near 0.1; raise it for noisy or blurred ones).
+    pub max_p90_px: f64,
+    /// Self-check: smallest share of a camera's outline samples with a boundary found.
+    pub min_found: f64,
+    /// Self-check: smallest overlap (IoU) of the re-rendered tube with a camera's silhouette.
+    pub min_iou: f64,
+    /// Self-check: silhouette pixels farther than `explain_px` from the re-rendered tube that
+    /// may stay unexplained in a camera.
+    pub max_unexplained_px: usize,
+    /// Distance within which the re-rendered tube explains a silhouette pixel, pixels.
+    pub explain_px: usize,
+}
+
+impl Default for FitSettings {
+    fn default() -> Self {
+        FitSettings {
+            method: Method::Fit,
+            span_mm: 15.0,
+            spacing_mm: 1.0,
+            search_px: 3.0,
+            huber_px: 0.5,
+            min_contrast: 20.0,
+            max_iterations: 12,
+            fit_radius: true,
+            extend_mm: 10.0,
+            slide_damping: 1.0,
+            end_anchor: 5.0,
+            max_residual_px: 0.6,
+            max_p90_px: 0.25,
+            min_found: 0.6,
+            min_iou: 0.75,
+            max_unexplained_px: 60,
+            explain_px: 2,
+        }
+    }
+}
+
+impl FitSettings {
+    /// The defaults overridden by a rig's `[processing.fit]` table, if any.
+    pub fn from_processing(processing: &toml::Table) -> Result<Self, FitError> {
+        let settings: FitSettings = match processing.get("fit") {
+            None => FitSettings::default(),
+            Some(v) => v
+                .clone()
+                .try_into()
+                .map_err(|e: toml::de::Error| FitError::Setting {
+                    field: "processing.fit",
+                    problem: e.message().to_string(),
+                })?,
+        };
+        settings.validate()?;
+        Ok(settings)
+    }
+
+    /// Checks every value's range.
+    pub fn validate(&self) -> Result<(), FitError> {
+        let positive = [
+            ("span_mm", self.span_mm),
+            ("spacing_mm", self.spacing_mm),
+            ("search_px", self.search_px),
+            ("huber_px", self.huber_px),
+            ("max_residual_px", self.max_residual_px),
+            ("max_p90_px", self.max_p90_px),
+        ];
+        for (field, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(FitError::Setting {
+                    field,
+                    problem: format!("{v} must be a positive number"),
+                });
+            }
+        }
+        let non_negative = [
+            ("min_contrast", self.min_contrast),
+            ("extend_mm", self.extend_mm),
+            ("slide_damping", self.slide_damping),
+            ("end_anchor", self.end_anchor),
+        ];
+        for (field, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(FitError::Setting {
+                    field,
+                    problem: format!("{v} must be zero or more"),
+                });
+            }
+        }
+        for (field, v) in [("min_found", self.min_found), ("min_iou", self.min_iou)] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(FitError::Setting {
+                    field,
+                    problem: format!("{v} must be between 0 and 1"),
+                });
+            }
+        }
+        if self.search_px > 12.0 {
+            return Err(FitError::Setting {
+                field: "search_px",
+                problem: format!("{} is more than 12 pixels", self.search_px),
+            });
+        }
+        if self.spacing_mm < 0.05 {
+            return Err(FitError::Setting {
+                field: "spacing_mm",
+                problem: "must be at least 0.05 mm".into(),
+            });
+        }
+        Ok(())
+    }
+}

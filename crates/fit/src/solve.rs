@@ -1,0 +1,168 @@
+//! Gauss–Newton on the outline residuals: each iteration predicts the outline in every camera,
+//! measures the boundary along each outline normal, and moves the control points and radius to
+//! close the gaps, with Huber weights against outliers (the tube crossing itself, clutter).
+//!
+//! Parameters: the control points (3 per point, world mm), then the radius (mm). Residuals:
+//! pixels. Each step is damped along the tube (the outline hardly sees a control point slide
+//! along it), an open end is held where it started along the tube (nothing in the images ends
+//! it), and a tiny ridge keeps spans no camera sees in place.
+
+use flexshape_camera::Camera;
+use nalgebra::{DMatrix, DVector, Vector3};
+
+use crate::edges::EdgeImage;
+use crate::outline::{OutlinePoint, Part, outline};
+use crate::settings::FitSettings;
+use crate::tube::Tube;
+
+/// A measured outline point: its prediction and the boundary found for it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Measured {
+    /// The prediction.
+    pub point: OutlinePoint,
+    /// Predicted minus measured position along the outline normal, pixels (`None`: no
+    /// boundary found).
+    pub residual: Option<f64>,
+}
+
+/// Every camera's outline of `tube`, measured.
+pub(crate) fn measure(
+    cameras: &[Camera],
+    images: &[EdgeImage<'_>],
+    tube: &Tube,
+    settings: &FitSettings,
+) -> Vec<Vec<Measured>> {
+    cameras
+        .iter()
+        .zip(images)
+        .map(|(cam, img)| {
+            outline(
+                cam,
+                tube,
+                settings.spacing_mm,
+                settings.search_px.min(2.0) + 0.5,
+            )
+            .into_iter()
+            .map(|p| {
+                let inside = p.half_width.min(settings.search_px + 1.0).max(1.0);
+                let edge = img.find(
+                    p.pixel,
+                    p.normal,
+                    inside,
+                    settings.search_px,
+                    settings.min_contrast,
+                );
+                Measured {
+                    point: p,
+                    residual: edge.map(|e| -e.offset),
+                }
+            })
+            .collect()
+        })
+        .collect()
+}
+
+/// Normal equations `H δ = −g` of one linearisation.
+pub(crate) struct Normal {
+    pub h: DMatrix<f64>,
+    pub g: DVector<f64>,
+    /// Weighted squared residuals of the image rows, px².
+    pub cost: f64,
+    /// Image rows used.
+    pub rows: usize,
+}
+
+/// Weighs and accumulates the measured rows and the priors around `start`.
+pub(crate) fn normal_equations(
+    tube: &Tube,
+    start: &Tube,
+    measured: &[Vec<Measured>],
+    settings: &FitSettings,
+    fit_radius: bool,
+) -> Normal {
+    let n = tube.parameters();
+    let radius_col = n - 1;
+    let mut h = DMatrix::<f64>::zeros(n, n);
+    let mut g = DVector::<f64>::zeros(n);
+    let (mut cost, mut rows) = (0.0, 0usize);
+    let last = tube.centerline.control().len() - 1;
+    let mut entries: Vec<(usize, f64)> = Vec::with_capacity(13);
+    for m in measured.iter().flatten() {
+        let Some(r) = m.residual else { continue };
+        let p = &m.point;
+        let w = huber(r, settings.huber_px) * p.weight;
+        let dir = p.surface * p.gain;
+        entries.clear();
+        match p.part {
+            Part::Side(b) => {
+                for j in 0..4 {
+                    let bj = b.weights[0][j];
+                    if bj != 0.0 {
+                        for c in 0..3 {
+                            entries.push((3 * (b.first + j) + c, bj * dir[c]));
+                        }
+                    }
+                }
+            }
+            Part::Cap(end) => {
+                let k = if end == 0 { 0 } else { last };
+                for c in 0..3 {
+                    entries.push((3 * k + c, dir[c]));
+                }
+            }
+        }
+        if fit_radius {
+            entries.push((radius_col, p.gain));
+        }
+        add_row(&mut h, &mut g, &entries, r, w);
+        cost += w * r * r;
+        rows += 1;
+    }
+    // Along the tube a control point hardly moves the outline: each step is damped there, and
+    // an open end is held where it started (pixels per mm).
+    let start_ctrl = start.centerline.control();
+    let ctrl = tube.centerline.control();
+    for k in 0..=last {
+        let before = ctrl[k.saturating_sub(1)];
+        let after = ctrl[(k + 1).min(last)];
+        let t = Vector3::from(after) - Vector3::from(before);
+        let t = t / t.norm().max(1e-12);
+        let open_end = (k == 0 && !tube.capped[0]) || (k == last && !tube.capped[1]);
+        let dev = Vector3::from(ctrl[k]) - Vector3::from(start_ctrl[k]);
+        let (weight, residual) = if open_end {
+            (settings.end_anchor, settings.end_anchor * t.dot(&dev))
+        } else {
+            (settings.slide_damping, 0.0)
+        };
+        entries.clear();
+        for c in 0..3 {
+            entries.push((3 * k + c, weight * t[c]));
+        }
+        add_row(&mut h, &mut g, &entries, residual, 1.0);
+        for c in 0..3 {
+            let col = 3 * k + c;
+            h[(col, col)] += RIDGE;
+        }
+    }
+    if !fit_radius {
+        h[(radius_col, radius_col)] += 1.0;
+    }
+    Normal { h, g, cost, rows }
+}
+
+/// The ridge's weight, px² per mm² (far below any camera's: a span no camera sees stays put).
+const RIDGE: f64 = 1e-4;
+
+/// Huber's weight for a residual, `k` its threshold.
+pub(crate) fn huber(r: f64, k: f64) -> f64 {
+    if r.abs() <= k { 1.0 } else { k / r.abs() }
+}
+
+fn add_row(h: &mut DMatrix<f64>, g: &mut DVector<f64>, entries: &[(usize, f64)], r: f64, w: f64) {
+    for &(i, a) in entries {
+        g[i] += w * a * r;
+        for &(j, b) in entries {
+            h[(i, j)] += w * a * b;
+        }
+    }
+}

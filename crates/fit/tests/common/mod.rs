@@ -1,0 +1,184 @@
+//! The simulated chain up to the hull's shape, and errors against truth, for the fit's tests.
+
+#![allow(dead_code)]
+
+use flexshape_camera::Camera;
+use flexshape_carve::{BandRule, HierarchicalCarver, OutsideImage, find_bands};
+use flexshape_curve::Polyline;
+use flexshape_fit::{Fit, FitSettings, TubeFitter, View};
+use flexshape_recording::Truth;
+use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings};
+use flexshape_silhouette::{BackgroundModel, Silhouette, SilhouetteSettings, Silhouetter};
+use flexshape_sim::{SimConfig, SimFrame, Simulator};
+use nalgebra::{Matrix3, Point3, Vector3};
+
+/// A simulated rig with the hull chain and the fitter set up for it.
+pub struct Chain {
+    pub sim: Simulator,
+    pub backgrounds: Vec<BackgroundModel>,
+    pub silhouetters: Vec<Silhouetter>,
+    pub carver: HierarchicalCarver,
+    pub estimator: ShapeEstimator,
+    pub fitter: TubeFitter,
+    pub cameras: Vec<Camera>,
+}
+
+/// One frame through both methods.
+pub struct Both {
+    pub frame: SimFrame,
+    pub hull: ShapeRecord,
+    pub fitted: ShapeRecord,
+    pub fit: Option<Fit>,
+}
+
+impl Chain {
+    pub fn new(config: SimConfig) -> Chain {
+        Chain::calibrated_as(config, |_| {})
+    }
+
+    /// The chain carving and fitting with the rig's cameras as `calibrate` leaves them (the
+    /// images still come from the true cameras): a calibration error.
+    pub fn calibrated_as(config: SimConfig, calibrate: impl Fn(&mut Vec<Camera>)) -> Chain {
+        let sim = Simulator::new(config).unwrap();
+        let mut cameras = sim.cameras();
+        calibrate(&mut cameras);
+        let backgrounds: Vec<BackgroundModel> = sim
+            .backgrounds()
+            .iter()
+            .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
+            .collect();
+        let rig = sim.rig();
+        let silhouetters = rig
+            .cameras
+            .iter()
+            .zip(&backgrounds)
+            .map(|(c, b)| {
+                let s = SilhouetteSettings::from_processing(&rig.processing, &c.name).unwrap();
+                Silhouetter::new(b, s).unwrap()
+            })
+            .collect();
+        let carver = HierarchicalCarver::new(&cameras, &rig.volume).unwrap();
+        let estimator =
+            ShapeEstimator::new(ShapeSettings::from_processing(&rig.processing).unwrap()).unwrap();
+        let names = rig.cameras.iter().map(|c| c.name.clone()).collect();
+        let fitter = TubeFitter::new(cameras.clone(), names, FitSettings::default()).unwrap();
+        Chain {
+            sim,
+            backgrounds,
+            silhouetters,
+            carver,
+            estimator,
+            fitter,
+            cameras,
+        }
+    }
+
+    pub fn silhouettes(&self, frame: &SimFrame) -> Vec<Silhouette> {
+        self.silhouetters
+            .iter()
+            .zip(&frame.views)
+            .map(|(s, v)| s.process(&v.image).unwrap())
+            .collect()
+    }
+
+    /// The hull's shape and the fitted one, for a rendered frame.
+    pub fn run(&self, frame: SimFrame) -> Both {
+        self.run_from(frame, |_| {})
+    }
+
+    /// As `run`, with the hull's record changed by `edit` before the fit starts from it.
+    pub fn run_from(&self, frame: SimFrame, edit: impl Fn(&mut ShapeRecord)) -> Both {
+        let sil = self.silhouettes(&frame);
+        let objects: Vec<_> = sil.iter().map(|s| &s.object).collect();
+        let markers: Vec<_> = sil.iter().map(|s| &s.markers).collect();
+        let occ = self.carver.carve(&objects, OutsideImage::Carve).unwrap();
+        let bands = find_bands(&occ, &self.cameras, &markers, &BandRule::default()).unwrap();
+        let mut hull = self.estimator.estimate(&occ, &bands);
+        edit(&mut hull);
+        let views: Vec<View> = frame
+            .views
+            .iter()
+            .zip(&self.backgrounds)
+            .zip(&sil)
+            .map(|((v, b), s)| View {
+                image: &v.image,
+                background: b.means(),
+                silhouette: &s.object,
+            })
+            .collect();
+        let (fitted, fit) = self
+            .fitter
+            .refine(&self.estimator, &self.sim.rig().volume, &views, &hull, None)
+            .unwrap();
+        Both {
+            frame,
+            hull,
+            fitted,
+            fit,
+        }
+    }
+}
+
+/// RMS distance from the truth centerline samples inside the volume to a curve, mm.
+pub fn centerline_rms(truth: &Truth, sim: &Simulator, curve: &[[f64; 3]]) -> f64 {
+    let Ok(poly) = Polyline::new(curve.iter().map(|&p| Point3::from(p)).collect()) else {
+        return f64::INFINITY;
+    };
+    let d2: Vec<f64> = truth
+        .centerline
+        .iter()
+        .map(|&p| Point3::from(p))
+        .filter(|p| sim.rig().volume.contains(p))
+        .map(|p| poly.closest(&p).1.powi(2))
+        .collect();
+    (d2.iter().sum::<f64>() / d2.len() as f64).sqrt()
+}
+
+/// Distance between the record's tip and the true one, mm.
+pub fn tip_error(truth: &Truth, r: &ShapeRecord) -> f64 {
+    (Point3::from(r.tip) - Point3::from(truth.tip)).norm()
+}
+
+/// Worst distance from a true band centre in the volume to the nearest estimated one, mm.
+pub fn band_error(truth: &Truth, sim: &Simulator, r: &ShapeRecord) -> f64 {
+    truth
+        .bands
+        .iter()
+        .filter(|b| sim.rig().volume.contains(&Point3::from(b.position)))
+        .map(|t| {
+            r.bands
+                .iter()
+                .map(|b| (Point3::from(b.position) - Point3::from(t.position)).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Relative error of the arc fit's curvature, for frames bent more than 1/200 mm⁻¹.
+pub fn curvature_error(truth: &Truth, r: &ShapeRecord) -> Option<f64> {
+    let k = truth.kappa?;
+    let fit = r.arc_fit.as_ref()?;
+    let kt = k[0].hypot(k[1]);
+    (kt >= 1.0 / 200.0).then(|| (fit.curvature - kt) / kt)
+}
+
+/// Angle between the fitted and the true bending planes, radians.
+pub fn plane_error(truth: &Truth, r: &ShapeRecord) -> Option<f64> {
+    let k = truth.kappa?;
+    let base = truth.bend_base.as_ref()?;
+    let fit = r.arc_fit.as_ref()?;
+    let kt = k[0].hypot(k[1]);
+    let rot = Matrix3::from_fn(|i, j| base.rotation[i][j]);
+    let truth_dir = rot * Vector3::new(-k[1], 0.0, k[0]) / kt;
+    let axes = Matrix3::from_fn(|i, j| fit.axes[j][i]);
+    let kf = fit.curvature;
+    let fit_dir = axes * Vector3::new(-fit.kappa[1], 0.0, fit.kappa[0]) / kf;
+    Some(truth_dir.angle(&fit_dir))
+}
+
+/// Median of a list.
+pub fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[s.len() / 2]
+}
