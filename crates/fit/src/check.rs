@@ -189,3 +189,34 @@ pub fn debug_image(
     }
     out
 }
+
+/// How much of the carved hull lies away from the fitted tube — farther than `reach` mm from
+/// its centerline — as the length of tube of that volume, mm (`voxel` the voxel volume, mm³).
+/// The hull is everything every camera allows; a part of it the tube leaves out is a place the
+/// images would let the tube be instead (a ghost of a hull seen by too few cameras).
+pub(crate) fn ghost_length(tube: &Tube, hull: &[[f64; 3]], voxel: f64, reach: f64) -> f64 {
+    use std::collections::HashMap;
+    let cell = |p: [f64; 3]| p.map(|v| (v / reach).floor() as i64);
+    let n = (tube.length() / (reach / 2.0)).ceil().max(2.0) as usize;
+    let mut grid: HashMap<[i64; 3], Vec<Point3<f64>>> = HashMap::new();
+    for i in 0..=n {
+        let (c, _) = tube.frame(i as f64 / n as f64);
+        grid.entry(cell([c.x, c.y, c.z])).or_default().push(c);
+    }
+    let away = hull
+        .iter()
+        .filter(|&&p| {
+            let [i, j, k] = cell(p);
+            let q = Point3::from(p);
+            !(-1..=1).any(|a| {
+                (-1..=1).any(|b| {
+                    (-1..=1).any(|c| {
+                        grid.get(&[i + a, j + b, k + c])
+                            .is_some_and(|v| v.iter().any(|s| (s - q).norm() <= reach))
+                    })
+                })
+            })
+        })
+        .count();
+    away as f64 * voxel / (std::f64::consts::PI * tube.radius * tube.radius)
+}

@@ -15,6 +15,7 @@
 //!
 //! World frame, millimetres, radians; image positions in pixels (OpenCV convention).
 
+mod bands;
 mod check;
 mod edges;
 mod outline;
@@ -24,7 +25,7 @@ mod tube;
 
 use flexshape_camera::Camera;
 use flexshape_rig::Volume;
-use flexshape_shape::{ShapeEstimator, ShapeRecord, Status};
+use flexshape_shape::{FittedCurve, ShapeEstimator, ShapeRecord, Status};
 use flexshape_silhouette::BitMask;
 use image::RgbImage;
 use nalgebra::{DMatrix, Matrix3, Vector3};
@@ -67,6 +68,8 @@ pub struct View<'a> {
     pub background: &'a [[f32; 3]],
     /// The frame's silhouette (for the self-check).
     pub silhouette: &'a BitMask,
+    /// The frame's marker-band pixels (which tell tape from body colour).
+    pub markers: &'a BitMask,
 }
 
 /// One predicted outline point and its measured boundary.
@@ -95,6 +98,9 @@ pub struct Fit {
     pub iterations: usize,
     /// Estimated noise of one outline residual, pixels.
     pub sigma_px: f64,
+    /// Carved hull away from the fitted tube, as a length of tube, mm (see
+    /// [`TubeFitter::refine`]); 0 when no hull was given.
+    pub ghost_mm: f64,
     /// Covariance of the parameters (control points, then radius), mm².
     covariance: DMatrix<f64>,
 }
@@ -129,6 +135,25 @@ impl Fit {
         }
         (cov, self.tube.frame(u).1)
     }
+}
+
+/// A step across the tube below this ends the iterations, mm.
+const CONVERGED_MM: f64 = 0.002;
+
+/// The largest move of a control point across the tube (perpendicular to the control
+/// polygon there) in a parameter step, mm.
+fn across_tube(tube: &Tube, step: &nalgebra::DVector<f64>) -> f64 {
+    let ctrl = tube.centerline.control();
+    let last = ctrl.len() - 1;
+    (0..=last)
+        .map(|k| {
+            let t =
+                Vector3::from(ctrl[(k + 1).min(last)]) - Vector3::from(ctrl[k.saturating_sub(1)]);
+            let t = t / t.norm().max(1e-12);
+            let d = Vector3::new(step[3 * k], step[3 * k + 1], step[3 * k + 2]);
+            (d - t * d.dot(&t)).norm()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// How far `p` lies inside the volume's box (negative outside), mm.
@@ -196,10 +221,13 @@ impl TubeFitter {
                 step /= largest;
             }
             let n = step.len();
+            let across = across_tube(&tube, &step);
             tube.centerline.displace(&step.rows(0, n - 1).into_owned());
             tube.radius = (tube.radius + step[n - 1]).max(0.05);
             normal = Some(eq);
-            if largest < 0.01 {
+            // Converged when no control point moves across the tube by more than a micron or
+            // two (sliding along it barely moves the outline).
+            if across.max(step[n - 1].abs()) < CONVERGED_MM {
                 break;
             }
         }
@@ -241,6 +269,7 @@ impl TubeFitter {
             cameras,
             iterations,
             sigma_px,
+            ghost_mm: 0.0,
             covariance,
         })
     }
@@ -276,8 +305,11 @@ impl TubeFitter {
     }
 
     /// The frame's shape from the images: `hull` (the hull's record of the same frame) gives
-    /// the start, the open ends and the bands; the fitted curve replaces its centerline, and
-    /// the status becomes `inconsistent` when the fit does not explain a camera's image.
+    /// the start, the open ends and the bands; the fitted curve replaces its centerline. The
+    /// status becomes `inconsistent` when the fit does not explain a camera's image, and
+    /// `ambiguous` when the carved hull (`hull_voxels`, voxel centres, world mm) holds more than
+    /// `max_ghost_mm` of tube away from the fitted one: the images would allow the tube there
+    /// too (a ghost of too few cameras), so nothing shows the fitted shape is the real one.
     /// A hull record without a shape is returned as it is. `radius` is the tube's, if known.
     pub fn refine(
         &self,
@@ -285,6 +317,7 @@ impl TubeFitter {
         volume: &Volume,
         views: &[View<'_>],
         hull: &ShapeRecord,
+        hull_voxels: &[[f64; 3]],
         radius: Option<f64>,
     ) -> Result<(ShapeRecord, Option<Fit>), FitError> {
         if hull.points.len() < 2 {
@@ -307,18 +340,31 @@ impl TubeFitter {
             Ok(t) => t,
             Err(_) => return Ok((hull.clone(), None)),
         };
-        let fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
+        let mut fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
+        let voxel_volume = volume.voxel_size.iter().product::<f64>();
+        let reach = 1.5 * fit.tube.radius + 1.5 * voxel;
+        fit.ghost_mm = check::ghost_length(&fit.tube, hull_voxels, voxel_volume, reach);
         let sigma = |u: f64| fit.sigma_across(u);
-        let mut record = estimator.record_from_curve(
-            fit.tube.centerline.clone(),
-            volume,
-            fit.tube.radius,
+        let images: Vec<&RgbImage> = views.iter().map(|v| v.image).collect();
+        let markers: Vec<&BitMask> = views.iter().map(|v| v.markers).collect();
+        let found = bands::locate(&self.cameras, &images, &markers, &fit.tube);
+        let fitted = FittedCurve {
+            curve: fit.tube.centerline.clone(),
+            radius: fit.tube.radius,
             open,
-            hull,
-            Some(&sigma),
-        );
+            bands: (!found.is_empty()).then_some(found.as_slice()),
+            sigma: Some(&sigma),
+        };
+        let mut record = estimator.record_from_curve(fitted, volume, hull);
         if let Some(reason) = self.verdict(&fit) {
             record.status = Status::Inconsistent { reason };
+        } else if fit.ghost_mm > s.max_ghost_mm {
+            record.status = Status::Ambiguous {
+                reason: format!(
+                    "the carved hull holds {:.0} mm of tube away from the fitted shape (at most {:.0}): the cameras would allow the tube there too; add a camera that sees it from another side",
+                    fit.ghost_mm, s.max_ghost_mm
+                ),
+            };
         }
         Ok((record, Some(fit)))
     }

@@ -215,7 +215,7 @@ fn grazing(
 /// not when its viewing ray enters the tube in front of it (the tube crossing itself, or seen
 /// along its length), nor when the pixels just outside it show the tube too (another part
 /// behind or beside it).
-struct Spheres {
+pub(crate) struct Spheres {
     /// Centre (world), its pixel, and the sphere's image radius in pixels.
     items: Vec<(Point3<f64>, Vector2<f64>, f64)>,
     radius: f64,
@@ -290,7 +290,7 @@ impl Grid {
 }
 
 impl Spheres {
-    fn new(camera: &Camera, tube: &Tube, clearance: f64) -> Self {
+    pub(crate) fn new(camera: &Camera, tube: &Tube, clearance: f64) -> Self {
         let r = tube.radius;
         let n = (tube.length() / (r / 4.0)).ceil().max(4.0) as usize;
         let mut items: Vec<_> = (0..=n)
@@ -322,6 +322,30 @@ impl Spheres {
             radius: r,
             clearance,
         }
+    }
+
+    /// Whether the ray from `eye` to `target` (whose pixel is `pixel`) enters the tube before
+    /// it (beyond a tenth of a millimetre's slack).
+    pub(crate) fn blocks(
+        &self,
+        eye: &Point3<f64>,
+        target: &Point3<f64>,
+        pixel: Vector2<f64>,
+    ) -> bool {
+        let to = target - eye;
+        let depth = to.norm();
+        let d = to / depth;
+        let limit = self.radius * 0.98;
+        self.grid.near(pixel).iter().any(|&i| {
+            let (c, px, rp) = &self.items[i as usize];
+            if (px - pixel).norm() > *rp + 1.0 {
+                return false;
+            }
+            let v = c - eye;
+            let along = v.dot(&d);
+            let miss = (v - d * along).norm();
+            miss < limit && along - (self.radius.powi(2) - miss * miss).sqrt() < depth - 0.1
+        })
     }
 
     fn hide(&self, eye: &Point3<f64>, p: &OutlinePoint) -> bool {

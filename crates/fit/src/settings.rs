@@ -56,6 +56,9 @@ pub struct FitSettings {
     pub max_unexplained_px: usize,
     /// Distance within which the re-rendered tube explains a silhouette pixel, pixels.
     pub explain_px: usize,
+    /// Carved hull away from the fitted tube (farther than 1.5 radii + 1.5 voxels from its
+    /// centerline), as a length of tube, mm, beyond which the shape is `ambiguous`.
+    pub max_ghost_mm: f64,
 }
 
 impl Default for FitSettings {
@@ -78,6 +81,7 @@ impl Default for FitSettings {
             min_iou: 0.75,
             max_unexplained_px: 60,
             explain_px: 2,
+            max_ghost_mm: 6.0,
         }
     }
 }
@@ -122,6 +126,7 @@ impl FitSettings {
             ("extend_mm", self.extend_mm),
             ("slide_damping", self.slide_damping),
             ("end_anchor", self.end_anchor),
+            ("max_ghost_mm", self.max_ghost_mm),
         ];
         for (field, v) in non_negative {
             if !(v.is_finite() && v >= 0.0) {

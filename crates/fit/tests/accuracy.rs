@@ -12,8 +12,8 @@ use flexshape_sim::SimConfig;
 fn default_scene_fit_beats_the_hull() {
     let chain = Chain::new(SimConfig::default());
     let sim = &chain.sim;
-    let (mut rms, mut hull_rms, mut tips, mut bands, mut kappa) =
-        (vec![], vec![], vec![], vec![], vec![]);
+    let (mut rms, mut hull_rms, mut tips, mut bands, mut kappa, mut strain) =
+        (vec![], vec![], vec![], vec![], vec![], vec![]);
     for (n, pose) in sim.sweep(20).iter().enumerate() {
         let frame = sim.render(n as u64, pose).unwrap();
         let b = chain.run(frame);
@@ -22,7 +22,7 @@ fn default_scene_fit_beats_the_hull() {
         let e = centerline_rms(truth, sim, &b.fitted.points);
         let eh = centerline_rms(truth, sim, &b.hull.points);
         println!(
-            "frame {n:2}: rms {e:.3} (hull {eh:.3}) mm, tip {:.3} (hull {:.3}), band {:.3} (hull {:.3}), κ {:?} (hull {:?}), r {:.3}, it {}, σ {:.3} px, cams {:?}, status {:?}",
+            "frame {n:2}: rms {e:.3} (hull {eh:.3}) mm, tip {:.3} (hull {:.3}), band {:.3} (hull {:.3}), κ {:?} (hull {:?}), r {:.3}, it {}, σ {:.3} px, ghost {:.1} mm, cams {:?}, status {:?}",
             tip_error(truth, &b.fitted),
             tip_error(truth, &b.hull),
             band_error(truth, sim, &b.fitted),
@@ -32,6 +32,7 @@ fn default_scene_fit_beats_the_hull() {
             fit.tube.radius,
             fit.iterations,
             fit.sigma_px,
+            fit.ghost_mm,
             fit.cameras
                 .iter()
                 .map(|c| format!(
@@ -48,6 +49,9 @@ fn default_scene_fit_beats_the_hull() {
             b.fitted.status,
         );
         assert_eq!(b.fitted.status, Status::Ok, "frame {n}");
+        if let (Some(c), Some(eps)) = (b.fitted.compression.first(), truth.eps) {
+            strain.push(c.strain - eps[1]);
+        }
         rms.push(e);
         hull_rms.push(eh);
         tips.push(tip_error(truth, &b.fitted));
@@ -57,6 +61,12 @@ fn default_scene_fit_beats_the_hull() {
         }
     }
     let worst = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+    let strain_bias = strain.iter().sum::<f64>() / strain.len() as f64;
+    println!(
+        "bending-section strain: bias {strain_bias:+.5}, worst {:.5} over {}",
+        strain.iter().map(|s| s.abs()).fold(0.0, f64::max),
+        strain.len()
+    );
     let bias = kappa.iter().sum::<f64>() / kappa.len() as f64;
     println!(
         "centerline rms median {:.3} worst {:.3} mm (hull median {:.3} worst {:.3}); tip worst {:.3} mm; band worst {:.3} mm; curvature bias {:+.3} % worst {:.3} % over {}",
@@ -70,13 +80,14 @@ fn default_scene_fit_beats_the_hull() {
         kappa.iter().map(|k| k.abs()).fold(0.0, f64::max) * 100.0,
         kappa.len()
     );
-    // Measured: median 0.031, worst 0.039 mm (hull 0.138 / 0.202); tip worst 0.12 mm;
-    // curvature bias +0.015 %, worst 0.10 % (the issue asks ≤ 0.08 / 0.12 mm, tip ≤ 0.3 mm,
-    // bias ≤ 0.1 %).
+    // Measured: median 0.027, worst 0.033 mm (hull 0.138 / 0.202); tip worst 0.14 mm; band
+    // centres worst 0.17 mm, most below 0.07 (hull 0.45); curvature bias +0.016 %, worst
+    // 0.085 % (the issue asks ≤ 0.08 / 0.12 mm, tip ≤ 0.3 mm, bands ≤ 0.2 mm, bias ≤ 0.1 %).
     assert!(median(&rms) <= 0.05, "median {:.3}", median(&rms));
     assert!(worst(&rms) <= 0.08, "worst {:.3}", worst(&rms));
     assert!(median(&rms) * 2.5 < median(&hull_rms));
     assert!(worst(&tips) <= 0.2, "tip {:.3}", worst(&tips));
+    assert!(worst(&bands) <= 0.2, "band {:.3}", worst(&bands));
     assert!(bias.abs() <= 0.001, "curvature bias {:.3} %", bias * 100.0);
     assert!(kappa.iter().all(|k| k.abs() <= 0.005), "{kappa:?}");
     assert!(kappa.len() >= 10);

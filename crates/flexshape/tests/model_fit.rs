@@ -65,21 +65,24 @@ fn simulated_experiment_recovers_the_stiffnesses() {
     assert_eq!(report["registration_poses"], 4);
     assert_eq!(report["reference_pose"], true);
     assert!(report["skipped"].as_array().unwrap().is_empty());
-    // Bending stiffnesses within 3 % (measured: −0.8 %, −0.4 %).
+    // Bending stiffnesses within 1 % (measured with the tube fitted to the images: −0.03 %,
+    // −0.01 %; from the hull's centerline: −0.8 %, −0.4 %).
     for j in 0..2 {
         let error = get("estimated", j) / get("nominal", j) - 1.0;
-        assert!(error.abs() < 0.03, "K[{j}] off by {:.1} %", 100.0 * error);
+        assert!(error.abs() < 0.01, "K[{j}] off by {:.2} %", 100.0 * error);
     }
-    // Ka0 from the bending base's retreat over L0 = 1000 mm (measured −6 %: the base band's
-    // position bias of ~0.1 mm against a 4 mm compression, amplified 2.3×).
+    // Ka0 from the bending base's retreat over L0 = 1000 mm (measured −3.3 %; from the hull
+    // −6 %: the base band's position bias against a 4 mm compression, amplified 2.3×).
     let error = get("estimated", 2) / get("nominal", 2) - 1.0;
-    assert!(error.abs() < 0.10, "Ka0 off by {:.1} %", 100.0 * error);
-    // Ka1 rests on a 0.4 mm compression of the bending section measured between bands with
-    // ~0.2 mm noise: only its standard error can be asked for.
-    let z = (get("estimated", 3) - get("nominal", 3)) / get("standard_error", 3);
-    assert!(z.abs() < 3.0, "Ka1 {z:.1} standard errors off");
-    // The fitted model predicts the tips within 1 % of L1 (the paper's Table I: 4.8 %).
-    assert!(get("tip_error_percent", 1) < 1.0);
+    assert!(error.abs() < 0.06, "Ka0 off by {:.1} %", 100.0 * error);
+    // Ka1 rests on a 0.4 mm compression of the 155 mm bending section measured between its
+    // bands: the bands' spacing is biased by 0.05 mm (strain +0.0003 on the simulated sweep,
+    // `crates/fit/tests/accuracy.rs`), which takes Ka1 14 % low (measured −14 %).
+    let error = get("estimated", 3) / get("nominal", 3) - 1.0;
+    assert!(error.abs() < 0.2, "Ka1 off by {:.1} %", 100.0 * error);
+    // The fitted model predicts the tips within 0.5 % of L1 (measured 0.09 %; the paper's
+    // Table I: 4.8 %).
+    assert!(get("tip_error_percent", 1) < 0.5);
     assert!(get("registration_residual_deg", 0) < 1.0);
     assert!(get("registration_residual_deg", 1) < 0.5);
 

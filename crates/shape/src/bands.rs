@@ -141,3 +141,70 @@ pub(crate) fn carried_over(
     out.sort_by(|a, b| a.arc_length.total_cmp(&b.arc_length));
     out
 }
+
+/// Orients slices whose direction was only guessed by the bands, when `settings.tip_band` says
+/// a band ends at the tip: the end that a band reaches (and the other does not) is the tip.
+/// Returns whether that decided it.
+pub(crate) fn orient(
+    occ: &Occupancy,
+    bands: &[Band],
+    slices: &mut Slices,
+    settings: &crate::ShapeSettings,
+    voxel: f64,
+) -> bool {
+    if !settings.tip_band {
+        return false;
+    }
+    let [lo, hi] = slices.s_range;
+    let reach = 2.0 * voxel;
+    let (mut at_lo, mut at_hi) = (false, false);
+    for band in bands {
+        for v in &band.voxels {
+            let Ok(i) = occ.voxels.binary_search(v) else {
+                continue;
+            };
+            let s = slices.voxel_s[i];
+            at_lo |= s <= lo + reach;
+            at_hi |= s >= hi - reach;
+        }
+    }
+    match (at_lo, at_hi) {
+        (false, true) => true,
+        (true, false) => {
+            crate::order::reverse(slices);
+            slices.enters_volume = false;
+            true
+        }
+        _ => false,
+    }
+}
+
+/// Bands found on the curve itself (`CurveBand`, in its parameter) as the record's: centred
+/// between their ends, or between the proximal end and the tip for one that runs into it.
+pub(crate) fn on_curve(
+    found: &[crate::CurveBand],
+    curve: &Centerline,
+    length: f64,
+) -> Vec<BandOnCurve> {
+    let mut out: Vec<BandOnCurve> = found
+        .iter()
+        .map(|b| {
+            let lower = curve.arc_of(b.u[0]);
+            let upper = if b.at_tip {
+                length
+            } else {
+                curve.arc_of(b.u[1])
+            };
+            let arc = (lower + upper) / 2.0;
+            BandOnCurve {
+                arc_length: arc,
+                position: curve.point_at(arc),
+                extent: [lower, upper],
+                voxels: 0,
+                at_tip: b.at_tip,
+            }
+        })
+        .collect();
+    out.sort_by(|a, b| a.arc_length.total_cmp(&b.arc_length));
+    out
+}

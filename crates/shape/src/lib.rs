@@ -34,7 +34,9 @@ use thiserror::Error;
 
 pub use arcfit::section_frame;
 pub use order::angle_order;
-pub use record::{ArcFit, BandOnCurve, Compression, ShapeRecord, Status, Timings, TwoSectionFit};
+pub use record::{
+    ArcFit, BandOnCurve, Compression, CurveBand, ShapeRecord, Status, Timings, TwoSectionFit,
+};
 pub use settings::{ArcFitSettings, NominalSection, ShapeSettings, Smoothing, TipEnd};
 pub use spline::{CubicSpline3, Derivatives, moving_average, polynomial_fit};
 
@@ -49,6 +51,22 @@ pub enum ShapeError {
         /// What is wrong.
         problem: String,
     },
+}
+
+/// A centerline found another way than from the hull's slices (the tube fitted to the images),
+/// for [`ShapeEstimator::record_from_curve`].
+pub struct FittedCurve<'a> {
+    /// The curve, proximal end at `u = 0`, tip at `u = 1`, world mm.
+    pub curve: BSpline3,
+    /// Tube radius, mm.
+    pub radius: f64,
+    /// Whether the tube runs on through the volume's boundary at its proximal end and at its
+    /// tip (the curve is then cut where it crosses the boundary).
+    pub open: [bool; 2],
+    /// Bands found on the curve itself, if any (else the hull's are carried over).
+    pub bands: Option<&'a [CurveBand]>,
+    /// 1-σ uncertainty across the tube (mm) at a curve parameter, for the record's `sigma`.
+    pub sigma: Option<&'a dyn Fn(f64) -> f64>,
 }
 
 /// Turns carved clouds into shapes with fixed settings.
@@ -75,7 +93,7 @@ impl ShapeEstimator {
     pub fn estimate(&self, occupancy: &Occupancy, bands: &[Band]) -> ShapeRecord {
         let s = &self.settings;
         let t0 = Instant::now();
-        let slices = match order::slice(occupancy, s) {
+        let mut slices = match order::slice(occupancy, s) {
             Ok(slices) => slices,
             Err(status) => {
                 let mut r = ShapeRecord::empty(status);
@@ -83,9 +101,10 @@ impl ShapeEstimator {
                 return r;
             }
         };
-        let t1 = Instant::now();
         let vs = occupancy.volume.voxel_size;
         let voxel = vs.iter().copied().fold(f64::INFINITY, f64::min);
+        let undecided = !slices.oriented && !bands::orient(occupancy, bands, &mut slices, s, voxel);
+        let t1 = Instant::now();
         let radius = s.radius_mm.unwrap_or_else(|| estimate_radius(&slices, vs));
         let curve = centerline::Centerline::new(&slices, s, &occupancy.volume, radius);
         let mut record = self.sampled(&curve, radius, slices.enters_volume);
@@ -93,6 +112,10 @@ impl ShapeEstimator {
         record.bands = bands::locate(occupancy, bands, &slices, &curve, voxel);
         if slices.leaves_volume {
             record.status = Status::LeavesVolume;
+        } else if undecided {
+            record.status = Status::Ambiguous {
+                reason: "neither end of the tube reaches the volume's boundary and nothing tells its tip from its proximal end (the centerline's direction is a guess): set [processing.shape] proximal_hint, or tip_band = true when a band marks the tip".into(),
+            };
         }
         let t3 = Instant::now();
         self.finish(&mut record, &curve);
@@ -105,22 +128,25 @@ impl ShapeEstimator {
         record
     }
 
-    /// The record of a centerline found another way — the tube fitted to the images — from
-    /// its proximal end (`u = 0`) to its tip (`u = 1`), cut at the volume's boundary at the
-    /// ends `open` says the tube runs through (`[proximal, tip]`). Status and bands come from
-    /// `hull`, the same frame's hull record, which must hold a shape: each band
-    /// keeps its place (its centre's nearest point on the new curve; a band ending at the tip
-    /// keeps its distance from the tip). `sigma` gives the 1-σ uncertainty across the tube
-    /// (mm) at a curve parameter, for the record's `sigma`.
+    /// The record of a centerline found another way — the tube fitted to the images (see
+    /// [`FittedCurve`]) — from its proximal end to its tip, cut at the volume's boundary at the
+    /// ends the tube runs through. The status comes from `hull`, the same frame's hull record,
+    /// which must hold a shape, and so do the bands unless the fit found its own: each hull
+    /// band keeps its place (its centre's nearest point on the new curve; a band ending at the
+    /// tip keeps its distance from the tip).
     pub fn record_from_curve(
         &self,
-        curve: BSpline3,
+        fitted: FittedCurve<'_>,
         volume: &Volume,
-        radius: f64,
-        open: [bool; 2],
         hull: &ShapeRecord,
-        sigma: Option<&dyn Fn(f64) -> f64>,
     ) -> ShapeRecord {
+        let FittedCurve {
+            curve,
+            radius,
+            open,
+            bands,
+            sigma,
+        } = fitted;
         let t0 = Instant::now();
         let curve = centerline::Centerline::fitted(curve, volume, open[0], open[1]);
         let mut record = self.sampled(&curve, radius, open[0]);
@@ -133,7 +159,10 @@ impl ShapeEstimator {
                 .collect();
         }
         let t1 = Instant::now();
-        record.bands = bands::carried_over(&hull.bands, hull.length, &record);
+        record.bands = match bands {
+            Some(found) => bands::on_curve(found, &curve, record.length),
+            None => bands::carried_over(&hull.bands, hull.length, &record),
+        };
         let t2 = Instant::now();
         self.finish(&mut record, &curve);
         record.timings = Timings {

@@ -8,8 +8,10 @@
 //! A closed loop shows as slices that fall into two pieces; two objects as two components.
 //!
 //! The proximal end is the one whose voxels touch the volume's boundary (the tube enters
-//! there). When both or neither do, it is the end nearer `proximal_hint` if given, else the
-//! end nearer the volume's boundary.
+//! there), or, when neither does, the only one within 4 voxels of it. Otherwise it is the end
+//! nearer `proximal_hint` if given; else it is only guessed (the end nearer the boundary) and
+//! `Slices::oriented` says so — the shape stage then asks the bands, and without them the
+//! frame is `ambiguous`.
 //!
 //! [`angle_order`] is the paper's baseline, kept for comparison.
 
@@ -38,6 +40,9 @@ pub(crate) struct Slices {
     pub enters_volume: bool,
     /// Whether the tip end touches the volume's boundary too (the tube leaves the volume).
     pub leaves_volume: bool,
+    /// Whether something decided which end is proximal (the volume's boundary or the hint);
+    /// false when it was only guessed (the end nearer the boundary).
+    pub oriented: bool,
 }
 
 /// A polyline with cumulative chord lengths, for projecting voxels onto.
@@ -275,6 +280,7 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
         s_range: cut.range,
         spacing,
         enters_volume: false,
+        oriented: false,
         leaves_volume: false,
     };
     orient(occ, &mut slices, voxel, settings);
@@ -345,25 +351,39 @@ fn orient(occ: &Occupancy, slices: &mut Slices, voxel: f64, settings: &ShapeSett
         slices.centroid[0],
         slices.centroid[slices.centroid.len() - 1],
     );
-    let flip = match (low, high) {
-        (true, false) => false,
-        (false, true) => true,
+    // An end that stops a few voxels short of the boundary still enters there (the hull's
+    // cut end can fall short), when the other end is well inside.
+    let near = 4.0 * voxel;
+    let (d_first, d_last) = (boundary_distance(occ, first), boundary_distance(occ, last));
+    let (flip, oriented) = match (low, high) {
+        (true, false) => (false, true),
+        (false, true) => (true, true),
+        (false, false) if d_first <= near && d_last > near => (false, true),
+        (false, false) if d_last <= near && d_first > near => (true, true),
         _ => match settings.proximal_hint {
-            Some(h) => dist(last, h) < dist(first, h),
-            None => boundary_distance(occ, last) < boundary_distance(occ, first),
+            Some(h) => (dist(last, h) < dist(first, h), true),
+            None => (d_last < d_first, false),
         },
     };
-    slices.enters_volume = if flip { high } else { low };
+    let proximal_near = if flip { d_last } else { d_first } <= near;
+    slices.enters_volume = (if flip { high } else { low }) || proximal_near;
     slices.leaves_volume = low && high;
+    slices.oriented = oriented;
     if flip {
-        let total = lo + hi;
-        for v in slices.s.iter_mut().chain(slices.voxel_s.iter_mut()) {
-            *v = total - *v;
-        }
-        slices.s.reverse();
-        slices.centroid.reverse();
-        slices.count.reverse();
+        reverse(slices);
     }
+}
+
+/// The slices seen from the other end: parameters mirrored, order reversed.
+pub(crate) fn reverse(slices: &mut Slices) {
+    let [lo, hi] = slices.s_range;
+    let total = lo + hi;
+    for v in slices.s.iter_mut().chain(slices.voxel_s.iter_mut()) {
+        *v = total - *v;
+    }
+    slices.s.reverse();
+    slices.centroid.reverse();
+    slices.count.reverse();
 }
 
 /// Distance from `p` to the nearest face of the volume's box, mm.

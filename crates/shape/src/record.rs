@@ -54,6 +54,16 @@ pub struct BandOnCurve {
     pub at_tip: bool,
 }
 
+/// A band found on a curve by other means than the carved voxels (the colour along the fitted
+/// tube's projection): its ends as the curve's parameter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CurveBand {
+    /// Curve parameter of its proximal and distal ends.
+    pub u: [f64; 2],
+    /// Whether it runs into the tip (its distal end is the tip).
+    pub at_tip: bool,
+}
+
 /// Axial strain of a section of known nominal length.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Compression {

@@ -112,6 +112,9 @@ pub struct ShapeSettings {
     /// A world point near where the tube enters the volume, for rigs where neither end touches
     /// the volume's boundary.
     pub proximal_hint: Option<[f64; 3]>,
+    /// A marker band ends at the tip (and none at the proximal end): when neither end touches
+    /// the volume's boundary and no hint is given, the banded end is the tip.
+    pub tip_band: bool,
     /// Bands expected on the tube (status `bands_missing` when fewer are found).
     pub expected_bands: usize,
     /// Groups of voxels smaller than this are ignored as specks.
@@ -132,6 +135,7 @@ impl Default for ShapeSettings {
             radius_mm: None,
             tip_end: TipEnd::default(),
             proximal_hint: None,
+            tip_band: false,
             expected_bands: 0,
             min_voxels: 30,
             sections: Vec::new(),

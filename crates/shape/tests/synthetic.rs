@@ -72,9 +72,16 @@ fn rms(curve: &[[f64; 3]], truth: &[Point3<f64>]) -> f64 {
 }
 
 fn estimator() -> ShapeEstimator {
+    hinted(None)
+}
+
+/// The estimator told where the tube enters (for tubes neither of whose ends touches the
+/// volume's boundary).
+fn hinted(proximal_hint: Option<[f64; 3]>) -> ShapeEstimator {
     ShapeEstimator::new(ShapeSettings {
         tip_end: TipEnd::Rounded,
         radius_mm: Some(RADIUS),
+        proximal_hint,
         arc_fit: flexshape_shape::ArcFitSettings {
             from_band: None,
             ..Default::default()
@@ -95,7 +102,17 @@ fn follows_straight_and_curled_tubes_where_angle_ordering_fails() {
     let curled = arc(50.0, 300f64.to_radians(), 0.0);
     for (name, truth, enters) in [("straight", &straight, true), ("curled", &curled, false)] {
         let occ = tube(std::slice::from_ref(truth));
-        let r = estimator().estimate(&occ, &[]);
+        if !enters {
+            // Nothing tells which end is proximal: the direction is only a guess.
+            let guess = estimator().estimate(&occ, &[]);
+            assert!(
+                matches!(&guess.status, Status::Ambiguous { reason } if reason.contains("proximal_hint")),
+                "{name}: {:?}",
+                guess.status
+            );
+        }
+        let hint = (!enters).then(|| truth[0].into());
+        let r = hinted(hint).estimate(&occ, &[]);
         assert_eq!(r.status, Status::Ok, "{name}");
         assert_eq!(r.enters_volume, enters, "{name}");
         // Compare inside the volume, away from the flat ends' rounding.

@@ -210,6 +210,8 @@ impl Catheter {
         section.insert("nominal_mm".into(), (centres[last] - centres[0]).into());
         let mut shape = toml::Table::new();
         shape.insert("expected_bands".into(), (centres.len() as i64).into());
+        // The simulated catheter's last band ends at its tip.
+        shape.insert("tip_band".into(), true.into());
         shape.insert(
             "sections".into(),
             toml::Value::Array(vec![toml::Value::Table(section)]),

@@ -137,6 +137,26 @@ impl Pipeline {
         &self.fitter
     }
 
+    /// How the image fit sees a frame: each camera's image (rig order), background and
+    /// silhouette.
+    pub fn views<'a>(
+        &'a self,
+        images: &[&'a RgbImage],
+        silhouettes: &'a [Silhouette],
+    ) -> Vec<View<'a>> {
+        images
+            .iter()
+            .zip(&self.backgrounds)
+            .zip(silhouettes)
+            .map(|((image, bg), s)| View {
+                image,
+                background: bg.means(),
+                silhouette: &s.object,
+                markers: &s.markers,
+            })
+            .collect()
+    }
+
     /// The image fit's settings (its `method` says whether the shape is fitted to the images).
     pub fn fit_settings(&self) -> &FitSettings {
         self.fitter.settings()
@@ -214,19 +234,16 @@ impl Pipeline {
         let (shape, fit) = match self.fitter.settings().method {
             Method::Hull => (hull, None),
             Method::Fit => {
-                let views: Vec<View> = images
-                    .iter()
-                    .zip(&self.backgrounds)
-                    .zip(&silhouettes)
-                    .map(|((image, bg), s)| View {
-                        image,
-                        background: bg.means(),
-                        silhouette: &s.object,
-                    })
-                    .collect();
+                let views = self.views(images, &silhouettes);
                 let radius = self.shape.settings().radius_mm;
-                self.fitter
-                    .refine(&self.shape, self.carver.volume(), &views, &hull, radius)?
+                self.fitter.refine(
+                    &self.shape,
+                    self.carver.volume(),
+                    &views,
+                    &hull,
+                    &occupancy.centres(),
+                    radius,
+                )?
             }
         };
         let fit_ms = ms(t);

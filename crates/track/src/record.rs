@@ -159,6 +159,11 @@ pub struct TrackRecord {
     /// order: outline residuals, their systematic offset, overlap with the silhouette.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub cameras: Vec<CameraCheck>,
+    /// Carved hull away from the fitted tube, as a length of tube, mm (method `fit`): where the
+    /// images would allow the tube to be instead; beyond the rig's limit the status is
+    /// `ambiguous`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ghost_mm: Option<f64>,
 }
 
 /// A measured axial strain.
@@ -246,6 +251,7 @@ impl TrackRecord {
             radius: has_shape.then_some(s.radius),
             centerline_sigma: s.sigma.clone(),
             cameras: t.fit.as_ref().map_or_else(Vec::new, |f| f.cameras.clone()),
+            ghost_mm: t.fit.as_ref().map(|f| f.ghost_mm),
         }
     }
 
@@ -305,6 +311,7 @@ impl TrackRecord {
             radius: None,
             centerline_sigma: Vec::new(),
             cameras: Vec::new(),
+            ghost_mm: None,
         }
     }
 }

@@ -104,11 +104,19 @@ impl Chain {
                 image: &v.image,
                 background: b.means(),
                 silhouette: &s.object,
+                markers: &s.markers,
             })
             .collect();
         let (fitted, fit) = self
             .fitter
-            .refine(&self.estimator, &self.sim.rig().volume, &views, &hull, None)
+            .refine(
+                &self.estimator,
+                &self.sim.rig().volume,
+                &views,
+                &hull,
+                &occ.centres(),
+                None,
+            )
             .unwrap();
         Both {
             frame,

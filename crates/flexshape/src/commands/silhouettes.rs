@@ -3,7 +3,7 @@
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use flexshape_fit::{View, debug_image as fit_debug_image};
+use flexshape_fit::debug_image as fit_debug_image;
 use flexshape_recording::RecordingReader;
 use flexshape_silhouette::{
     BackgroundModel, BitMask, SilhouetteSettings, Silhouetter, debug_image,
@@ -135,16 +135,7 @@ fn fitted(
     let Some(out) = &args.out else {
         return Ok(());
     };
-    let views: Vec<View> = frames
-        .iter()
-        .zip(models)
-        .zip(&t.silhouettes)
-        .map(|((image, bg), s)| View {
-            image,
-            background: bg.means(),
-            silhouette: &s.object,
-        })
-        .collect();
+    let views = pipeline.views(&images, &t.silhouettes);
     let outlines = pipeline.fitter().outline_residuals(&views, &fit.tube)?;
     for (i, cam) in rig.cameras.iter().enumerate() {
         let Some(rendered) = pipeline.fitter().render(i, &fit.tube) else {

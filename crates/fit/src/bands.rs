@@ -1,0 +1,309 @@
+//! Marker bands on the fitted centerline, from the colour along its projection in every
+//! camera.
+//!
+//! Along the tube every quarter millimetre, each camera that sees the tube side-on enough
+//! reads the colour at the centerline's pixel. Tape and body colours come from the samples the
+//! silhouette's marker mask does and does not mark; the tape's share `q = (I − B)·(T − B) /
+//! ‖T − B‖²` is linear in how much of the pixel the tape covers, so a band's edge is where `q`
+//! crosses halfway between its level inside and outside the band. The surface a camera sees
+//! at the centerline's pixel is not the centerline's own section: the ray meets the tube's
+//! near side `r·cot α` closer to the camera along the tube (`α` the angle between ray and
+//! tangent), which is taken off. Cameras' edges are averaged; a band that runs into the tip
+//! ends there.
+
+use flexshape_camera::Camera;
+use flexshape_shape::CurveBand;
+use flexshape_silhouette::BitMask;
+use image::RgbImage;
+use nalgebra::{Point3, Vector2, Vector3};
+
+use crate::outline::Spheres;
+use crate::tube::Tube;
+
+/// Spacing of the colour samples along the tube, mm.
+const STEP: f64 = 0.25;
+/// Smallest sine of the angle between a camera's ray and the tube for its colour to count.
+const MIN_SIN: f64 = 0.5;
+
+/// One camera's colour sample at one place along the tube.
+#[derive(Clone, Copy)]
+struct Sample {
+    colour: [f32; 3],
+    marked: bool,
+    /// Arc-length shift of the seen surface, mm (`r·cot α`).
+    shift: f64,
+}
+
+/// One camera's bands: arc lengths (from the tube's start) of their ends; `None` for an end cut
+/// by the tube's open start; the upper end at the tube's end means the band reaches the tip.
+struct Seen {
+    lower: Option<f64>,
+    upper: f64,
+    at_tip: bool,
+}
+
+/// The bands on `tube`, as curve parameters, from every camera's image and marker mask.
+pub(crate) fn locate(
+    cameras: &[Camera],
+    images: &[&RgbImage],
+    markers: &[&BitMask],
+    tube: &Tube,
+) -> Vec<CurveBand> {
+    let table = ArcTable::new(tube);
+    let n = (table.length() / STEP).floor() as usize;
+    let mut seen: Vec<Seen> = Vec::new();
+    for ((camera, image), mask) in cameras.iter().zip(images).zip(markers) {
+        let samples = sample(camera, image, mask, tube, &table, n);
+        seen.extend(runs(&samples, tube.capped[1]));
+    }
+    merge(seen, table.length())
+        .into_iter()
+        .map(|(lower, upper, at_tip)| CurveBand {
+            u: [table.u_of(lower), table.u_of(upper)],
+            at_tip,
+        })
+        .collect()
+}
+
+/// Colour samples of one camera every `STEP` mm from the tube's start (`None` where it does not
+/// see the tube's side there).
+fn sample(
+    camera: &Camera,
+    image: &RgbImage,
+    mask: &BitMask,
+    tube: &Tube,
+    table: &ArcTable,
+    n: usize,
+) -> Vec<Option<Sample>> {
+    let eye = camera.centre();
+    let spheres = Spheres::new(camera, tube, 0.0);
+    let r = tube.radius;
+    (0..=n)
+        .map(|k| {
+            let (c, t) = tube.frame(table.u_of(k as f64 * STEP));
+            let to = c - eye;
+            let d = to / to.norm();
+            let sin = d.cross(&t).norm();
+            if sin < MIN_SIN {
+                return None;
+            }
+            let pixel = camera.project(&c).ok()?.pixel.coords;
+            // The near side, where the ray enters the tube.
+            let front: Point3<f64> = c - d * (r / sin);
+            if spheres.blocks(&eye, &front, pixel) {
+                return None;
+            }
+            Some(Sample {
+                colour: bilinear(image, pixel)?,
+                marked: mask.get(pixel.x.round() as usize, pixel.y.round() as usize),
+                shift: r * d.dot(&t) / sin,
+            })
+        })
+        .collect()
+}
+
+/// The bands one camera's samples show.
+fn runs(samples: &[Option<Sample>], tip_capped: bool) -> Vec<Seen> {
+    let mean = |marked: bool| {
+        let picked: Vec<[f32; 3]> = samples
+            .iter()
+            .flatten()
+            .filter(|s| s.marked == marked)
+            .map(|s| s.colour)
+            .collect();
+        (!picked.is_empty()).then(|| {
+            let k = picked.len() as f32;
+            [0, 1, 2].map(|c| picked.iter().map(|p| p[c]).sum::<f32>() / k)
+        })
+    };
+    let (Some(tape), Some(body)) = (mean(true), mean(false)) else {
+        return Vec::new();
+    };
+    let axis = Vector3::from(tape.map(f64::from)) - Vector3::from(body.map(f64::from));
+    if axis.norm() < 20.0 {
+        return Vec::new();
+    }
+    let q: Vec<Option<f64>> = samples
+        .iter()
+        .map(|s| {
+            s.map(|s| {
+                (Vector3::from(s.colour.map(f64::from)) - Vector3::from(body.map(f64::from)))
+                    .dot(&axis)
+                    / axis.norm_squared()
+            })
+        })
+        .collect();
+    let last = q.len() - 1;
+    let mut out = Vec::new();
+    let mut k = 0;
+    while k <= last {
+        if !q[k].is_some_and(|v| v > 0.5) {
+            k += 1;
+            continue;
+        }
+        let start = k;
+        while k < last && q[k + 1].is_some_and(|v| v > 0.5) {
+            k += 1;
+        }
+        let end = k;
+        k += 1;
+        // At least a millimetre of tape.
+        if (end - start) as f64 * STEP < 1.0 {
+            continue;
+        }
+        let inside = median(&q[start..=end]);
+        let lower = (start > 0)
+            .then(|| edge(&q, samples, start, -1, inside))
+            .flatten();
+        let reaches_tip = end == last && tip_capped;
+        let upper = if reaches_tip {
+            Some(last as f64 * STEP)
+        } else if end < last {
+            edge(&q, samples, end, 1, inside)
+        } else {
+            None
+        };
+        if let (Some(upper), true) = (upper, lower.is_some() || start > 0) {
+            out.push(Seen {
+                lower,
+                upper,
+                at_tip: reaches_tip,
+            });
+        }
+    }
+    out
+}
+
+/// Where `q` crosses halfway between `inside` and its level just outside the run's end at
+/// `at` (the run's first sample going `dir = −1`, its last going `+1`), as the arc length of
+/// the surface seen there (the camera's shift taken off), mm.
+fn edge(
+    q: &[Option<f64>],
+    samples: &[Option<Sample>],
+    at: usize,
+    dir: isize,
+    inside: f64,
+) -> Option<f64> {
+    let step = |i: usize, by: isize| i.checked_add_signed(by).filter(|&j| j < q.len());
+    // Up to 3 mm beyond the crossing, leaving out the first half millimetre of mixed pixels.
+    let outside: Vec<Option<f64>> = (3..14)
+        .filter_map(|k| step(at, dir * k))
+        .map(|j| q[j])
+        .collect();
+    if outside.iter().flatten().count() < 3 {
+        return None;
+    }
+    let level = (inside + median(&outside)) / 2.0;
+    let next = step(at, dir)?;
+    let (a, b) = (q[at]?, q[next]?);
+    let frac = ((a - level) / (a - b)).clamp(0.0, 1.0);
+    let shift = samples[at]?.shift * (1.0 - frac) + samples[next]?.shift * frac;
+    Some((at as f64 + dir as f64 * frac) * STEP - shift)
+}
+
+/// Bands seen by several cameras, merged where they overlap: ends averaged over the cameras
+/// that saw them. `(lower, upper, at_tip)`, arc lengths from the tube's start, mm.
+fn merge(mut seen: Vec<Seen>, length: f64) -> Vec<(f64, f64, bool)> {
+    seen.sort_by(|a, b| {
+        let key = |s: &Seen| s.lower.unwrap_or(s.upper);
+        key(a).total_cmp(&key(b))
+    });
+    let mut groups: Vec<Vec<Seen>> = Vec::new();
+    for s in seen {
+        let low = s.lower.unwrap_or(s.upper);
+        match groups.last_mut() {
+            Some(g) if g.iter().any(|o| low <= o.upper) => g.push(s),
+            _ => groups.push(vec![s]),
+        }
+    }
+    groups
+        .into_iter()
+        .filter_map(|g| {
+            let lowers: Vec<f64> = g.iter().filter_map(|s| s.lower).collect();
+            let lower = mean(&lowers)?;
+            let tips = g.iter().filter(|s| s.at_tip).count();
+            let at_tip = 2 * tips > g.len();
+            let upper = if at_tip {
+                length
+            } else {
+                mean(
+                    &g.iter()
+                        .filter(|s| !s.at_tip)
+                        .map(|s| s.upper)
+                        .collect::<Vec<_>>(),
+                )?
+            };
+            Some((lower, upper, at_tip))
+        })
+        .collect()
+}
+
+fn mean(v: &[f64]) -> Option<f64> {
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+fn median(v: &[Option<f64>]) -> f64 {
+    let mut s: Vec<f64> = v.iter().flatten().copied().collect();
+    s.sort_by(f64::total_cmp);
+    s.get(s.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// RGB at a sub-pixel position, bilinear.
+fn bilinear(image: &RgbImage, p: Vector2<f64>) -> Option<[f32; 3]> {
+    let (x0, y0) = (p.x.floor(), p.y.floor());
+    if x0 < 0.0 || y0 < 0.0 || x0 + 1.0 >= image.width() as f64 || y0 + 1.0 >= image.height() as f64
+    {
+        return None;
+    }
+    let (fx, fy) = ((p.x - x0) as f32, (p.y - y0) as f32);
+    let (x, y) = (x0 as u32, y0 as u32);
+    let mut out = [0f32; 3];
+    for (dx, dy, w) in [
+        (0, 0, (1.0 - fx) * (1.0 - fy)),
+        (1, 0, fx * (1.0 - fy)),
+        (0, 1, (1.0 - fx) * fy),
+        (1, 1, fx * fy),
+    ] {
+        let px = image.get_pixel(x + dx, y + dy);
+        for c in 0..3 {
+            out[c] += w * px[c] as f32;
+        }
+    }
+    Some(out)
+}
+
+/// Arc length along the tube against its parameter.
+struct ArcTable {
+    u: Vec<f64>,
+    arc: Vec<f64>,
+}
+
+impl ArcTable {
+    fn new(tube: &Tube) -> Self {
+        let n = 40 * (tube.centerline.control().len() - 3);
+        let u: Vec<f64> = (0..=n).map(|i| i as f64 / n as f64).collect();
+        let mut arc = vec![0.0];
+        let mut prev = tube.frame(0.0).0;
+        for &ui in &u[1..] {
+            let p = tube.frame(ui).0;
+            arc.push(arc[arc.len() - 1] + (p - prev).norm());
+            prev = p;
+        }
+        ArcTable { u, arc }
+    }
+
+    fn length(&self) -> f64 {
+        self.arc[self.arc.len() - 1]
+    }
+
+    /// The parameter at arc length `s` (clamped), linear between entries.
+    fn u_of(&self, s: f64) -> f64 {
+        let i = self
+            .arc
+            .partition_point(|&a| a < s)
+            .clamp(1, self.arc.len() - 1);
+        let (a0, a1) = (self.arc[i - 1], self.arc[i]);
+        let t = ((s - a0) / (a1 - a0).max(1e-12)).clamp(0.0, 1.0);
+        self.u[i - 1] + t * (self.u[i] - self.u[i - 1])
+    }
+}
