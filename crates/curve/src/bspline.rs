@@ -206,7 +206,12 @@ impl BSpline3 {
     }
 
     fn eval_inside(&self, u: f64) -> Derivatives {
-        let b = self.basis(u);
+        self.eval_basis(&self.basis(u))
+    }
+
+    /// Position and derivatives where `basis` was taken (from [`BSpline3::basis`] of this
+    /// curve or another with as many control points).
+    pub fn eval_basis(&self, b: &Basis) -> Derivatives {
         let mut out = [[0.0f64; 3]; 4];
         for (d, row) in out.iter_mut().enumerate() {
             for j in 0..4 {

@@ -97,17 +97,13 @@ pub(crate) fn render(camera: &Camera, tube: &Tube) -> (BitMask, BitMask) {
             continue;
         }
         let (c, dir) = tube.beyond(end);
-        let mut outside = 0;
-        for k in 1..100_000 {
-            let p = c + dir * (step * k as f64);
-            if disc(&mut beyond, camera, &p, tube.radius) {
-                outside = 0;
-            } else {
-                outside += 1;
-                if outside > 200 {
-                    break;
-                }
-            }
+        for k in 1..=(crate::outline::BEYOND_MM / step).ceil() as usize {
+            disc(
+                &mut beyond,
+                camera,
+                &(c + dir * (step * k as f64)),
+                tube.radius,
+            );
         }
     }
     (mask, beyond)
@@ -195,28 +191,61 @@ pub fn debug_image(
 /// The hull is everything every camera allows; a part of it the tube leaves out is a place the
 /// images would let the tube be instead (a ghost of a hull seen by too few cameras).
 pub(crate) fn ghost_length(tube: &Tube, hull: &[[f64; 3]], voxel: f64, reach: f64) -> f64 {
-    use std::collections::HashMap;
-    let cell = |p: [f64; 3]| p.map(|v| (v / reach).floor() as i64);
     let n = (tube.length() / (reach / 2.0)).ceil().max(2.0) as usize;
-    let mut grid: HashMap<[i64; 3], Vec<Point3<f64>>> = HashMap::new();
-    for i in 0..=n {
-        let (c, _) = tube.frame(i as f64 / n as f64);
-        grid.entry(cell([c.x, c.y, c.z])).or_default().push(c);
+    let samples: Vec<Point3<f64>> = (0..=n).map(|i| tube.frame(i as f64 / n as f64).0).collect();
+    // Centerline samples in cells of `reach` over their bounding box (one cell of margin):
+    // a voxel within `reach` of a sample lies in that sample's cell or a neighbour.
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in &samples {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c] - reach);
+            hi[c] = hi[c].max(p[c] + reach);
+        }
     }
-    let away = hull
-        .iter()
-        .filter(|&&p| {
-            let [i, j, k] = cell(p);
-            let q = Point3::from(p);
-            !(-1..=1).any(|a| {
-                (-1..=1).any(|b| {
-                    (-1..=1).any(|c| {
-                        grid.get(&[i + a, j + b, k + c])
-                            .is_some_and(|v| v.iter().any(|s| (s - q).norm() <= reach))
-                    })
+    let dims = [0, 1, 2].map(|c| ((hi[c] - lo[c]) / reach).ceil().max(1.0) as usize);
+    let cell = |p: &[f64; 3]| -> Option<[usize; 3]> {
+        let mut out = [0; 3];
+        for c in 0..3 {
+            let v = ((p[c] - lo[c]) / reach).floor();
+            if v < 0.0 || v >= dims[c] as f64 {
+                return None;
+            }
+            out[c] = v as usize;
+        }
+        Some(out)
+    };
+    let index = |[i, j, k]: [usize; 3]| (k * dims[1] + j) * dims[0] + i;
+    let mut heads = vec![u32::MAX; dims[0] * dims[1] * dims[2]];
+    let mut next = vec![u32::MAX; samples.len()];
+    for (i, p) in samples.iter().enumerate() {
+        if let Some(c) = cell(&[p.x, p.y, p.z]) {
+            let h = index(c);
+            next[i] = heads[h];
+            heads[h] = i as u32;
+        }
+    }
+    let near = |p: &[f64; 3]| -> bool {
+        let Some([i, j, k]) = cell(p) else {
+            return false;
+        };
+        let q = Point3::from(*p);
+        let span = |v: usize, d: usize| v.saturating_sub(1)..=(v + 1).min(d - 1);
+        span(k, dims[2]).any(|z| {
+            span(j, dims[1]).any(|y| {
+                span(i, dims[0]).any(|x| {
+                    let mut s = heads[index([x, y, z])];
+                    while s != u32::MAX {
+                        if (samples[s as usize] - q).norm() <= reach {
+                            return true;
+                        }
+                        s = next[s as usize];
+                    }
+                    false
                 })
             })
         })
-        .count();
+    };
+    let away = hull.iter().filter(|p| !near(p)).count();
     away as f64 * voxel / (std::f64::consts::PI * tube.radius * tube.radius)
 }

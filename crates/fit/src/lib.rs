@@ -36,7 +36,7 @@ pub use settings::{FitSettings, Method};
 pub use tube::Tube;
 
 use edges::EdgeImage;
-use solve::{measure, normal_equations};
+use solve::{against, measure, normal_equations};
 
 /// Why the fit cannot be set up or run.
 #[derive(Debug, Error)]
@@ -138,7 +138,10 @@ impl Fit {
 }
 
 /// A step across the tube below this ends the iterations, mm.
-const CONVERGED_MM: f64 = 0.002;
+const CONVERGED_MM: f64 = 0.005;
+
+/// Boundary measurements per fit at most (each followed by Gauss–Newton steps on them).
+const MEASUREMENTS: usize = 4;
 
 /// The largest move of a control point across the tube (perpendicular to the control
 /// polygon there) in a parameter step, mm.
@@ -206,32 +209,47 @@ impl TubeFitter {
         let mut tube = start.clone();
         let mut iterations = 0;
         let mut normal = None;
-        for it in 0..s.max_iterations {
+        // Boundaries are measured around the predicted outline, then the tube is fitted to
+        // them as fixed data; re-measured once it stops moving across itself.
+        // The last measurement, if the tube has not moved since (then it serves the check).
+        let mut settled = None;
+        'outer: for _ in 0..MEASUREMENTS {
             let measured = measure(&self.cameras, &images, &tube, s);
-            let eq = normal_equations(&tube, &start, &measured, s, fit_radius);
-            iterations = it + 1;
-            let Some(chol) = eq.h.clone().cholesky() else {
-                break;
-            };
-            let mut step = -chol.solve(&eq.g);
-            // Hold each step within a millimetre: the boundaries are only searched a few
-            // pixels away, so a longer step leaves what was measured.
-            let largest = step.amax();
-            if largest > 1.0 {
-                step /= largest;
-            }
-            let n = step.len();
-            let across = across_tube(&tube, &step);
-            tube.centerline.displace(&step.rows(0, n - 1).into_owned());
-            tube.radius = (tube.radius + step[n - 1]).max(0.05);
-            normal = Some(eq);
-            // Converged when no control point moves across the tube by more than a micron or
-            // two (sliding along it barely moves the outline).
-            if across.max(step[n - 1].abs()) < CONVERGED_MM {
-                break;
+            let mut current = measured.clone();
+            for inner in 0.. {
+                if iterations >= s.max_iterations {
+                    break 'outer;
+                }
+                let eq = normal_equations(&tube, &start, &current, s, fit_radius);
+                let Some(chol) = eq.h.clone().cholesky() else {
+                    break 'outer;
+                };
+                let mut step = -chol.solve(&eq.g);
+                // Hold each step within a millimetre: the boundaries are only searched a few
+                // pixels away, so a longer step leaves what was measured.
+                let largest = step.amax();
+                if largest > 1.0 {
+                    step /= largest;
+                }
+                let n = step.len();
+                let across = across_tube(&tube, &step).max(step[n - 1].abs());
+                tube.centerline.displace(&step.rows(0, n - 1).into_owned());
+                tube.radius = (tube.radius + step[n - 1]).max(0.05);
+                normal = Some(eq);
+                iterations += 1;
+                if across < CONVERGED_MM {
+                    // Converged on these boundaries; converged for good when measuring again
+                    // moved nothing.
+                    if inner == 0 {
+                        settled = Some(measured);
+                        break 'outer;
+                    }
+                    break;
+                }
+                current = against(&self.cameras, &tube, &measured);
             }
         }
-        let measured = measure(&self.cameras, &images, &tube, s);
+        let measured = settled.unwrap_or_else(|| measure(&self.cameras, &images, &tube, s));
         let eq = normal_equations(&tube, &start, &measured, s, fit_radius);
         let dof = (eq.rows as f64 - tube.parameters() as f64).max(1.0);
         let sigma_px = (eq.cost / dof).sqrt();
@@ -358,6 +376,20 @@ impl TubeFitter {
         let mut record = estimator.record_from_curve(fitted, volume, hull);
         if let Some(reason) = self.verdict(&fit) {
             record.status = Status::Inconsistent { reason };
+        } else if let Some((i, worst)) = record
+            .sigma
+            .iter()
+            .copied()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .filter(|w| w.1 > s.max_sigma_mm)
+        {
+            record.status = Status::Ambiguous {
+                reason: format!(
+                    "the cameras pin the centerline down only to {worst:.2} mm (1 σ) at {:.0} mm along it (at most {:.2}): add a camera that sees it from another side",
+                    record.arc[i], s.max_sigma_mm
+                ),
+            };
         } else if fit.ghost_mm > s.max_ghost_mm {
             record.status = Status::Ambiguous {
                 reason: format!(

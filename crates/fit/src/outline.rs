@@ -47,6 +47,9 @@ pub(crate) struct OutlinePoint {
     pub part: Part,
     /// Centerline parameter of the sample.
     pub u: f64,
+    /// Which grazing point: the side (±1) for a side sample, the angle around the grazing
+    /// circle (radians) for a cap sample.
+    pub which: f64,
     /// The grazing point, world mm.
     pub world: Point3<f64>,
 }
@@ -60,88 +63,159 @@ pub(crate) fn outline(
     spacing_mm: f64,
     clearance_px: f64,
 ) -> Vec<OutlinePoint> {
-    let o = camera.centre();
-    let r = tube.radius;
     let length = tube.length();
     let n = (length / spacing_mm).ceil().max(4.0) as usize;
-    let len_per_sample = length / n as f64;
+    let stride = length / n as f64;
     let mut out = Vec::with_capacity(2 * n + 40);
     for i in 0..=n {
         let u = i as f64 / n as f64;
-        let (c, t) = tube.frame(u);
-        let v = c - o;
-        let v_perp = v - t * v.dot(&t);
-        let d = v_perp.norm();
-        if d <= 1.5 * r {
-            continue;
-        }
-        let e1 = v_perp / d;
-        let e2 = t.cross(&e1);
-        let a = -r / d;
-        let b = (1.0 - a * a).sqrt();
-        let basis = tube.centerline.basis(u);
         for side in [-1.0, 1.0] {
-            let normal = e1 * a + e2 * (side * b);
-            let sample = Sample {
-                part: Part::Side(basis),
-                u,
-                stride: Some((t, len_per_sample)),
-            };
-            if let Some(p) = grazing(camera, &c, &o, normal, r, sample) {
-                out.push(p);
+            out.extend(side_point(camera, tube, u, side, stride));
+        }
+    }
+    for end in [0, 1] {
+        if let Some(cap) = CapView::new(camera, tube, end) {
+            let count = ((2.0 * cap.phi_max * tube.radius / spacing_mm).ceil() as usize).max(3);
+            for k in 0..count {
+                // Strictly inside the half, whose ends are the sides' last points.
+                let phi = cap.phi_max * (2.0 * (k as f64 + 0.5) / count as f64 - 1.0);
+                out.extend(cap.point(camera, tube.radius, phi));
             }
         }
     }
-    caps(camera, tube, spacing_mm, &mut out);
     let spheres = Spheres::new(camera, tube, clearance_px);
     let eye = camera.centre();
     out.retain(|p| !spheres.hide(&eye, p));
     out
 }
 
-/// The caps' outline points, appended to `out`.
-fn caps(camera: &Camera, tube: &Tube, spacing_mm: f64, out: &mut Vec<OutlinePoint>) {
+/// The same outline point as `p` (same place along the tube, same side or cap angle) on a
+/// moved `tube`; `stride` the tube length a side sample stands for, mm.
+pub(crate) fn again(
+    camera: &Camera,
+    tube: &Tube,
+    p: &OutlinePoint,
+    stride: f64,
+) -> Option<OutlinePoint> {
+    match p.part {
+        Part::Side(_) => side_point(camera, tube, p.u, p.which, stride),
+        Part::Cap(end) => CapView::new(camera, tube, end)?.point(camera, tube.radius, p.which),
+    }
+}
+
+/// The side outline point at `u` on side `side` (±1).
+fn side_point(
+    camera: &Camera,
+    tube: &Tube,
+    u: f64,
+    side: f64,
+    stride: f64,
+) -> Option<OutlinePoint> {
     let o = camera.centre();
     let r = tube.radius;
-    for (end, u) in [(0usize, 0.0), (1, 1.0)] {
+    let basis = tube.centerline.basis(u);
+    let at = tube.centerline.eval_basis(&basis);
+    let c = Point3::from(at.value);
+    let t = Vector3::from(at.d1).normalize();
+    let v = c - o;
+    let v_perp = v - t * v.dot(&t);
+    let d = v_perp.norm();
+    if d <= 1.5 * r {
+        return None;
+    }
+    let e1 = v_perp / d;
+    let e2 = t.cross(&e1);
+    let a = -r / d;
+    let b = (1.0 - a * a).sqrt();
+    let centre = camera.project(&c).ok()?.pixel.coords;
+    let normal = e1 * a + e2 * (side * b);
+    let sample = Sample {
+        part: Part::Side(basis),
+        u,
+        which: side,
+        stride: Some((t, stride)),
+    };
+    grazing(camera, centre, &c, &o, normal, r, sample)
+}
+
+/// A cap as one camera sees it: the sphere about an end, its grazing circle, and the half of
+/// it beyond the end.
+struct CapView {
+    end: usize,
+    u: f64,
+    centre: Point3<f64>,
+    centre_px: Vector2<f64>,
+    /// Unit view direction to the centre, and two unit axes across it (`f1` toward the cap).
+    vh: Vector3<f64>,
+    f1: Vector3<f64>,
+    f2: Vector3<f64>,
+    /// `r / distance` and the grazing circle's radius over `r`.
+    ratio: f64,
+    s: f64,
+    /// The half beyond the end spans `φ ∈ (−phi_max, phi_max)`.
+    phi_max: f64,
+}
+
+impl CapView {
+    /// `None` for an open end, or one the camera sees end-on (no cap outline of its own).
+    fn new(camera: &Camera, tube: &Tube, end: usize) -> Option<Self> {
         if !tube.capped[end] {
-            continue;
+            return None;
         }
+        let r = tube.radius;
+        let u = end as f64;
         let (c, t) = tube.frame(u);
         // The cap's axis points away from the tube.
         let axis = if end == 0 { -t } else { t };
-        let v = c - o;
+        let v = c - camera.centre();
         let dist = v.norm();
         if dist <= 1.5 * r {
-            continue;
+            return None;
         }
         let vh = v / dist;
         let t_perp = axis - vh * axis.dot(&vh);
         let tp = t_perp.norm();
-        // A tube seen end-on has no cap outline of its own.
         if tp < 0.2 {
-            continue;
+            return None;
         }
         let f1 = t_perp / tp;
-        let f2 = vh.cross(&f1);
-        let s = (1.0 - (r / dist).powi(2)).sqrt();
+        let ratio = r / dist;
+        let s = (1.0 - ratio * ratio).sqrt();
         // n·axis > 0 ⇔ cos φ > cos_min.
-        let cos_min = ((r / dist) * vh.dot(&axis) / (s * tp)).clamp(-1.0, 1.0);
-        let phi_max = cos_min.acos();
-        let count = ((2.0 * phi_max * r / spacing_mm).ceil() as usize).max(3);
-        for k in 0..count {
-            // Strictly inside the half, whose ends are the sides' last points.
-            let phi = phi_max * (2.0 * (k as f64 + 0.5) / count as f64 - 1.0);
-            let normal = -vh * (r / dist) + (f1 * phi.cos() + f2 * phi.sin()) * s;
-            let sample = Sample {
-                part: Part::Cap(end),
-                u,
-                stride: None,
-            };
-            if let Some(p) = grazing(camera, &c, &o, normal, r, sample) {
-                out.push(p);
-            }
-        }
+        let cos_min = (ratio * vh.dot(&axis) / (s * tp)).clamp(-1.0, 1.0);
+        Some(CapView {
+            end,
+            u,
+            centre: c,
+            centre_px: camera.project(&c).ok()?.pixel.coords,
+            vh,
+            f1,
+            f2: vh.cross(&f1),
+            ratio,
+            s,
+            phi_max: cos_min.acos(),
+        })
+    }
+
+    /// The cap's outline point at angle `phi` around the grazing circle.
+    fn point(&self, camera: &Camera, r: f64, phi: f64) -> Option<OutlinePoint> {
+        let normal = -self.vh * self.ratio + (self.f1 * phi.cos() + self.f2 * phi.sin()) * self.s;
+        let sample = Sample {
+            part: Part::Cap(self.end),
+            u: self.u,
+            which: phi,
+            stride: None,
+        };
+        let eye = camera.centre();
+        grazing(
+            camera,
+            self.centre_px,
+            &self.centre,
+            &eye,
+            normal,
+            r,
+            sample,
+        )
     }
 }
 
@@ -149,6 +223,7 @@ fn caps(camera: &Camera, tube: &Tube, spacing_mm: f64, out: &mut Vec<OutlinePoin
 struct Sample {
     part: Part,
     u: f64,
+    which: f64,
     /// For a side sample: the centerline's unit tangent and the tube length it stands for, mm.
     stride: Option<(Vector3<f64>, f64)>,
 }
@@ -156,6 +231,7 @@ struct Sample {
 /// The outline point of the surface point `centre + r·normal`.
 fn grazing(
     camera: &Camera,
+    centre_px: Vector2<f64>,
     centre: &Point3<f64>,
     eye: &Point3<f64>,
     normal: Vector3<f64>,
@@ -189,7 +265,6 @@ fn grazing(
     if gain < 1e-6 {
         return None;
     }
-    let centre_px = camera.project(centre).ok()?.pixel.coords;
     // Pixels of outline the sample stands for: the image of its stretch of tube along the
     // outline.
     let weight = sample.stride.map_or(1.0, |(t, mm)| {
@@ -205,11 +280,12 @@ fn grazing(
         weight,
         part: sample.part,
         u: sample.u,
+        which: sample.which,
         world: x,
     })
 }
 
-/// The tube as spheres a quarter radius apart along its centerline, each open end continued
+/// The tube as spheres half a radius apart along its centerline, each open end continued
 /// straight until it leaves the image (the tube goes on beyond the volume), for visibility.
 /// An outline point counts only where its boundary is the tube's against the background:
 /// not when its viewing ray enters the tube in front of it (the tube crossing itself, or seen
@@ -292,7 +368,7 @@ impl Grid {
 impl Spheres {
     pub(crate) fn new(camera: &Camera, tube: &Tube, clearance: f64) -> Self {
         let r = tube.radius;
-        let n = (tube.length() / (r / 4.0)).ceil().max(4.0) as usize;
+        let n = (tube.length() / (r / 2.0)).ceil().max(4.0) as usize;
         let mut items: Vec<_> = (0..=n)
             .filter_map(|i| sphere(camera, tube.frame(i as f64 / n as f64).0, r))
             .collect();
@@ -305,7 +381,7 @@ impl Spheres {
                 continue;
             }
             let (c, dir) = tube.beyond(end);
-            for k in 1..=2000 {
+            for k in 1..=(BEYOND_MM / (r / 2.0)).ceil() as usize {
                 let Some(s) = sphere(camera, c + dir * (k as f64 * r / 2.0), r) else {
                     break;
                 };
@@ -375,6 +451,11 @@ impl Spheres {
             })
     }
 }
+
+/// How far an open end's straight continuation is followed, mm: far enough to cover what
+/// lies beside the fitted part in any view (a camera looking along it sees it shrink toward
+/// its vanishing point and would follow it for ever).
+pub(crate) const BEYOND_MM: f64 = 300.0;
 
 /// A sphere's centre, pixel and image radius (the largest of two offsets across the ray).
 pub(crate) fn sphere(

@@ -38,8 +38,9 @@ pub struct FitSettings {
     pub fit_radius: bool,
     /// An open end (running out of the volume) is continued by this much before fitting, mm.
     pub extend_mm: f64,
-    /// Damping of each step's slide of a control point along the tube, px/mm.
-    pub slide_damping: f64,
+    /// Weight of the prior holding each control point near where it started along the tube,
+    /// px/mm.
+    pub slide_prior: f64,
     /// Weight holding an open end in place along the tube, px/mm.
     pub end_anchor: f64,
     /// Self-check: largest outline residual RMS in any camera, pixels.
@@ -59,6 +60,10 @@ pub struct FitSettings {
     /// Carved hull away from the fitted tube (farther than 1.5 radii + 1.5 voxels from its
     /// centerline), as a length of tube, mm, beyond which the shape is `ambiguous`.
     pub max_ghost_mm: f64,
+    /// Largest 1-σ uncertainty across the tube anywhere along the reported centerline, mm,
+    /// beyond which the shape is `ambiguous`: the cameras do not pin it down (too few of them,
+    /// or the tube lying in a plane two of them share).
+    pub max_sigma_mm: f64,
 }
 
 impl Default for FitSettings {
@@ -70,10 +75,10 @@ impl Default for FitSettings {
             search_px: 3.0,
             huber_px: 0.5,
             min_contrast: 20.0,
-            max_iterations: 12,
+            max_iterations: 16,
             fit_radius: true,
             extend_mm: 10.0,
-            slide_damping: 1.0,
+            slide_prior: 0.5,
             end_anchor: 5.0,
             max_residual_px: 0.6,
             max_p90_px: 0.25,
@@ -82,6 +87,7 @@ impl Default for FitSettings {
             max_unexplained_px: 60,
             explain_px: 2,
             max_ghost_mm: 6.0,
+            max_sigma_mm: 0.1,
         }
     }
 }
@@ -124,9 +130,10 @@ impl FitSettings {
         let non_negative = [
             ("min_contrast", self.min_contrast),
             ("extend_mm", self.extend_mm),
-            ("slide_damping", self.slide_damping),
+            ("slide_prior", self.slide_prior),
             ("end_anchor", self.end_anchor),
             ("max_ghost_mm", self.max_ghost_mm),
+            ("max_sigma_mm", self.max_sigma_mm),
         ];
         for (field, v) in non_negative {
             if !(v.is_finite() && v >= 0.0) {

@@ -1,17 +1,19 @@
-//! Gauss–Newton on the outline residuals: each iteration predicts the outline in every camera,
-//! measures the boundary along each outline normal, and moves the control points and radius to
-//! close the gaps, with Huber weights against outliers (the tube crossing itself, clutter).
+//! Gauss–Newton on the outline residuals: the outline is predicted in every camera and the
+//! boundary measured along each outline normal (`measure`); then the control points and radius
+//! move to close the gaps to those fixed boundaries (`against`: point to line), with Huber
+//! weights against outliers (the tube crossing itself, clutter), until the tube stops moving;
+//! then the boundaries are measured again around the new outline.
 //!
 //! Parameters: the control points (3 per point, world mm), then the radius (mm). Residuals:
-//! pixels. Each step is damped along the tube (the outline hardly sees a control point slide
-//! along it), an open end is held where it started along the tube (nothing in the images ends
-//! it), and a tiny ridge keeps spans no camera sees in place.
+//! pixels. A weak prior holds each control point near where it started along the tube (the
+//! outline hardly sees a control point slide along it), a firm one an open end (nothing in the
+//! images ends it), and a tiny ridge keeps spans no camera sees in place.
 
 use flexshape_camera::Camera;
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, Vector2, Vector3};
 
 use crate::edges::EdgeImage;
-use crate::outline::{OutlinePoint, Part, outline};
+use crate::outline::{OutlinePoint, Part, again, outline};
 use crate::settings::FitSettings;
 use crate::tube::Tube;
 
@@ -23,6 +25,8 @@ pub(crate) struct Measured {
     /// Predicted minus measured position along the outline normal, pixels (`None`: no
     /// boundary found).
     pub residual: Option<f64>,
+    /// The boundary found: its pixel and the outline normal it was searched along.
+    edge: Option<(Vector2<f64>, Vector2<f64>)>,
 }
 
 /// Every camera's outline of `tube`, measured.
@@ -55,9 +59,38 @@ pub(crate) fn measure(
                 Measured {
                     point: p,
                     residual: edge.map(|e| -e.offset),
+                    edge: edge.map(|e| (p.pixel + p.normal * e.offset, p.normal)),
                 }
             })
             .collect()
+        })
+        .collect()
+}
+
+/// The same boundaries against the outline of a moved `tube`: each found boundary keeps its
+/// pixel and search direction, and its residual is the moved prediction's distance from it
+/// (point to line). Between re-measurements this makes Gauss–Newton converge on fixed data.
+pub(crate) fn against(
+    cameras: &[Camera],
+    tube: &Tube,
+    measured: &[Vec<Measured>],
+) -> Vec<Vec<Measured>> {
+    cameras
+        .iter()
+        .zip(measured)
+        .map(|(cam, ms)| {
+            ms.iter()
+                .filter_map(|m| {
+                    let (pixel, normal) = m.edge?;
+                    let mut p = again(cam, tube, &m.point, 1.0)?;
+                    p.weight = m.point.weight;
+                    Some(Measured {
+                        point: p,
+                        residual: Some(normal.dot(&(p.pixel - pixel))),
+                        edge: m.edge,
+                    })
+                })
+                .collect()
         })
         .collect()
 }
@@ -118,8 +151,9 @@ pub(crate) fn normal_equations(
         cost += w * r * r;
         rows += 1;
     }
-    // Along the tube a control point hardly moves the outline: each step is damped there, and
-    // an open end is held where it started (pixels per mm).
+    // Along the tube a control point hardly moves the outline: each is held near where it
+    // started along the tube (weakly; an open end, which nothing in the images ends, firmly),
+    // in pixels per mm.
     let start_ctrl = start.centerline.control();
     let ctrl = tube.centerline.control();
     for k in 0..=last {
@@ -128,17 +162,17 @@ pub(crate) fn normal_equations(
         let t = Vector3::from(after) - Vector3::from(before);
         let t = t / t.norm().max(1e-12);
         let open_end = (k == 0 && !tube.capped[0]) || (k == last && !tube.capped[1]);
-        let dev = Vector3::from(ctrl[k]) - Vector3::from(start_ctrl[k]);
-        let (weight, residual) = if open_end {
-            (settings.end_anchor, settings.end_anchor * t.dot(&dev))
+        let weight = if open_end {
+            settings.end_anchor
         } else {
-            (settings.slide_damping, 0.0)
+            settings.slide_prior
         };
+        let dev = Vector3::from(ctrl[k]) - Vector3::from(start_ctrl[k]);
         entries.clear();
         for c in 0..3 {
             entries.push((3 * k + c, weight * t[c]));
         }
-        add_row(&mut h, &mut g, &entries, residual, 1.0);
+        add_row(&mut h, &mut g, &entries, weight * t.dot(&dev), 1.0);
         for c in 0..3 {
             let col = 3 * k + c;
             h[(col, col)] += RIDGE;

@@ -44,9 +44,10 @@ fn two_cameras_never_report_a_ghost_as_ok() {
         );
         if b.fitted.status == Status::Ok {
             ok += 1;
+            // The bound; measured ≤ 0.026 mm.
             assert!(rms <= 0.15, "frame {n}: ok with rms {rms:.3} mm");
-            // Measured up to 1.12 mm (3 cameras: ≤ 0.14): two views place the tip less well.
-            assert!(tip <= 1.5, "frame {n}: ok with the tip {tip:.2} mm off");
+            // Measured ≤ 0.09 mm.
+            assert!(tip <= 0.3, "frame {n}: ok with the tip {tip:.2} mm off");
             let start = Point3::from(b.fitted.points[0]);
             assert!(
                 (start - entry).norm() < 5.0,
@@ -62,10 +63,11 @@ fn two_cameras_never_report_a_ghost_as_ok() {
             ghosts_caught += 1;
         }
     }
-    // Measured: 7 of 20 ok (rms ≤ 0.12 mm, lengths within 0.3 mm); the 12 frames whose hull
-    // is a ghost (rms > 1 mm) are all `ambiguous` or `inconsistent`. The test means something
-    // only if both kinds occur.
+    // Measured: 4 of 20 ok (rms ≤ 0.03 mm, lengths within 0.2 mm); the 12 frames whose hull
+    // is a ghost (rms > 1 mm) are all `ambiguous` or `inconsistent`, and so are the frames the
+    // two views leave loose (1-σ across the tube above 0.1 mm: one was 0.35 mm off). The test
+    // means something only if both kinds occur.
     println!("{ok} ok, {ghosts_caught} ghosts caught");
-    assert!(ok >= 4, "only {ok} frames ok");
+    assert!(ok >= 3, "only {ok} frames ok");
     assert!(ghosts_caught >= 4, "only {ghosts_caught} ghost frames");
 }

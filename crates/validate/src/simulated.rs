@@ -10,6 +10,7 @@
 
 use flexshape_camera::nalgebra::{Matrix3, Point3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use flexshape_curve::{Frame, Polyline};
+use flexshape_fit::{FitSettings, Method};
 use flexshape_register::RigidTransform;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{
@@ -38,6 +39,8 @@ pub struct Experiments {
     /// The reference instrument's noise per axis, mm (a MicroScribe G2 is specified to
     /// 0.23 mm).
     pub reference_noise_mm: f64,
+    /// How the centerline is found: fitted to the images (the default) or the hull's.
+    pub method: Method,
 }
 
 impl Default for Experiments {
@@ -47,6 +50,7 @@ impl Default for Experiments {
             probe_poses: 25,
             object_poses: 8,
             reference_noise_mm: 0.1,
+            method: Method::Fit,
         }
     }
 }
@@ -94,7 +98,8 @@ struct Bench {
 }
 
 impl Bench {
-    fn new(seed: u64, expected_bands: usize) -> Result<Self, ValidateError> {
+    fn new(e: &Experiments, expected_bands: usize) -> Result<Self, ValidateError> {
+        let seed = e.seed;
         let defaults = SimConfig::default();
         let config = SimConfig {
             seed,
@@ -118,8 +123,13 @@ impl Bench {
         shape.expected_bands = expected_bands;
         shape.sections.clear();
         shape.arc_fit.enabled = false;
+        let fit = FitSettings {
+            method: e.method,
+            ..pipeline.fit_settings().clone()
+        };
         let pipeline = pipeline
             .with_shape_settings(shape)
+            .and_then(|p| p.with_fit_settings(fit))
             .map_err(|e| ValidateError::Pipeline(e.to_string()))?;
         Ok(Bench { sim, pipeline })
     }
@@ -142,7 +152,7 @@ const BOTTOM: f64 = -128.0;
 
 /// The accuracy experiment (paper, Section III-A, Fig. 5).
 pub fn accuracy_experiment(e: &Experiments) -> Result<AccuracyRun, ValidateError> {
-    let bench = Bench::new(e.seed, 0)?;
+    let bench = Bench::new(e, 0)?;
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(e.seed ^ 0xACC0_AC55);
     let (mut sensed, mut truth, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
     let mut records = Vec::new();
@@ -261,7 +271,7 @@ pub fn known_object() -> Result<KnownShape, ValidateError> {
 /// The precision experiment (paper, Section III-B, Fig. 6).
 pub fn precision_experiment(e: &Experiments) -> Result<PrecisionRun, ValidateError> {
     let known = known_object()?;
-    let bench = Bench::new(e.seed, known.marks.len())?;
+    let bench = Bench::new(e, known.marks.len())?;
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(e.seed ^ 0x0B1E_C7ED);
     let mut run = PrecisionRun {
         sensed: Vec::new(),

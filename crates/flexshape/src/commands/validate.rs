@@ -6,6 +6,7 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use flexshape_camera::nalgebra::Point3;
 use flexshape_curve::Polyline;
+use flexshape_fit::Method;
 use flexshape_track::TrackRecord;
 use flexshape_validate::simulated::{
     AccuracyRun, Experiments, PrecisionRun, accuracy_experiment, known_object, precision_experiment,
@@ -267,8 +268,16 @@ fn write_data(dir: &Path, acc: &AccuracyRun, pre: &PrecisionRun) -> anyhow::Resu
 struct SimulatedReport {
     accuracy: AccuracyReport,
     precision: PrecisionReport,
+    /// The same experiments with the hull's centerline alone (`--method hull`).
+    hull: HullReport,
     paper: PaperFigures,
     skipped: Vec<String>,
+}
+
+#[derive(Serialize)]
+struct HullReport {
+    accuracy: AccuracyReport,
+    precision: PrecisionReport,
 }
 
 #[derive(Serialize)]
@@ -289,6 +298,15 @@ pub fn simulate(args: &ValidateArgs) -> anyhow::Result<()> {
     );
     let acc = accuracy_experiment(&experiments).context("the simulated accuracy experiment")?;
     let pre = precision_experiment(&experiments).context("the simulated precision experiment")?;
+    // The same poses with the hull's centerline alone, to show what the image fit gains.
+    let hull_experiments = Experiments {
+        method: Method::Hull,
+        ..experiments.clone()
+    };
+    let hull_acc = accuracy_experiment(&hull_experiments)
+        .context("the simulated accuracy experiment (hull)")?;
+    let hull_pre = precision_experiment(&hull_experiments)
+        .context("the simulated precision experiment (hull)")?;
     if let Some(dir) = &args.out {
         let mut files = super::figures::accuracy(dir, &acc.report, &acc.sensed)?;
         files.extend(super::figures::precision(
@@ -310,6 +328,10 @@ pub fn simulate(args: &ValidateArgs) -> anyhow::Result<()> {
         let out = SimulatedReport {
             accuracy: acc.report,
             precision: pre.report,
+            hull: HullReport {
+                accuracy: hull_acc.report,
+                precision: hull_pre.report,
+            },
             paper: PaperFigures {
                 accuracy: PAPER_ACCURACY,
                 precision_along: PAPER_ALONG,
@@ -327,6 +349,30 @@ pub fn simulate(args: &ValidateArgs) -> anyhow::Result<()> {
     print_accuracy(&acc.report);
     println!();
     print_precision(&pre.report);
+    println!(
+        "\nThe tube fitted to the images against the hull's centerline alone (--method hull), rms x/y/z mm:"
+    );
+    let side = |name: &str, fit: [f64; 3], hull: [f64; 3]| {
+        println!(
+            "  {name:<26} fit {:.3} {:.3} {:.3}   hull {:.3} {:.3} {:.3}",
+            fit[0], fit[1], fit[2], hull[0], hull[1], hull[2]
+        )
+    };
+    side(
+        "accuracy (points)",
+        acc.report.rms_axis(),
+        hull_acc.report.rms_axis(),
+    );
+    side(
+        "precision along the length",
+        pre.report.rms_along,
+        hull_pre.report.rms_along,
+    );
+    side(
+        "precision at the marks",
+        pre.report.rms_marks,
+        hull_pre.report.rms_marks,
+    );
     for s in &skipped {
         println!("skipped {s}");
     }
