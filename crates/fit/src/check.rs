@@ -109,15 +109,15 @@ pub(crate) fn render(camera: &Camera, tube: &Tube) -> (BitMask, BitMask) {
     (mask, beyond)
 }
 
-/// Draws the image of a sphere (as a disc); false when it is not in the image.
-fn disc(mask: &mut BitMask, camera: &Camera, centre: &Point3<f64>, r: f64) -> bool {
+/// Draws the image of a sphere (as a disc), clipped to the mask.
+fn disc(mask: &mut BitMask, camera: &Camera, centre: &Point3<f64>, r: f64) {
     let Some((_, c, radius)) = crate::outline::sphere(camera, *centre, r) else {
-        return false;
+        return;
     };
     let (w, h) = (mask.width() as f64, mask.height() as f64);
     let (cx, cy) = (c.x, c.y);
     if cx + radius < 0.0 || cy + radius < 0.0 || cx - radius > w - 1.0 || cy - radius > h - 1.0 {
-        return false;
+        return;
     }
     let y0 = (cy - radius).ceil().max(0.0) as usize;
     let y1 = (cy + radius).floor().min(h - 1.0) as usize;
@@ -133,7 +133,6 @@ fn disc(mask: &mut BitMask, camera: &Camera, centre: &Point3<f64>, r: f64) -> bo
             mask.set(x, y, true);
         }
     }
-    true
 }
 
 /// IoU of the rendered tube with the silhouette (leaving out the pixels only the open ends'

@@ -114,12 +114,6 @@ impl Fit {
         (p * cov * p).trace().max(0.0).sqrt()
     }
 
-    /// 1-σ uncertainty of the centerline point at `u` in 3-D (root of the covariance's trace),
-    /// mm: along the tube it is set by the caps (at the tip) or the priors.
-    pub fn sigma_3d(&self, u: f64) -> f64 {
-        self.point_covariance(u).0.trace().max(0.0).sqrt()
-    }
-
     fn point_covariance(&self, u: f64) -> (Matrix3<f64>, Vector3<f64>) {
         let b = self.tube.centerline.basis(u);
         let mut cov = Matrix3::zeros();
@@ -376,6 +370,13 @@ impl TubeFitter {
         let mut record = estimator.record_from_curve(fitted, volume, hull);
         if let Some(reason) = self.verdict(&fit) {
             record.status = Status::Inconsistent { reason };
+        } else if fit.ghost_mm > s.max_ghost_mm {
+            record.status = Status::Ambiguous {
+                reason: format!(
+                    "the carved hull holds {:.0} mm of tube away from the fitted shape (at most {:.0}): the cameras would allow the tube there too; add a camera that sees it from another side",
+                    fit.ghost_mm, s.max_ghost_mm
+                ),
+            };
         } else if let Some((i, worst)) = record
             .sigma
             .iter()
@@ -388,13 +389,6 @@ impl TubeFitter {
                 reason: format!(
                     "the cameras pin the centerline down only to {worst:.2} mm (1 σ) at {:.0} mm along it (at most {:.2}): add a camera that sees it from another side",
                     record.arc[i], s.max_sigma_mm
-                ),
-            };
-        } else if fit.ghost_mm > s.max_ghost_mm {
-            record.status = Status::Ambiguous {
-                reason: format!(
-                    "the carved hull holds {:.0} mm of tube away from the fitted shape (at most {:.0}): the cameras would allow the tube there too; add a camera that sees it from another side",
-                    fit.ghost_mm, s.max_ghost_mm
                 ),
             };
         }

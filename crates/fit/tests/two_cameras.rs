@@ -21,6 +21,7 @@ fn two_cameras_never_report_a_ghost_as_ok() {
     let chain = Chain::new(config);
     let sim = &chain.sim;
     let (mut ok, mut ghosts_caught) = (0, 0);
+    let mut reasons = Vec::new();
     for (n, pose) in sim.sweep(20).iter().enumerate() {
         let b = chain.run(sim.render(n as u64, pose).unwrap());
         let truth = &b.frame.truth;
@@ -42,6 +43,9 @@ fn two_cameras_never_report_a_ghost_as_ok() {
             b.fitted.sigma.iter().copied().fold(0.0, f64::max),
             b.fitted.sigma.last().copied().unwrap_or(0.0)
         );
+        if let Status::Ambiguous { reason } | Status::Inconsistent { reason } = &b.fitted.status {
+            reasons.push(reason.clone());
+        }
         if b.fitted.status == Status::Ok {
             ok += 1;
             // The bound; measured ≤ 0.026 mm.
@@ -70,4 +74,16 @@ fn two_cameras_never_report_a_ghost_as_ok() {
     println!("{ok} ok, {ghosts_caught} ghosts caught");
     assert!(ok >= 3, "only {ok} frames ok");
     assert!(ghosts_caught >= 4, "only {ghosts_caught} ghost frames");
+    // Each of the fit's own checks is among the reasons: outlines the tube does not explain,
+    // hull left away from it, and a shape the two views leave loose.
+    for kind in [
+        "from the image's boundary",
+        "away from the fitted shape",
+        "pin the centerline",
+    ] {
+        assert!(
+            reasons.iter().any(|r| r.contains(kind)),
+            "no frame flagged for '{kind}': {reasons:#?}"
+        );
+    }
 }
