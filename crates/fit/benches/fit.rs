@@ -1,0 +1,76 @@
+//! The tube fitted to one default-scene frame's images from the hull's centerline (3 cameras,
+//! 640×480): the whole `refine` (fit, bands from colour, self-check, ghost check) and the fit
+//! alone. Single-threaded code.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use flexshape_carve::{BandRule, HierarchicalCarver, OutsideImage, find_bands};
+use flexshape_fit::{FitSettings, Tube, TubeFitter, View};
+use flexshape_shape::{ShapeEstimator, ShapeSettings};
+use flexshape_silhouette::{BackgroundModel, SilhouetteSettings, Silhouetter};
+use flexshape_sim::{SimConfig, Simulator};
+
+fn bench(c: &mut Criterion) {
+    let sim = Simulator::new(SimConfig::default()).unwrap();
+    let rig = sim.rig();
+    let cameras = sim.cameras();
+    let frame = sim.render(3, &sim.sweep(4)[3]).unwrap();
+    let models: Vec<BackgroundModel> = sim
+        .backgrounds()
+        .iter()
+        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
+        .collect();
+    let sil: Vec<_> = models
+        .iter()
+        .zip(&frame.views)
+        .map(|(m, v)| {
+            Silhouetter::new(m, SilhouetteSettings::default())
+                .unwrap()
+                .process(&v.image)
+                .unwrap()
+        })
+        .collect();
+    let objects: Vec<_> = sil.iter().map(|s| &s.object).collect();
+    let markers: Vec<_> = sil.iter().map(|s| &s.markers).collect();
+    let carver = HierarchicalCarver::new(&cameras, &rig.volume).unwrap();
+    let occ = carver.carve(&objects, OutsideImage::Carve).unwrap();
+    let bands = find_bands(&occ, &cameras, &markers, &BandRule::default()).unwrap();
+    let estimator =
+        ShapeEstimator::new(ShapeSettings::from_processing(&rig.processing).unwrap()).unwrap();
+    let hull = estimator.estimate(&occ, &bands);
+    let names = rig.cameras.iter().map(|c| c.name.clone()).collect();
+    let fitter = TubeFitter::new(cameras, names, FitSettings::default()).unwrap();
+    let views: Vec<View> = frame
+        .views
+        .iter()
+        .zip(&models)
+        .zip(&sil)
+        .map(|((v, m), s)| View {
+            image: &v.image,
+            background: m.means(),
+            silhouette: &s.object,
+            markers: &s.markers,
+        })
+        .collect();
+    let centres = occ.centres();
+    let start = Tube::through(&hull.points, hull.radius, [false, true], 15.0, 10.0).unwrap();
+    let mut group = c.benchmark_group("fit");
+    group.sample_size(20);
+    group.bench_function("refine_from_the_hull_3cam", |b| {
+        b.iter(|| {
+            black_box(
+                fitter
+                    .refine(&estimator, &rig.volume, &views, &hull, &centres, None)
+                    .unwrap(),
+            )
+        })
+    });
+    group.bench_function("fit_only_3cam", |b| {
+        b.iter(|| black_box(fitter.fit(&views, start.clone(), true).unwrap()))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
