@@ -192,8 +192,8 @@ pub fn debug_image(
 pub(crate) fn ghost_length(tube: &Tube, hull: &[[f64; 3]], voxel: f64, reach: f64) -> f64 {
     let n = (tube.length() / (reach / 2.0)).ceil().max(2.0) as usize;
     let samples: Vec<Point3<f64>> = (0..=n).map(|i| tube.frame(i as f64 / n as f64).0).collect();
-    // Centerline samples in cells of `reach` over their bounding box (one cell of margin):
-    // a voxel within `reach` of a sample lies in that sample's cell or a neighbour.
+    // Centerline samples in cells over their bounding box (a margin of `reach`): a voxel
+    // within `reach` of a sample lies in that sample's cell or a neighbour.
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for p in &samples {
@@ -202,11 +202,15 @@ pub(crate) fn ghost_length(tube: &Tube, hull: &[[f64; 3]], voxel: f64, reach: f6
             hi[c] = hi[c].max(p[c] + reach);
         }
     }
-    let dims = [0, 1, 2].map(|c| ((hi[c] - lo[c]) / reach).ceil().max(1.0) as usize);
+    // Cells at least `reach` wide, and at most 200 a side whatever the tube's extent.
+    let size = (0..3)
+        .map(|c| (hi[c] - lo[c]) / 200.0)
+        .fold(reach, f64::max);
+    let dims = [0, 1, 2].map(|c| ((hi[c] - lo[c]) / size).ceil().max(1.0) as usize);
     let cell = |p: &[f64; 3]| -> Option<[usize; 3]> {
         let mut out = [0; 3];
         for c in 0..3 {
-            let v = ((p[c] - lo[c]) / reach).floor();
+            let v = ((p[c] - lo[c]) / size).floor();
             if v < 0.0 || v >= dims[c] as f64 {
                 return None;
             }
