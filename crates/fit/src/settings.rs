@@ -71,7 +71,7 @@ impl Default for FitSettings {
         FitSettings {
             method: Method::Fit,
             span_mm: 15.0,
-            spacing_mm: 1.0,
+            spacing_mm: 2.0,
             search_px: 3.0,
             huber_px: 0.5,
             min_contrast: 20.0,

@@ -58,7 +58,7 @@ fn a_band_at_the_tip_orients_a_floating_tube() {
             assert!(*rms <= 0.08, "frame {n}: rms {rms:.3}");
         }
     }
-    // Measured: 11 of 12 ok; the other's tip band is not seen at the end: `ambiguous`.
+    // Measured: 10 of 12 ok; the others' tip band is not seen at the end: `ambiguous`.
     let ok = all.iter().filter(|a| a.0 == Status::Ok).count();
     assert!(ok >= 9, "only {ok} of 12 ok");
 }

@@ -42,7 +42,7 @@ fn shadows_occluders_and_strong_distortion_never_give_a_wrong_ok() {
             assert!(tip <= 0.3, "frame {n}: ok with the tip {tip:.2} mm off");
         }
     }
-    // Measured: 9 of 12 ok (rms 0.027–0.077 mm, tips ≤ 0.24 mm); an occluder cutting the hull
+    // Measured: 9 of 12 ok (rms 0.029–0.077 mm, tips ≤ 0.19 mm); an occluder cutting the hull
     // short gives `inconsistent`, one splitting it `ambiguous`, and one frame whose top view
     // has a shadow along the tube fails the p90 check (0.35 px) though it is 0.07 mm right.
     println!("{ok} of 12 ok");
