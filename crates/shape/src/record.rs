@@ -47,7 +47,7 @@ pub struct BandOnCurve {
     pub position: [f64; 3],
     /// Extent along the curve (first and last arc length of its voxels), mm.
     pub extent: [f64; 2],
-    /// Its voxels.
+    /// Its voxels (0 when it was read from the colour along a fitted curve).
     pub voxels: usize,
     /// Whether it reaches the tip (its centre is then placed from its proximal edge and the
     /// tip, since the hull's far end is not the band's).
