@@ -140,13 +140,9 @@ const MEASUREMENTS: usize = 4;
 /// The largest move of a control point across the tube (perpendicular to the control
 /// polygon there) in a parameter step, mm.
 fn across_tube(tube: &Tube, step: &nalgebra::DVector<f64>) -> f64 {
-    let ctrl = tube.centerline.control();
-    let last = ctrl.len() - 1;
-    (0..=last)
+    (0..tube.centerline.control().len())
         .map(|k| {
-            let t =
-                Vector3::from(ctrl[(k + 1).min(last)]) - Vector3::from(ctrl[k.saturating_sub(1)]);
-            let t = t / t.norm().max(1e-12);
+            let t = tube.control_tangent(k);
             let d = Vector3::new(step[3 * k], step[3 * k + 1], step[3 * k + 2]);
             (d - t * d.dot(&t)).norm()
         })

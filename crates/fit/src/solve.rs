@@ -157,10 +157,7 @@ pub(crate) fn normal_equations(
     let start_ctrl = start.centerline.control();
     let ctrl = tube.centerline.control();
     for k in 0..=last {
-        let before = ctrl[k.saturating_sub(1)];
-        let after = ctrl[(k + 1).min(last)];
-        let t = Vector3::from(after) - Vector3::from(before);
-        let t = t / t.norm().max(1e-12);
+        let t = tube.control_tangent(k);
         let open_end = (k == 0 && !tube.capped[0]) || (k == last && !tube.capped[1]);
         let weight = if open_end {
             settings.end_anchor

@@ -67,6 +67,16 @@ impl Tube {
         3 * self.centerline.control().len() + 1
     }
 
+    /// Unit direction of the control polygon at control point `k` (from its neighbour before
+    /// to its neighbour after): the direction along the tube in which moving that point
+    /// hardly moves the outline.
+    pub fn control_tangent(&self, k: usize) -> Vector3<f64> {
+        let ctrl = self.centerline.control();
+        let last = ctrl.len() - 1;
+        let t = Vector3::from(ctrl[(k + 1).min(last)]) - Vector3::from(ctrl[k.saturating_sub(1)]);
+        t / t.norm().max(1e-12)
+    }
+
     /// Centre and unit tangent (toward the tip) at `u`.
     pub fn frame(&self, u: f64) -> (Point3<f64>, Vector3<f64>) {
         let d = self.centerline.eval(u);
