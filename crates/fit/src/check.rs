@@ -34,6 +34,17 @@ pub struct CameraCheck {
     pub iou: f64,
     /// Silhouette pixels farther than the check's distance from the re-rendered tube.
     pub unexplained_px: usize,
+    /// Outline samples around the tube's free ends (their caps and the last two radii of
+    /// the sides), where a tip that stopped short or ran on shows; few among the whole
+    /// outline, so they are checked apart.
+    #[serde(default)]
+    pub end_samples: usize,
+    /// Of those, samples where a boundary was found.
+    #[serde(default)]
+    pub end_found: usize,
+    /// RMS of their residuals, pixels.
+    #[serde(default)]
+    pub end_residual_px: f64,
 }
 
 /// Residual statistics of one camera's measured outline: samples, found, RMS and mean, each
@@ -63,6 +74,23 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
         mean,
         p90,
     }
+}
+
+/// Residual statistics of the outline samples around `tube`'s capped ends: the caps and the
+/// sides within two radii of them (`length` the centerline's, mm).
+pub(crate) fn end_stats(measured: &[Measured], tube: &Tube, length: f64) -> Residuals {
+    let reach = 2.0 * tube.radius / length.max(1e-9);
+    let near_end: Vec<Measured> = measured
+        .iter()
+        .filter(|m| match m.point.part {
+            crate::outline::Part::Cap(_) => true,
+            crate::outline::Part::Side(_) => {
+                (tube.capped[0] && m.point.u < reach) || (tube.capped[1] && m.point.u > 1.0 - reach)
+            }
+        })
+        .copied()
+        .collect();
+    residual_stats(&near_end)
 }
 
 /// Residual statistics of one camera's outline.

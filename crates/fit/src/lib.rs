@@ -26,7 +26,7 @@ mod tube;
 use flexshape_camera::Camera;
 use flexshape_rig::Volume;
 use flexshape_shape::{FittedCurve, ShapeEstimator, ShapeRecord, Status};
-use flexshape_silhouette::BitMask;
+use flexshape_silhouette::{BitMask, Region};
 use image::RgbImage;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use thiserror::Error;
@@ -99,8 +99,8 @@ pub struct Fit {
     /// Estimated noise of one outline residual, pixels.
     pub sigma_px: f64,
     /// Carved hull away from the fitted tube, as a length of tube, mm (see
-    /// [`TubeFitter::refine`]); 0 when no hull was given.
-    pub ghost_mm: f64,
+    /// [`TubeFitter::refine`]); `None` when no hull was carved.
+    pub ghost_mm: Option<f64>,
     /// Covariance of the parameters (control points, then radius), mm².
     covariance: DMatrix<f64>,
 }
@@ -134,16 +134,30 @@ impl Fit {
 /// A step across the tube below this ends the iterations, mm.
 const CONVERGED_MM: f64 = 0.005;
 
+/// A first step on fresh boundaries below this ends the fit, mm: measuring again moves the
+/// tube by about half as much each time (the surface colour is read where the outline was
+/// predicted), so chasing it further costs whole measurements for a few micrometres.
+const SETTLED_MM: f64 = 0.02;
+
+/// Samples around a free end needed in a camera before its end is checked apart.
+const END_SAMPLES: usize = 4;
+
 /// Boundary measurements per fit at most (each followed by Gauss–Newton steps on them).
 const MEASUREMENTS: usize = 4;
 
 /// The largest move of a control point across the tube (perpendicular to the control
-/// polygon there) in a parameter step, mm.
+/// polygon there) in a parameter step, mm; at a capped end the whole move, since its cap
+/// places it along the tube too (a tip still sliding out has not converged).
 fn across_tube(tube: &Tube, step: &nalgebra::DVector<f64>) -> f64 {
-    (0..tube.centerline.control().len())
+    let last = tube.centerline.control().len() - 1;
+    (0..=last)
         .map(|k| {
-            let t = tube.control_tangent(k);
             let d = Vector3::new(step[3 * k], step[3 * k + 1], step[3 * k + 2]);
+            let capped = (k == 0 && tube.capped[0]) || (k == last && tube.capped[1]);
+            if capped {
+                return d.norm();
+            }
+            let t = tube.control_tangent(k);
             (d - t * d.dot(&t)).norm()
         })
         .fold(0.0, f64::max)
@@ -227,13 +241,13 @@ impl TubeFitter {
                 tube.radius = (tube.radius + step[n - 1]).max(0.05);
                 normal = Some(eq);
                 iterations += 1;
+                if inner == 0 && across < SETTLED_MM {
+                    // Fresh boundaries hardly moved it: converged for good.
+                    settled = Some(measured);
+                    break 'outer;
+                }
                 if across < CONVERGED_MM {
-                    // Converged on these boundaries; converged for good when measuring again
-                    // moved nothing.
-                    if inner == 0 {
-                        settled = Some(measured);
-                        break 'outer;
-                    }
+                    // Converged on these boundaries: measure them again.
                     break;
                 }
                 current = against(&self.cameras, &tube, &measured);
@@ -249,6 +263,7 @@ impl TubeFitter {
                 .or_else(|| normal.and_then(|n| n.h.try_inverse()))
                 .unwrap_or_else(|| DMatrix::zeros(tube.parameters(), tube.parameters()))
                 * sigma_px.powi(2);
+        let length = tube.length();
         let cameras = self
             .cameras
             .iter()
@@ -257,6 +272,7 @@ impl TubeFitter {
             .zip(&measured)
             .map(|(((cam, name), view), m)| {
                 let res = check::residual_stats(m);
+                let ends = check::end_stats(m, &tube, length);
                 let rendered = check::render(cam, &tube);
                 let (iou, unexplained_px) =
                     check::overlap(&rendered, view.silhouette, s.explain_px);
@@ -269,6 +285,9 @@ impl TubeFitter {
                     p90_px: res.p90,
                     iou,
                     unexplained_px,
+                    end_samples: ends.samples,
+                    end_found: ends.found,
+                    end_residual_px: ends.rms,
                 }
             })
             .collect();
@@ -277,7 +296,7 @@ impl TubeFitter {
             cameras,
             iterations,
             sigma_px,
-            ghost_mm: 0.0,
+            ghost_mm: None,
             covariance,
         })
     }
@@ -351,7 +370,99 @@ impl TubeFitter {
         let mut fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
         let voxel_volume = volume.voxel_size.iter().product::<f64>();
         let reach = 1.5 * fit.tube.radius + 1.5 * voxel;
-        fit.ghost_mm = check::ghost_length(&fit.tube, hull_voxels, voxel_volume, reach);
+        fit.ghost_mm = Some(check::ghost_length(
+            &fit.tube,
+            hull_voxels,
+            voxel_volume,
+            reach,
+        ));
+        let record = self.conclude(estimator, volume, views, &fit, hull);
+        Ok((record, Some(fit)))
+    }
+
+    /// The frame's shape from the images, started from an earlier frame's record (tracking):
+    /// its centerline (cut where it leaves the volume), radius and open ends. The ends stay
+    /// open or capped as they were and the proximal end stays where it was (the tube cannot
+    /// turn round between frames). No hull is carved, so nothing is said about ghosts
+    /// ([`Fit::ghost_mm`] is `None`); a fit that does not explain the images gets status
+    /// `inconsistent`, and the caller then starts again from the hull. `radius` is the
+    /// tube's, if known.
+    pub fn follow(
+        &self,
+        estimator: &ShapeEstimator,
+        volume: &Volume,
+        views: &[View<'_>],
+        previous: &ShapeRecord,
+        radius: Option<f64>,
+    ) -> Result<(ShapeRecord, Option<Fit>), FitError> {
+        let s = &self.settings;
+        let r0 = radius.unwrap_or(previous.radius);
+        let open = [
+            previous.enters_volume,
+            previous.status == Status::LeavesVolume,
+        ];
+        // Through the previous shape again, so that control points stay evenly spread.
+        let Ok(start) = Tube::through(
+            &previous.points,
+            r0,
+            open.map(|o| !o),
+            s.span_mm,
+            s.extend_mm,
+        ) else {
+            return Ok((previous.clone(), None));
+        };
+        let fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
+        // What the hull would have said before the fit: whether the tip runs out of the
+        // volume; bands come from the images alone.
+        let base = ShapeRecord::empty(if open[1] {
+            Status::LeavesVolume
+        } else {
+            Status::Ok
+        });
+        let record = self.conclude(estimator, volume, views, &fit, &base);
+        Ok((record, Some(fit)))
+    }
+
+    /// The region of camera `camera`'s image within `margin_px` of `tube`'s image (its ends'
+    /// continuations left out), or `None` when the camera does not see the tube or is not in
+    /// the rig.
+    pub fn image_region(&self, camera: usize, tube: &Tube, margin_px: f64) -> Option<Region> {
+        let cam = self.cameras.get(camera)?;
+        let r = tube.radius;
+        let n = (tube.length() / (r / 2.0)).ceil().max(4.0) as usize;
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for i in 0..=n {
+            let Some((_, px, rp)) = outline::sphere(cam, tube.frame(i as f64 / n as f64).0, r)
+            else {
+                continue;
+            };
+            for k in 0..2 {
+                lo[k] = lo[k].min(px[k] - rp - margin_px);
+                hi[k] = hi[k].max(px[k] + rp + margin_px);
+            }
+        }
+        let (w, h) = (cam.intrinsics.width as f64, cam.intrinsics.height as f64);
+        let (x0, y0) = (lo[0].floor().max(0.0), lo[1].floor().max(0.0));
+        let (x1, y1) = ((hi[0].ceil() + 1.0).min(w), (hi[1].ceil() + 1.0).min(h));
+        (x0 < x1 && y0 < y1).then_some(Region {
+            x0: x0 as usize,
+            y0: y0 as usize,
+            x1: x1 as usize,
+            y1: y1 as usize,
+        })
+    }
+
+    /// The record of a fitted tube: its curve sampled, bands from colour, and the statuses the
+    /// self-check, the ghost check and the uncertainty give.
+    fn conclude(
+        &self,
+        estimator: &ShapeEstimator,
+        volume: &Volume,
+        views: &[View<'_>],
+        fit: &Fit,
+        hull: &ShapeRecord,
+    ) -> ShapeRecord {
+        let s = &self.settings;
         let sigma = |u: f64| fit.sigma_across(u);
         let images: Vec<&RgbImage> = views.iter().map(|v| v.image).collect();
         let markers: Vec<&BitMask> = views.iter().map(|v| v.markers).collect();
@@ -359,18 +470,19 @@ impl TubeFitter {
         let fitted = FittedCurve {
             curve: fit.tube.centerline.clone(),
             radius: fit.tube.radius,
-            open,
+            open: fit.tube.capped.map(|c| !c),
             bands: (!found.is_empty()).then_some(found.as_slice()),
             sigma: Some(&sigma),
         };
         let mut record = estimator.record_from_curve(fitted, volume, hull);
-        if let Some(reason) = self.verdict(&fit) {
+        let ghost = fit.ghost_mm.unwrap_or(0.0);
+        if let Some(reason) = self.verdict(fit) {
             record.status = Status::Inconsistent { reason };
-        } else if fit.ghost_mm > s.max_ghost_mm {
+        } else if ghost > s.max_ghost_mm {
             record.status = Status::Ambiguous {
                 reason: format!(
-                    "the carved hull holds {:.0} mm of tube away from the fitted shape (at most {:.0}): the cameras would allow the tube there too; add a camera that sees it from another side",
-                    fit.ghost_mm, s.max_ghost_mm
+                    "the carved hull holds {ghost:.0} mm of tube away from the fitted shape (at most {:.0}): the cameras would allow the tube there too; add a camera that sees it from another side",
+                    s.max_ghost_mm
                 ),
             };
         } else if let Some((i, worst)) = record
@@ -388,7 +500,7 @@ impl TubeFitter {
                 ),
             };
         }
-        Ok((record, Some(fit)))
+        record
     }
 
     /// Why the fit does not explain the images, if it does not (the first failing check).
@@ -418,6 +530,21 @@ impl TubeFitter {
                     "camera {i}: a tenth of the outline lies more than {:.2} px from the image's boundary (limit {:.2}): the shape does not explain this camera, or its calibration is off",
                     c.p90_px, s.max_p90_px
                 ));
+            }
+            // A free end's outline: where the tip is. Its few samples hardly move the
+            // statistics of the whole outline, so a tip that stopped short passes them.
+            if c.end_samples >= END_SAMPLES {
+                let found = c.end_found as f64 / c.end_samples as f64;
+                if found < s.min_found || c.end_residual_px > s.max_residual_px {
+                    return Some(format!(
+                        "camera {i}: the outline around the tube's free end is not where the image shows it (boundary found at {}/{} samples, residual {:.2} px RMS; limits {:.0} %, {:.2} px): the tip has moved farther than the fit could follow, or is hidden",
+                        c.end_found,
+                        c.end_samples,
+                        c.end_residual_px,
+                        s.min_found * 100.0,
+                        s.max_residual_px
+                    ));
+                }
             }
             if c.iou < s.min_iou {
                 return Some(format!(

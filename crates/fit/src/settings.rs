@@ -64,6 +64,16 @@ pub struct FitSettings {
     /// beyond which the shape is `ambiguous`: the cameras do not pin it down (too few of them,
     /// or the tube lying in a plane two of them share).
     pub max_sigma_mm: f64,
+    /// Tracking: start each frame from the previous frame's fit (when that one was right),
+    /// classify silhouettes only around it, and carve only to start again when the fit does
+    /// not explain the images. Off by default: under fast motion (several millimetres a
+    /// frame) a followed fit can settle with its tip a few tenths of a millimetre off and
+    /// still pass the self-check. Rigs of fewer than three cameras carve every frame anyway:
+    /// the ghost check needs the hull.
+    pub track: bool,
+    /// Tracking: how far around the previous frame's tube the silhouettes are classified,
+    /// pixels (more than the tube's image moves between frames).
+    pub track_margin_px: f64,
 }
 
 impl Default for FitSettings {
@@ -88,6 +98,8 @@ impl Default for FitSettings {
             explain_px: 2,
             max_ghost_mm: 6.0,
             max_sigma_mm: 0.1,
+            track: false,
+            track_margin_px: 24.0,
         }
     }
 }
@@ -134,6 +146,7 @@ impl FitSettings {
             ("end_anchor", self.end_anchor),
             ("max_ghost_mm", self.max_ghost_mm),
             ("max_sigma_mm", self.max_sigma_mm),
+            ("track_margin_px", self.track_margin_px),
         ];
         for (field, v) in non_negative {
             if !(v.is_finite() && v >= 0.0) {

@@ -158,11 +158,13 @@ pub(crate) fn normal_equations(
     let ctrl = tube.centerline.control();
     for k in 0..=last {
         let t = tube.control_tangent(k);
-        let open_end = (k == 0 && !tube.capped[0]) || (k == last && !tube.capped[1]);
-        let weight = if open_end {
-            settings.end_anchor
-        } else {
-            settings.slide_prior
+        let end = (k == 0).then_some(0).or((k == last).then_some(1));
+        // A cap's outline places its end along the tube; holding it toward where it started
+        // would pull a tip that moved back toward where it was.
+        let weight = match end {
+            Some(e) if !tube.capped[e] => settings.end_anchor,
+            Some(_) => 0.0,
+            None => settings.slide_prior,
         };
         let dev = Vector3::from(ctrl[k]) - Vector3::from(start_ctrl[k]);
         entries.clear();

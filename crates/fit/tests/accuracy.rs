@@ -32,7 +32,7 @@ fn default_scene_fit_beats_the_hull() {
             fit.tube.radius,
             fit.iterations,
             fit.sigma_px,
-            fit.ghost_mm,
+            fit.ghost_mm.unwrap_or(f64::NAN),
             fit.cameras
                 .iter()
                 .map(|c| format!(

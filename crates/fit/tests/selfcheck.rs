@@ -73,10 +73,97 @@ fn a_missed_distal_part_makes_the_frame_inconsistent() {
         println!("frame {n}: {:?}", b.fitted.status);
         match &b.fitted.status {
             Status::Inconsistent { reason } => assert!(
-                reason.contains("beyond the fitted tube") || reason.contains("overlaps"),
+                reason.contains("beyond the fitted tube")
+                    || reason.contains("overlaps")
+                    || reason.contains("free end"),
                 "{reason}"
             ),
             other => panic!("frame {n}: {other:?} with 40 % of the tube missed"),
         }
+    }
+}
+
+/// Hull voxels the fitted tube leaves out — a branch the cameras would allow — make the frame
+/// `ambiguous`; the same frame with its own hull is `ok`.
+#[test]
+fn hull_away_from_the_fitted_tube_makes_the_frame_ambiguous() {
+    use flexshape_fit::View;
+    use flexshape_silhouette::Silhouette;
+    let chain = Chain::new(SimConfig::default());
+    let sim = &chain.sim;
+    let frame = sim.render(0, &sim.sweep(1)[0]).unwrap();
+    let both = chain.run(frame);
+    assert_eq!(both.fitted.status, Status::Ok);
+    let sil: Vec<Silhouette> = chain.silhouettes(&both.frame);
+    let views: Vec<View> = both
+        .frame
+        .views
+        .iter()
+        .zip(&chain.backgrounds)
+        .zip(&sil)
+        .map(|((v, b), s)| View {
+            image: &v.image,
+            background: b.means(),
+            silhouette: &s.object,
+            markers: &s.markers,
+        })
+        .collect();
+    // The tube's own voxels: 1-mm voxels within its radius of the fitted centerline.
+    let pts = &both.fitted.points;
+    let r = both.fitted.radius;
+    let mut voxels: Vec<[f64; 3]> = Vec::new();
+    for p in pts.iter().step_by(2) {
+        for dx in -3..=3 {
+            for dy in -3..=3 {
+                for dz in -3..=3 {
+                    let q = [p[0] + dx as f64, p[1] + dy as f64, p[2] + dz as f64];
+                    let d2 = (dx * dx + dy * dy + dz * dz) as f64;
+                    if d2 <= (r - 0.5) * (r - 0.5) {
+                        voxels.push(q);
+                    }
+                }
+            }
+        }
+    }
+    let run = |voxels: &[[f64; 3]]| {
+        chain
+            .fitter
+            .refine(
+                &chain.estimator,
+                &sim.rig().volume,
+                &views,
+                &both.hull,
+                voxels,
+                None,
+            )
+            .unwrap()
+    };
+    let (own, fit) = run(&voxels);
+    println!(
+        "own voxels: {:?}, ghost {:?} mm",
+        own.status,
+        fit.unwrap().ghost_mm
+    );
+    assert_eq!(own.status, Status::Ok);
+    // A straight branch of 30 mm, 20 mm off the tube's middle.
+    let mid = pts[pts.len() / 2];
+    for k in 0..30 {
+        for dy in -2..=2 {
+            for dz in -2..=2 {
+                voxels.push([
+                    mid[0] + 20.0 + k as f64,
+                    mid[1] + dy as f64,
+                    mid[2] + dz as f64,
+                ]);
+            }
+        }
+    }
+    let (ghosted, fit) = run(&voxels);
+    let ghost = fit.unwrap().ghost_mm.unwrap();
+    println!("with a branch: {:?}, ghost {ghost:.1} mm", ghosted.status);
+    assert!((20.0..40.0).contains(&ghost), "ghost {ghost:.1} mm");
+    match ghosted.status {
+        Status::Ambiguous { reason } => assert!(reason.contains("away from the fitted shape")),
+        other => panic!("{other:?}"),
     }
 }

@@ -271,9 +271,16 @@ pub struct TrackArgs {
     /// Also write a CSV summary, one row per frame (tip, arc length, curvature, …).
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
-    /// Also write each frame's carved voxels as a PLY point cloud, DIR/NNNNNN.ply.
+    /// Also write each frame's carved voxels as a PLY point cloud, DIR/NNNNNN.ply (every frame
+    /// is then carved, whatever `--follow` says).
     #[arg(long, value_name = "DIR")]
     pub ply: Option<PathBuf>,
+    /// Start each frame's fit from the previous frame's shape when that one was right, and
+    /// carve only when it does not explain the images (tracking, `[processing.fit] track`):
+    /// faster for slow, smooth motion; such records have `start` = `previous`, `voxels` 0 and
+    /// no `ghost_mm`. Needs three cameras or more.
+    #[arg(long)]
+    pub follow: bool,
     /// Carving volume as XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in world mm (default: the rig's volume;
     /// a rig without one has the 256 mm cube centred on the origin).
     #[arg(long, value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", value_parser = parse_box)]
@@ -480,6 +487,13 @@ pub struct BenchArgs {
     /// Passes over the frames per thread count.
     #[arg(long, default_value_t = 5)]
     pub rounds: usize,
+    /// Frames of the smooth motion the tracking figures are measured on (filmed at `--rate`).
+    #[arg(long, default_value_t = 60)]
+    pub track_frames: usize,
+    /// Frame rate of that motion, frames per second (at 120 the tip moves up to about 0.4 mm
+    /// a frame).
+    #[arg(long, default_value_t = 120.0)]
+    pub rate: f64,
     /// Print the figures as JSON instead of a table.
     #[arg(long)]
     pub json: bool,

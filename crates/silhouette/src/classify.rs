@@ -27,6 +27,38 @@ use crate::bitmask::BitMask;
 use crate::error::SilhouetteError;
 use crate::markers::for_each_set;
 
+/// A rectangle of an image to classify (pixels, end exclusive; clipped to the image). A
+/// tracker that knows where the object is classifies only around it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Region {
+    /// First column.
+    pub x0: usize,
+    /// First row.
+    pub y0: usize,
+    /// One past the last column.
+    pub x1: usize,
+    /// One past the last row.
+    pub y1: usize,
+}
+
+impl Region {
+    /// The whole image, whatever its size.
+    pub const ALL: Region = Region {
+        x0: 0,
+        y0: 0,
+        x1: usize::MAX,
+        y1: usize::MAX,
+    };
+
+    fn rows(&self, h: usize) -> std::ops::Range<usize> {
+        self.y0.min(h)..self.y1.min(h)
+    }
+
+    fn columns(&self, w: usize) -> std::ops::Range<usize> {
+        self.x0.min(w)..self.x1.min(w)
+    }
+}
+
 /// Parameters of green matting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -302,11 +334,12 @@ impl Prepared {
         bg_row: &[u8],
         y: usize,
         w: usize,
+        columns: std::ops::Range<usize>,
         mut f: impl FnMut(usize, usize),
     ) {
         let blocks = w.div_ceil(BLOCK);
         let words = w.div_ceil(64);
-        for c in 0..words {
+        for c in columns.start / 64..columns.end.div_ceil(64).min(words) {
             let (x0, x1) = (c * 64, (c * 64 + 64).min(w));
             if Self::plain_backdrop(
                 &row[x0 * 3..x1 * 3],
@@ -340,9 +373,10 @@ impl Prepared {
                 <= t
     }
 
-    /// Classifies a frame into the foreground mask (before clean-up).
-    pub fn foreground(&self, frame: &RgbImage) -> BitMask {
-        let (strong, weak) = self.classify(frame);
+    /// Classifies a frame into the foreground mask (before clean-up): the pixels of `region`
+    /// (rounded out to whole 64-pixel words across), the rest background.
+    pub fn foreground(&self, frame: &RgbImage, region: &Region) -> BitMask {
+        let (strong, weak) = self.classify(frame, region);
         let Kind::Colour { bg, .. } = &self.kind else {
             return strong;
         };
@@ -385,16 +419,17 @@ impl Prepared {
     fn single_test(
         &self,
         frame: &RgbImage,
+        region: &Region,
         fg: impl Fn(usize, &[u8]) -> bool,
     ) -> (BitMask, BitMask) {
         let (w, h) = (frame.width() as usize, frame.height() as usize);
         let px = frame.as_raw();
         let mut strong = BitMask::new(w, h);
-        for y in 0..h {
+        for y in region.rows(h) {
             let row = &px[y * w * 3..(y + 1) * w * 3];
             let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
             let words = strong.row_mut(y);
-            self.busy_blocks(row, bg_row, y, w, |x0, x1| {
+            self.busy_blocks(row, bg_row, y, w, region.columns(w), |x0, x1| {
                 let mut bits = 0u64;
                 for x in x0..x1 {
                     bits |= (fg(y * w + x, &row[x * 3..x * 3 + 3]) as u64) << (x - x0);
@@ -408,10 +443,10 @@ impl Prepared {
 
     /// Classifies a frame: the strict foreground and the loose candidates (equal for green
     /// matting and plain difference).
-    fn classify(&self, frame: &RgbImage) -> (BitMask, BitMask) {
+    fn classify(&self, frame: &RgbImage, region: &Region) -> (BitMask, BitMask) {
         match &self.kind {
-            Kind::Green { limit } => self.single_test(frame, |i, p| p[1] < limit[i]),
-            Kind::Difference { bg, margin } => self.single_test(frame, |i, p| {
+            Kind::Green { limit } => self.single_test(frame, region, |i, p| p[1] < limit[i]),
+            Kind::Difference { bg, margin } => self.single_test(frame, region, |i, p| {
                 let (e, m) = (bg[i], margin[i]);
                 (0..3).any(|c| (p[c] as f32 - e[c]).abs() > m)
             }),
@@ -427,11 +462,11 @@ impl Prepared {
                 let px = frame.as_raw();
                 let mut strong = BitMask::new(w, h);
                 let mut weak = BitMask::new(w, h);
-                for y in 0..h {
+                for y in region.rows(h) {
                     let row = &px[y * w * 3..(y + 1) * w * 3];
                     let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
                     let (s_row, w_row) = (strong.row_mut(y), weak.row_mut(y));
-                    self.busy_blocks(row, bg_row, y, w, |x0, x1| {
+                    self.busy_blocks(row, bg_row, y, w, region.columns(w), |x0, x1| {
                         let (mut s_bits, mut w_bits) = (0u64, 0u64);
                         for x in x0..x1 {
                             let i = y * w + x;
@@ -487,7 +522,10 @@ mod tests {
                         word_tolerance: vec![0; fast.word_tolerance.len()],
                         ..fast.clone()
                     };
-                    assert_eq!(fast.classify(&view.image), exhaustive.classify(&view.image));
+                    assert_eq!(
+                        fast.classify(&view.image, &Region::ALL),
+                        exhaustive.classify(&view.image, &Region::ALL)
+                    );
                 }
             }
             assert!(
@@ -508,7 +546,7 @@ mod tests {
         frame.put_pixel(5, 1, image::Rgb([10, 51, 10])); // 41 above: foreground
         frame.put_pixel(66, 1, image::Rgb([10, 10, 49])); // 39 above: background
         frame.put_pixel(67, 2, image::Rgb([200, 0, 0]));
-        let fg = Prepared::new(&model, &Classifier::Difference(d)).foreground(&frame);
+        let fg = Prepared::new(&model, &Classifier::Difference(d)).foreground(&frame, &Region::ALL);
         assert_eq!(fg.count(), 2);
         assert!(fg.get(5, 1) && fg.get(67, 2));
     }

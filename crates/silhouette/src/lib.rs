@@ -18,7 +18,7 @@ mod silhouetter;
 
 pub use background::{BackgroundModel, DEFAULT_SPREAD};
 pub use bitmask::BitMask;
-pub use classify::{Classifier, ColourShadow, Difference, GreenMatte};
+pub use classify::{Classifier, ColourShadow, Difference, GreenMatte, Region};
 pub use components::KeepComponents;
 pub use error::SilhouetteError;
 pub use markers::MarkerSettings;

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::background::BackgroundModel;
 use crate::bitmask::BitMask;
-use crate::classify::{Classifier, Prepared};
+use crate::classify::{Classifier, Prepared, Region};
 use crate::components::{KeepComponents, keep_components};
 use crate::error::SilhouetteError;
 use crate::markers::{MarkerSettings, find_markers};
@@ -150,6 +150,17 @@ impl Silhouetter {
 
     /// Silhouette of an 8-bit RGB frame.
     pub fn process(&self, frame: &RgbImage) -> Result<Silhouette, SilhouetteError> {
+        self.process_within(frame, &Region::ALL)
+    }
+
+    /// Silhouette of an 8-bit RGB frame within `region` (rounded out to whole 64-pixel words
+    /// across): pixels outside it are background. A tracker that knows where the object is
+    /// looks only around it.
+    pub fn process_within(
+        &self,
+        frame: &RgbImage,
+        region: &Region,
+    ) -> Result<Silhouette, SilhouetteError> {
         let (w, h) = frame.dimensions();
         if w == 0 || h == 0 {
             return Err(SilhouetteError::EmptyFrame);
@@ -164,7 +175,7 @@ impl Silhouetter {
         }
         let closed = self
             .prepared
-            .foreground(frame)
+            .foreground(frame, region)
             .close(self.settings.close_radius);
         let (object, components) = keep_components(&closed, self.settings.keep);
         let markers = find_markers(frame, &object, &self.settings.markers);

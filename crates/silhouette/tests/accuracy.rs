@@ -98,3 +98,54 @@ fn shadows_are_rejected_by_colour_but_not_by_green_matting() {
         "green matting should fail on shadows (min {gmin:.4}, mean {gmean:.4})"
     );
 }
+
+/// Classifying only a region: inside it, exactly the whole frame's silhouette; outside it,
+/// nothing.
+#[test]
+fn a_region_gives_the_same_pixels_inside_and_none_outside() {
+    use flexshape_silhouette::Region;
+    let sim = Simulator::new(SimConfig::default()).unwrap();
+    let bg = &sim.backgrounds()[0];
+    let model = BackgroundModel::from_frames(std::slice::from_ref(bg)).unwrap();
+    let s = Silhouetter::new(&model, SilhouetteSettings::default()).unwrap();
+    let frame = &sim.render(0, &sim.sweep(1)[0]).unwrap().views[0].image;
+    let whole = s.process(frame).unwrap();
+    // The object's bounding box, grown by 8 pixels (the closing and the colour test's
+    // neighbourhood reach a pixel or two).
+    let (w, h) = (whole.object.width(), whole.object.height());
+    let (mut x0, mut y0, mut x1, mut y1) = (w, h, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            if whole.object.get(x, y) {
+                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
+            }
+        }
+    }
+    assert!(x0 < x1, "the frame shows the tube");
+    let around = Region {
+        x0: x0.saturating_sub(8),
+        y0: y0.saturating_sub(8),
+        x1: x1 + 8,
+        y1: y1 + 8,
+    };
+    let within = s.process_within(frame, &around).unwrap();
+    assert_eq!(within.object, whole.object);
+    assert_eq!(within.markers, whole.markers);
+    // A region away from the tube: nothing.
+    let away = if x0 > 40 {
+        Region {
+            x0: 0,
+            y0: 0,
+            x1: x0 / 2,
+            y1: h,
+        }
+    } else {
+        Region {
+            x0: (x1 + w) / 2,
+            y0: 0,
+            x1: w,
+            y1: h,
+        }
+    };
+    assert_eq!(s.process_within(frame, &away).unwrap().object.count(), 0);
+}

@@ -41,3 +41,36 @@ pub fn sweep(catheter: &Catheter, seed: u64, frames: usize) -> Vec<CatheterPose>
         })
         .collect()
 }
+
+/// `frames` poses of a smooth motion filmed at `rate_hz` frames per second, as a tracker sees
+/// it: the bend angle swings between 5° and 150° and back every 6 s, the bending plane turns
+/// once every 9 s, the insertion runs 0–30 mm and back every 7 s (at 30 Hz the tip moves up
+/// to about 1.5 mm between frames), compression following the bend. The seed sets the
+/// phases.
+pub fn motion(catheter: &Catheter, seed: u64, frames: usize, rate_hz: f64) -> Vec<CatheterPose> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x00F0_1100);
+    let phase: [f64; 3] = [
+        rng.random_range(0.0..TAU),
+        rng.random_range(0.0..TAU),
+        rng.random_range(0.0..TAU),
+    ];
+    let (low, high) = (5f64.to_radians(), 150f64.to_radians());
+    (0..frames)
+        .map(|i| {
+            let t = i as f64 / rate_hz.max(1e-9);
+            let swing = 0.5 - 0.5 * (TAU * t / 6.0 + phase[0]).cos();
+            let angle = low + (high - low) * swing;
+            let phi = TAU * t / 9.0 + phase[1];
+            let insertion = MAX_INSERTION * (0.5 - 0.5 * (TAU * t / 7.0 + phase[2]).cos());
+            let eps = [0.01 * swing, 0.03 * swing];
+            let arc = catheter.bend_length * (1.0 - eps[1]);
+            let kappa = angle / arc;
+            CatheterPose::arc(
+                catheter,
+                [kappa * phi.cos(), kappa * phi.sin()],
+                eps,
+                insertion,
+            )
+        })
+        .collect()
+}

@@ -90,6 +90,12 @@ impl Simulator {
         sequence::sweep(&self.config.catheter, self.config.seed, frames)
     }
 
+    /// The default seeded smooth motion: `frames` poses filmed at `rate_hz` (see
+    /// [`crate::motion`]).
+    pub fn motion(&self, frames: usize, rate_hz: f64) -> Vec<CatheterPose> {
+        sequence::motion(&self.config.catheter, self.config.seed, frames, rate_hz)
+    }
+
     /// The scene of the catheter in `pose` with the occluders.
     pub fn scene(&self, pose: &CatheterPose) -> Result<Scene, SimError> {
         let state = self.config.catheter.state(pose)?;

@@ -1,15 +1,20 @@
 //! One frame through the sensing chain: silhouettes (cameras in parallel) → hierarchical
 //! carving → marker bands → the hull's shape → the tube fitted to the images and checked
 //! against them.
+//!
+//! Tracking ([`Pipeline::process_after`]): when an earlier frame's shape was right (a
+//! [`Prior`]), the frame starts from it instead: silhouettes only around the tube, no carve,
+//! no hull, the fit warm-started. When that fit does not explain the images, the frame runs
+//! the whole chain after all.
 
 use std::time::Instant;
 
 use flexshape_camera::Camera;
 use flexshape_carve::{Band, BandRule, HierarchicalCarver, Occupancy, OutsideImage, find_bands};
-use flexshape_fit::{Fit, FitSettings, Method, TubeFitter, View};
+use flexshape_fit::{Fit, FitSettings, Method, Tube, TubeFitter, View};
 use flexshape_rig::{Rig, Volume};
-use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings};
-use flexshape_silhouette::{BackgroundModel, Silhouette, SilhouetteSettings, Silhouetter};
+use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status};
+use flexshape_silhouette::{BackgroundModel, Region, Silhouette, SilhouetteSettings, Silhouetter};
 use image::RgbImage;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -61,6 +66,38 @@ pub struct Tracked {
     pub fit: Option<Fit>,
     /// Time per stage.
     pub timings: StageTimings,
+    /// Where the fit started: the hull, or an earlier frame's shape (then nothing was carved
+    /// and `occupancy` and `bands` are empty).
+    pub start: Start,
+}
+
+/// Where a frame's shape started.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Start {
+    /// The visual hull of this frame (carved).
+    Hull,
+    /// An earlier frame's fitted shape (tracking; nothing carved).
+    Previous,
+}
+
+/// A frame's shape that later frames may start from: one fitted to the images whose status
+/// says it is right (`ok`, `bands_missing`, `leaves_volume`), and whose direction was decided.
+#[derive(Debug, Clone)]
+pub struct Prior {
+    record: ShapeRecord,
+    tube: Tube,
+}
+
+impl Tracked {
+    /// What a later frame may start from, if this frame's shape is right.
+    pub fn prior(&self) -> Option<Prior> {
+        let fit = self.fit.as_ref()?;
+        (is_right(&self.shape.status) && self.shape.points.len() >= 2).then(|| Prior {
+            record: self.shape.clone(),
+            tube: fit.tube.clone(),
+        })
+    }
 }
 
 /// The sensing chain, set up once per rig.
@@ -196,8 +233,87 @@ impl Pipeline {
         self.carver.volume()
     }
 
-    /// One frame: one image per camera, in the rig's order.
-    pub fn process(&self, images: &[&RgbImage]) -> Result<Tracked, TrackError> {
+    /// Whether frames may start from an earlier frame's shape: the fit is on, its `track`
+    /// setting too, and at least three cameras see the tube (with two, only the hull shows
+    /// ghosts).
+    pub fn tracks(&self) -> bool {
+        let s = self.fitter.settings();
+        s.method == Method::Fit && s.track && self.cameras.len() >= 3
+    }
+
+    /// One frame (one image per camera, in the rig's order), started from `prior` when there
+    /// is one and [`Pipeline::tracks`]: silhouettes only within the fit's `track_margin_px`
+    /// of the prior tube's image, no carve, the tube fitted from the prior shape. When that
+    /// fit does not explain the images (or finds nothing), the frame runs the whole chain
+    /// ([`Pipeline::process`]) after all; the failed attempt's time counts in `fit`. So does a
+    /// fit the cameras do not pin down (`ambiguous`): the hull may do better.
+    pub fn process_after(
+        &self,
+        images: &[&RgbImage],
+        prior: Option<&Prior>,
+    ) -> Result<Tracked, TrackError> {
+        let Some(prior) = prior.filter(|_| self.tracks()) else {
+            return self.process(images);
+        };
+        self.check_count(images)?;
+        let t = Instant::now();
+        let margin = self.fitter.settings().track_margin_px;
+        let silhouettes = self
+            .silhouetters
+            .par_iter()
+            .zip(images)
+            .zip(&self.names)
+            .enumerate()
+            .map(|(i, ((s, img), name))| {
+                let region = self
+                    .fitter
+                    .image_region(i, &prior.tube, margin)
+                    .unwrap_or(Region::ALL);
+                s.process_within(img, &region)
+                    .map_err(|source| TrackError::Silhouette {
+                        camera: name.clone(),
+                        source,
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let silhouettes_ms = ms(t);
+        let t = Instant::now();
+        let views = self.views(images, &silhouettes);
+        let radius = self.shape.settings().radius_mm;
+        let (shape, fit) = self.fitter.follow(
+            &self.shape,
+            self.carver.volume(),
+            &views,
+            &prior.record,
+            radius,
+        )?;
+        let fit_ms = ms(t);
+        // Anything but a right shape (one that does not explain the images, or that the
+        // cameras do not pin down) is tried again from this frame's own hull.
+        if fit.is_none() || !is_right(&shape.status) {
+            let mut full = self.process(images)?;
+            full.timings.fit += fit_ms + silhouettes_ms;
+            return Ok(full);
+        }
+        Ok(Tracked {
+            silhouettes,
+            occupancy: Occupancy {
+                volume: *self.carver.volume(),
+                voxels: Vec::new(),
+            },
+            bands: Vec::new(),
+            shape,
+            fit,
+            timings: StageTimings {
+                silhouettes: silhouettes_ms,
+                fit: fit_ms,
+                ..StageTimings::default()
+            },
+            start: Start::Previous,
+        })
+    }
+
+    fn check_count(&self, images: &[&RgbImage]) -> Result<(), TrackError> {
         if images.len() != self.cameras.len() {
             return Err(TrackError::CameraCount {
                 what: "images",
@@ -205,6 +321,13 @@ impl Pipeline {
                 expected: self.cameras.len(),
             });
         }
+        Ok(())
+    }
+
+    /// One frame: one image per camera, in the rig's order, through the whole chain (the fit
+    /// started from this frame's hull).
+    pub fn process(&self, images: &[&RgbImage]) -> Result<Tracked, TrackError> {
+        self.check_count(images)?;
         let t = Instant::now();
         let silhouettes = self
             .silhouetters
@@ -260,8 +383,17 @@ impl Pipeline {
                 shape: shape_ms,
                 fit: fit_ms,
             },
+            start: Start::Hull,
         })
     }
+}
+
+/// Whether a fitted shape with this status is right: one a later frame may start from.
+fn is_right(status: &Status) -> bool {
+    matches!(
+        status,
+        Status::Ok | Status::BandsMissing { .. } | Status::LeavesVolume
+    )
 }
 
 fn ms(since: Instant) -> f64 {

@@ -7,7 +7,7 @@ use flexshape_recording::{Command, PoseRole};
 use flexshape_shape::Status;
 use serde::{Deserialize, Serialize};
 
-use crate::pipeline::{StageTimings, Tracked};
+use crate::pipeline::{StageTimings, Start, Tracked};
 use crate::runner::{Processed, RunEnd};
 
 /// A band on the centerline.
@@ -120,7 +120,7 @@ pub struct TrackRecord {
     pub bands: Vec<TrackBand>,
     /// The bending section's arc fit.
     pub arc_fit: Option<TrackArcFit>,
-    /// Occupied voxels.
+    /// Occupied voxels (0 when nothing was carved: `start` = `previous`).
     pub voxels: usize,
     /// Milliseconds per stage.
     pub timings_ms: StageTimings,
@@ -164,6 +164,10 @@ pub struct TrackRecord {
     /// `ambiguous`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ghost_mm: Option<f64>,
+    /// Where the fit started: `hull` (this frame's visual hull, carved) or `previous` (an
+    /// earlier frame's shape, tracking: nothing carved, `voxels` is 0 and `ghost_mm` absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<String>,
 }
 
 /// A measured axial strain.
@@ -251,7 +255,14 @@ impl TrackRecord {
             radius: has_shape.then_some(s.radius),
             centerline_sigma: s.sigma.clone(),
             cameras: t.fit.as_ref().map_or_else(Vec::new, |f| f.cameras.clone()),
-            ghost_mm: t.fit.as_ref().map(|f| f.ghost_mm),
+            ghost_mm: t.fit.as_ref().and_then(|f| f.ghost_mm),
+            start: t.fit.as_ref().map(|_| {
+                match t.start {
+                    Start::Hull => "hull",
+                    Start::Previous => "previous",
+                }
+                .into()
+            }),
         }
     }
 
@@ -312,6 +323,7 @@ impl TrackRecord {
             centerline_sigma: Vec::new(),
             cameras: Vec::new(),
             ghost_mm: None,
+            start: None,
         }
     }
 }

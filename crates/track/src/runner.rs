@@ -3,12 +3,16 @@
 //! more than `window` frames are taken ahead of the last one handed to the sink, so a slow
 //! sink slows the input instead of filling memory. Offline input is processed whole; live
 //! input always yields its newest frames (the source drops and counts the rest).
+//!
+//! Tracking: each worker starts its frame from the newest earlier frame whose shape was right
+//! (at most [`MAX_PRIOR_AGE`] frames back), see [`Pipeline::process_after`]. With several
+//! workers that is a frame or two before the last.
 
 use std::collections::BTreeMap;
 use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
-use std::sync::{Condvar, Mutex};
+use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 use flexshape_input::{FrameSet, FrameSource, InputError};
@@ -16,7 +20,7 @@ use flexshape_recording::{Command, Truth};
 use image::RgbImage;
 use rayon::prelude::*;
 
-use crate::{Pipeline, Tracked};
+use crate::{Pipeline, Prior, Tracked};
 
 /// One frame set after the chain, in input order.
 #[derive(Debug)]
@@ -81,6 +85,35 @@ struct Window {
     closed: bool,
 }
 
+/// How many frames back a prior may be to start a frame from: beyond, the tube may have moved
+/// farther than the fit searches.
+pub const MAX_PRIOR_AGE: u64 = 4;
+
+/// The newest frame processed and what later frames may start from.
+#[derive(Default)]
+struct Latest {
+    seq: Option<u64>,
+    prior: Option<Arc<Prior>>,
+}
+
+impl Latest {
+    /// The prior for frame `seq`, if an earlier frame recent enough left one.
+    fn for_frame(&self, seq: u64) -> Option<Arc<Prior>> {
+        let last = self.seq?;
+        (last < seq && seq - last <= MAX_PRIOR_AGE)
+            .then(|| self.prior.clone())
+            .flatten()
+    }
+
+    /// Records frame `seq`'s outcome, unless a later frame's is already in.
+    fn update(&mut self, seq: u64, prior: Option<Prior>) {
+        if self.seq.is_none_or(|s| seq > s) {
+            self.seq = Some(seq);
+            self.prior = prior.map(Arc::new);
+        }
+    }
+}
+
 /// The source and what it said last, behind one lock.
 struct Puller<'a, S: ?Sized> {
     source: &'a mut S,
@@ -112,18 +145,23 @@ pub fn run<S: FrameSource + ?Sized>(
         error: None,
     });
     let (tx, rx) = mpsc::channel::<(u64, Processed)>();
+    let latest = Mutex::new(Latest::default());
     let mut end = RunEnd::default();
     std::thread::scope(|scope| {
         for _ in 0..workers {
             let tx = tx.clone();
-            let (window, moved, puller) = (&window, &moved, &puller);
+            let (window, moved, puller, latest) = (&window, &moved, &puller, &latest);
             scope.spawn(move || {
                 while let Some((seq, set, dropped)) = take(window, moved, puller, stop, window_len)
                 {
+                    let prior = latest.lock().ok().and_then(|l| l.for_frame(seq));
                     let processed = match set {
-                        Ok(set) => process(pipeline, set, dropped),
+                        Ok(set) => process(pipeline, set, dropped, prior.as_deref()),
                         Err(reason) => Processed::unreadable(seq, reason, dropped),
                     };
+                    if let Ok(mut l) = latest.lock() {
+                        l.update(seq, processed.result.as_ref().ok().and_then(Tracked::prior));
+                    }
                     if tx.send((seq, processed)).is_err() {
                         return;
                     }
@@ -200,8 +238,8 @@ fn take<S: FrameSource + ?Sized>(
     }
 }
 
-/// Decodes one frame set and runs the chain on it.
-fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64) -> Processed {
+/// Decodes one frame set and runs the chain on it, from `prior` if there is one.
+fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64, prior: Option<&Prior>) -> Processed {
     let names = pipeline.camera_names();
     let sizes = pipeline.image_sizes();
     let images: Result<Vec<RgbImage>, String> = if set.images.len() != names.len() {
@@ -221,7 +259,9 @@ fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64) -> Processed {
     let (images, result) = match images {
         Ok(images) => {
             let refs: Vec<&RgbImage> = images.iter().collect();
-            let result = pipeline.process(&refs).map_err(|e| e.to_string());
+            let result = pipeline
+                .process_after(&refs, prior)
+                .map_err(|e| e.to_string());
             (images, result)
         }
         Err(e) => (Vec::new(), Err(e)),

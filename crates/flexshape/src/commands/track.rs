@@ -38,6 +38,14 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let volume = volume(&input.rig.volume, args)?;
     let pipeline = Pipeline::new(&input.rig, &input.backgrounds, &volume)
         .and_then(|p| super::with_method(p, args.method))
+        .and_then(|p| {
+            let track = (args.follow || p.fit_settings().track) && args.ply.is_none();
+            let settings = flexshape_fit::FitSettings {
+                track,
+                ..p.fit_settings().clone()
+            };
+            p.with_fit_settings(settings)
+        })
         .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
     let model_frame = args
         .model_frame

@@ -1,0 +1,152 @@
+//! Tracking: frames started from an earlier frame's shape must be as right as frames started
+//! from their own hull, and a frame the earlier shape cannot explain starts from its hull.
+
+mod common;
+
+use flexshape_curve::Polyline;
+use flexshape_fit::FitSettings;
+use flexshape_recording::Truth;
+use flexshape_shape::{ShapeRecord, Status};
+use flexshape_silhouette::BackgroundModel;
+use flexshape_sim::{SimConfig, SimRigConfig, Simulator};
+use flexshape_track::{Pipeline, Prior, Start, TrackRecord};
+use image::RgbImage;
+use nalgebra::Point3;
+
+/// RMS distance from the true centerline (inside the volume) to the record's, mm.
+fn rms(truth: &Truth, sim: &Simulator, r: &ShapeRecord) -> f64 {
+    let poly = Polyline::new(r.points.iter().map(|&p| Point3::from(p)).collect()).unwrap();
+    let d2: Vec<f64> = truth
+        .centerline
+        .iter()
+        .map(|&p| Point3::from(p))
+        .filter(|p| sim.rig().volume.contains(p))
+        .map(|p| poly.closest(&p).1.powi(2))
+        .collect();
+    (d2.iter().sum::<f64>() / d2.len() as f64).sqrt()
+}
+
+fn tip_error(truth: &Truth, r: &ShapeRecord) -> f64 {
+    (Point3::from(r.tip) - Point3::from(truth.tip)).norm()
+}
+
+/// The chain with tracking on (it is off by default).
+fn following(pipeline: Pipeline) -> Pipeline {
+    let settings = FitSettings {
+        track: true,
+        ..pipeline.fit_settings().clone()
+    };
+    pipeline.with_fit_settings(settings).unwrap()
+}
+
+fn images(frame: &flexshape_sim::SimFrame) -> Vec<&RgbImage> {
+    frame.views.iter().map(|v| &v.image).collect()
+}
+
+/// At 120 frames per second (the tip moves up to 0.4 mm a frame) every frame follows the one
+/// before. (At 30 the followed fit's tip lags the real one; the free-end check catches it and
+/// those frames are carved again.)
+#[test]
+fn a_smooth_motion_is_tracked_without_carving_and_as_accurately() {
+    let (sim, pipeline) = common::simulated_chain();
+    assert!(!pipeline.tracks(), "tracking is off by default");
+    let pipeline = following(pipeline);
+    assert!(pipeline.tracks());
+    let mut prior: Option<Prior> = None;
+    let (mut errors, mut hull_errors) = (Vec::new(), Vec::new());
+    for (i, pose) in sim.motion(12, 120.0).iter().enumerate() {
+        let frame = sim.render(i as u64, pose).unwrap();
+        let t = pipeline
+            .process_after(&images(&frame), prior.as_ref())
+            .unwrap();
+        let truth = &frame.truth;
+        let e = rms(truth, &sim, &t.shape);
+        let tip = tip_error(truth, &t.shape);
+        // The same frame from its own hull, for comparison.
+        let h = pipeline.process(&images(&frame)).unwrap();
+        let eh = rms(truth, &sim, &h.shape);
+        println!(
+            "frame {i:2}: {:?} from {:?}, rms {e:.3} mm (from the hull {eh:.3}), tip {tip:.3} mm, fit {:.2} ms, silhouettes {:.2} ms",
+            t.shape.status, t.start, t.timings.fit, t.timings.silhouettes
+        );
+        assert_eq!(t.shape.status, Status::Ok, "frame {i}");
+        let expected = if i == 0 { Start::Hull } else { Start::Previous };
+        assert_eq!(t.start, expected, "frame {i}");
+        // The right way round, and the tip where it is.
+        assert!(tip < 0.3, "frame {i}: tip {tip:.3} mm off");
+        let record = TrackRecord::from_tracked(i as u64, &t);
+        if t.start == Start::Previous {
+            assert!(t.occupancy.is_empty() && t.bands.is_empty());
+            assert_eq!(record.voxels, 0);
+            assert_eq!(record.start.as_deref(), Some("previous"));
+            assert_eq!(record.ghost_mm, None);
+            assert!(t.timings.carve == 0.0 && t.timings.shape == 0.0);
+        } else {
+            assert_eq!(record.start.as_deref(), Some("hull"));
+            assert!(record.ghost_mm.is_some());
+        }
+        // Bands come from colour along the fitted centerline, carved or not.
+        assert_eq!(t.shape.bands.len(), h.shape.bands.len(), "frame {i}");
+        errors.push(e);
+        hull_errors.push(eh);
+        prior = t.prior();
+    }
+    let worst = errors.iter().copied().fold(0.0, f64::max);
+    let worst_hull = hull_errors.iter().copied().fold(0.0, f64::max);
+    println!("worst rms tracked {worst:.3} mm, from the hull {worst_hull:.3} mm");
+    assert!(worst <= 0.08, "worst tracked rms {worst:.3} mm");
+    assert!(worst <= worst_hull + 0.02);
+}
+
+#[test]
+fn a_frame_the_previous_shape_cannot_explain_starts_from_its_hull() {
+    let (sim, pipeline) = common::simulated_chain();
+    let pipeline = following(pipeline);
+    // A prior from one pose, then a frame of a pose far from it (the sweep jumps).
+    let poses = sim.sweep(4);
+    let first = sim.render(0, &poses[0]).unwrap();
+    let t0 = pipeline.process(&images(&first)).unwrap();
+    let prior = t0.prior().expect("an ok frame leaves a prior");
+    let jumped = sim.render(1, &poses[1]).unwrap();
+    let t = pipeline
+        .process_after(&images(&jumped), Some(&prior))
+        .unwrap();
+    let e = rms(&jumped.truth, &sim, &t.shape);
+    println!("{:?} from {:?}, rms {e:.3} mm", t.shape.status, t.start);
+    assert_eq!(t.start, Start::Hull);
+    assert_eq!(t.shape.status, Status::Ok);
+    assert!(e < 0.08, "rms {e:.3} mm");
+    assert!(!t.occupancy.is_empty());
+    // The failed attempt's time is counted.
+    assert!(t.timings.fit > 0.0);
+}
+
+#[test]
+fn two_cameras_carve_every_frame() {
+    let config = SimConfig {
+        rig: SimRigConfig {
+            cameras: 2,
+            ..SimRigConfig::default()
+        },
+        ..SimConfig::default()
+    };
+    let sim = Simulator::new(config).unwrap();
+    let backgrounds: Vec<_> = sim
+        .backgrounds()
+        .iter()
+        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
+        .collect();
+    let pipeline = following(Pipeline::new(sim.rig(), &backgrounds, &sim.rig().volume).unwrap());
+    assert!(!pipeline.tracks());
+    let poses = sim.motion(2, 30.0);
+    let (a, b) = (
+        sim.render(0, &poses[0]).unwrap(),
+        sim.render(1, &poses[1]).unwrap(),
+    );
+    let t0 = pipeline.process(&images(&a)).unwrap();
+    // Whatever the first frame left, the second is carved: only the hull shows ghosts.
+    let prior = t0.prior();
+    let t1 = pipeline.process_after(&images(&b), prior.as_ref()).unwrap();
+    assert_eq!(t1.start, Start::Hull);
+    assert!(TrackRecord::from_tracked(1, &t1).ghost_mm.is_some());
+}
