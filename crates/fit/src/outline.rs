@@ -54,23 +54,68 @@ pub(crate) struct OutlinePoint {
     pub world: Point3<f64>,
 }
 
-/// The outline of `tube` in `camera`, sampled about every `spacing_mm` along the centerline
-/// (both sides) and over the caps. Points the camera cannot project (behind it, beyond the
-/// lens model's fold) or that fall outside the image are left out.
+/// What every camera's outline of one tube shares, computed once: the centerline at the
+/// outline samples (about every `spacing_mm`) and the centres of the spheres, every half
+/// radius, that stand for the tube in visibility tests.
+pub(crate) struct Sampled {
+    /// Tube length a side sample stands for, mm.
+    stride: f64,
+    /// Per side sample: parameter, basis, centre, unit tangent.
+    sides: Vec<(f64, Basis, Point3<f64>, Vector3<f64>)>,
+    /// Sphere centres along the centerline, world mm.
+    centres: Vec<Point3<f64>>,
+}
+
+impl Sampled {
+    pub(crate) fn new(tube: &Tube, spacing_mm: f64) -> Self {
+        let length = tube.length();
+        let n = (length / spacing_mm).ceil().max(4.0) as usize;
+        let sides = (0..=n)
+            .map(|i| {
+                let u = i as f64 / n as f64;
+                let basis = tube.centerline.basis(u);
+                let at = tube.centerline.eval_basis(&basis);
+                let t = Vector3::from(at.d1);
+                (u, basis, Point3::from(at.value), t / t.norm().max(1e-300))
+            })
+            .collect();
+        Sampled {
+            stride: length / n as f64,
+            sides,
+            centres: sphere_centres(tube, length),
+        }
+    }
+}
+
+/// Centres of spheres every half radius along the centerline, world mm.
+fn sphere_centres(tube: &Tube, length: f64) -> Vec<Point3<f64>> {
+    let n = (length / (tube.radius / 2.0)).ceil().max(4.0) as usize;
+    (0..=n).map(|i| tube.frame(i as f64 / n as f64).0).collect()
+}
+
+/// The outline of `tube` in `camera` at the samples of `sampled` (both sides) and over the
+/// caps. Points the camera cannot project (behind it, beyond the lens model's fold) or that
+/// fall outside the image are left out.
 pub(crate) fn outline(
     camera: &Camera,
     tube: &Tube,
+    sampled: &Sampled,
     spacing_mm: f64,
     clearance_px: f64,
 ) -> Vec<OutlinePoint> {
-    let length = tube.length();
-    let n = (length / spacing_mm).ceil().max(4.0) as usize;
-    let stride = length / n as f64;
-    let mut out = Vec::with_capacity(2 * n + 40);
-    for i in 0..=n {
-        let u = i as f64 / n as f64;
+    let mut out = Vec::with_capacity(2 * sampled.sides.len() + 40);
+    for (u, basis, c, t) in &sampled.sides {
         for side in [-1.0, 1.0] {
-            out.extend(side_point(camera, tube, u, side, stride));
+            out.extend(side_at(
+                camera,
+                tube,
+                *u,
+                *basis,
+                c,
+                t,
+                side,
+                sampled.stride,
+            ));
         }
     }
     for end in [0, 1] {
@@ -83,7 +128,7 @@ pub(crate) fn outline(
             }
         }
     }
-    let spheres = Spheres::new(camera, tube, clearance_px);
+    let spheres = Spheres::from_centres(camera, tube, &sampled.centres, clearance_px);
     let eye = camera.centre();
     out.retain(|p| !spheres.hide(&eye, p));
     out
@@ -98,27 +143,42 @@ pub(crate) fn again(
     stride: f64,
 ) -> Option<OutlinePoint> {
     match p.part {
-        Part::Side(_) => side_point(camera, tube, p.u, p.which, stride),
+        Part::Side(basis) => {
+            let at = tube.centerline.eval_basis(&basis);
+            let t = Vector3::from(at.d1);
+            let t = t / t.norm().max(1e-300);
+            side_at(
+                camera,
+                tube,
+                p.u,
+                basis,
+                &Point3::from(at.value),
+                &t,
+                p.which,
+                stride,
+            )
+        }
         Part::Cap(end) => CapView::new(camera, tube, end)?.point(camera, tube.radius, p.which),
     }
 }
 
-/// The side outline point at `u` on side `side` (±1).
-fn side_point(
+/// The side outline point on side `side` (±1) of the centerline point `c` (unit tangent `t`)
+/// at `u`, whose basis functions are `basis`.
+#[allow(clippy::too_many_arguments)]
+fn side_at(
     camera: &Camera,
     tube: &Tube,
     u: f64,
+    basis: Basis,
+    c: &Point3<f64>,
+    t: &Vector3<f64>,
     side: f64,
     stride: f64,
 ) -> Option<OutlinePoint> {
     let o = camera.centre();
     let r = tube.radius;
-    let basis = tube.centerline.basis(u);
-    let at = tube.centerline.eval_basis(&basis);
-    let c = Point3::from(at.value);
-    let t = Vector3::from(at.d1).normalize();
     let v = c - o;
-    let v_perp = v - t * v.dot(&t);
+    let v_perp = v - t * v.dot(t);
     let d = v_perp.norm();
     if d <= 1.5 * r {
         return None;
@@ -127,15 +187,15 @@ fn side_point(
     let e2 = t.cross(&e1);
     let a = -r / d;
     let b = (1.0 - a * a).sqrt();
-    let centre = camera.project(&c).ok()?.pixel.coords;
+    let centre = camera.project(c).ok()?.pixel.coords;
     let normal = e1 * a + e2 * (side * b);
     let sample = Sample {
         part: Part::Side(basis),
         u,
         which: side,
-        stride: Some((t, stride)),
+        stride: Some((*t, stride)),
     };
-    grazing(camera, centre, &c, &o, normal, r, sample)
+    grazing(camera, centre, c, &o, normal, r, sample)
 }
 
 /// A cap as one camera sees it: the sphere about an end, its grazing circle, and the half of
@@ -367,10 +427,20 @@ impl Grid {
 
 impl Spheres {
     pub(crate) fn new(camera: &Camera, tube: &Tube, clearance: f64) -> Self {
+        Self::from_centres(
+            camera,
+            tube,
+            &sphere_centres(tube, tube.length()),
+            clearance,
+        )
+    }
+
+    /// As [`Spheres::new`], with the centres along the centerline already computed.
+    fn from_centres(camera: &Camera, tube: &Tube, centres: &[Point3<f64>], clearance: f64) -> Self {
         let r = tube.radius;
-        let n = (tube.length() / (r / 2.0)).ceil().max(4.0) as usize;
-        let mut items: Vec<_> = (0..=n)
-            .filter_map(|i| sphere(camera, tube.frame(i as f64 / n as f64).0, r))
+        let mut items: Vec<_> = centres
+            .iter()
+            .filter_map(|c| sphere(camera, *c, r))
             .collect();
         let (w, h) = (
             camera.intrinsics.width as f64,
@@ -525,7 +595,7 @@ mod tests {
     fn outline_points_are_extreme_along_their_normals() {
         let cam = camera();
         let tube = tube();
-        let pts = outline(&cam, &tube, 2.0, 2.0);
+        let pts = outline(&cam, &tube, &Sampled::new(&tube, 2.0), 2.0, 2.0);
         assert!(pts.len() > 60, "{}", pts.len());
         for p in pts.iter().filter(|p| matches!(p.part, Part::Side(_))) {
             let (c, t) = tube.frame(p.u);
@@ -547,7 +617,7 @@ mod tests {
     fn gain_predicts_how_the_outline_moves() {
         let cam = camera();
         let tube = tube();
-        let pts = outline(&cam, &tube, 5.0, 2.0);
+        let pts = outline(&cam, &tube, &Sampled::new(&tube, 5.0), 5.0, 2.0);
         let delta = Vector3::new(0.03, -0.02, 0.025);
         let dr = 0.01;
         let mut moved = tube.clone();
@@ -559,7 +629,7 @@ mod tests {
             }
         }
         moved.centerline.displace(&d);
-        let after = outline(&cam, &moved, 5.0, 2.0);
+        let after = outline(&cam, &moved, &Sampled::new(&moved, 5.0), 5.0, 2.0);
         assert_eq!(pts.len(), after.len());
         for (a, b) in pts.iter().zip(&after) {
             let predicted = a.gain * (a.surface.dot(&delta) + dr);

@@ -13,7 +13,7 @@ use flexshape_camera::Camera;
 use nalgebra::{DMatrix, DVector, Vector2, Vector3};
 
 use crate::edges::EdgeImage;
-use crate::outline::{OutlinePoint, Part, again, outline};
+use crate::outline::{OutlinePoint, Part, Sampled, again, outline};
 use crate::settings::FitSettings;
 use crate::tube::Tube;
 
@@ -36,6 +36,7 @@ pub(crate) fn measure(
     tube: &Tube,
     settings: &FitSettings,
 ) -> Vec<Vec<Measured>> {
+    let sampled = Sampled::new(tube, settings.spacing_mm);
     cameras
         .iter()
         .zip(images)
@@ -43,6 +44,7 @@ pub(crate) fn measure(
             outline(
                 cam,
                 tube,
+                &sampled,
                 settings.spacing_mm,
                 settings.search_px.min(2.0) + 0.5,
             )
@@ -192,10 +194,14 @@ pub(crate) fn huber(r: f64, k: f64) -> f64 {
 }
 
 fn add_row(h: &mut DMatrix<f64>, g: &mut DVector<f64>, entries: &[(usize, f64)], r: f64, w: f64) {
+    let n = h.nrows();
+    let hs = h.as_mut_slice();
     for &(i, a) in entries {
-        g[i] += w * a * r;
+        let wa = w * a;
+        g[i] += wa * r;
+        // Column-major: (i, j) at j·n + i.
         for &(j, b) in entries {
-            h[(i, j)] += w * a * b;
+            hs[j * n + i] += wa * b;
         }
     }
 }
