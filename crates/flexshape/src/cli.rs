@@ -135,7 +135,7 @@ pub struct CalibrateArgs {
     #[arg(long)]
     pub board: String,
     /// Square size, mm.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub square: f64,
     /// A camera and its image folder, NAME=DIR; repeat for every camera (the first is the
     /// reference).
@@ -283,10 +283,10 @@ pub struct TrackArgs {
     pub follow: bool,
     /// Carving volume as XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in world mm (default: the rig's volume;
     /// a rig without one has the 256 mm cube centred on the origin).
-    #[arg(long, value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", value_parser = parse_box)]
+    #[arg(long, allow_hyphen_values = true, value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", value_parser = parse_box)]
     pub volume: Option<[f64; 6]>,
     /// Voxel edge in mm (default: the rig volume's).
-    #[arg(long, value_name = "MM")]
+    #[arg(long, allow_negative_numbers = true, value_name = "MM")]
     pub voxel: Option<f64>,
     /// Frames processed at once (default: the number of cores).
     #[arg(long, value_name = "N")]
@@ -328,19 +328,24 @@ pub struct SimArgs {
     #[arg(long, value_name = "WxH", default_value = "640x480", value_parser = parse_size)]
     pub size: (u32, u32),
     /// Focal length in pixels (default: 800 px at 640 px width, scaled with the width).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub focal: Option<f64>,
     /// Cast soft shadows on the backdrops.
     #[arg(long)]
     pub shadows: bool,
     /// Sensor noise, standard deviation in grey levels.
-    #[arg(long, value_name = "SIGMA", default_value_t = 2.0)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "SIGMA",
+        default_value_t = 2.0
+    )]
     pub noise: f64,
     /// Number of spherical occluders between cameras and volume.
     #[arg(long, default_value_t = 0)]
     pub occluders: usize,
     /// Catheter radius in mm.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
     pub radius: f64,
     /// Rays per pixel side when rendering (default 4: 16 rays per pixel). 2 renders about
     /// twice as fast with softer edges.
@@ -393,7 +398,7 @@ pub struct ChessboardsArgs {
     #[arg(long, default_value = "9x6")]
     pub board: String,
     /// Square size, mm.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 30.0)]
     pub square: f64,
     /// Views per camera facing it.
     #[arg(long, default_value_t = 10)]
@@ -464,7 +469,7 @@ pub struct DemoArgs {
     pub allow_remote: bool,
     /// Frame rate of the simulated cameras in the live demo (rendering three 640×480 views
     /// takes about 45 ms of two cores; faster rates than the machine renders just run flat out).
-    #[arg(long, default_value_t = 12.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 12.0)]
     pub fps: f64,
     /// The manipulator model that drives the catheter (default: `flexshape model template`).
     #[arg(long, value_name = "PARAMS.toml")]
@@ -492,7 +497,7 @@ pub struct BenchArgs {
     pub track_frames: usize,
     /// Frame rate of that motion, frames per second (at 120 the tip moves up to about 0.4 mm
     /// a frame).
-    #[arg(long, default_value_t = 120.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 120.0)]
     pub rate: f64,
     /// Print the figures as JSON instead of a table.
     #[arg(long)]

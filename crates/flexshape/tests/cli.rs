@@ -207,9 +207,114 @@ fn background_and_silhouettes_commands() {
     assert!(text(&o).contains("no PNG or JPEG images"), "{}", text(&o));
 }
 
+/// Every numeric option takes a negative number as its value (a volume centred on the origin
+/// has them); invalid ones are refused by the option's own check, which names it.
+#[test]
+fn negative_numbers_reach_the_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "track".into(),
+                out("none"),
+                "--volume".into(),
+                "-128,-128,-128,128,128,128".into(),
+            ],
+            "cannot open the recording",
+        ),
+        (
+            vec!["track".into(), out("none"), "--voxel".into(), "-1".into()],
+            "cannot open the recording",
+        ),
+        (
+            vec![
+                "simulate".into(),
+                "--out".into(),
+                out("a"),
+                "--noise".into(),
+                "-1".into(),
+            ],
+            "noise_sigma",
+        ),
+        (
+            vec![
+                "simulate".into(),
+                "--out".into(),
+                out("b"),
+                "--radius".into(),
+                "-3".into(),
+            ],
+            "radius",
+        ),
+        (
+            vec![
+                "simulate".into(),
+                "--out".into(),
+                out("c"),
+                "--focal".into(),
+                "-800".into(),
+            ],
+            "focal",
+        ),
+        (vec!["bench".into(), "--rate".into(), "-1".into()], "--rate"),
+        (
+            vec![
+                "demo".into(),
+                "--no-viewer".into(),
+                "--fps".into(),
+                "-2".into(),
+            ],
+            "--fps",
+        ),
+        (
+            vec![
+                "calibrate".into(),
+                "--board".into(),
+                "9x6".into(),
+                "--square".into(),
+                "-1".into(),
+                "--images".into(),
+                format!("cam0={}", out("")),
+                "--out".into(),
+                out("cal"),
+            ],
+            "square size -1",
+        ),
+        (
+            vec![
+                "simulate".into(),
+                "chessboards".into(),
+                "--out".into(),
+                out("boards"),
+                "--square".into(),
+                "-30".into(),
+            ],
+            "square",
+        ),
+    ];
+    for (args, expected) in cases {
+        let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = flexshape(&refs);
+        let t = text(&o);
+        assert!(!t.contains("unexpected argument"), "{args:?}: {t}");
+        assert!(!o.status.success(), "{args:?}: {t}");
+        assert!(t.contains(expected), "{args:?}: {t}");
+    }
+}
+
 #[test]
 fn bench_prints_per_stage_figures_as_json() {
-    let o = flexshape(&["bench", "--frames", "2", "--rounds", "1", "--json"]);
+    let o = flexshape(&[
+        "bench",
+        "--frames",
+        "2",
+        "--rounds",
+        "1",
+        "--track-frames",
+        "3",
+        "--json",
+    ]);
     assert!(o.status.success(), "{}", text(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let results = v["results"].as_array().unwrap();
@@ -225,6 +330,10 @@ fn bench_prints_per_stage_figures_as_json() {
         assert!(r["throughput_fps"].as_f64().unwrap() > 0.0);
     }
     assert!(v["png_decode_ms"].as_f64().unwrap() > 0.0);
+    // Tracking figures over the motion: the frames after the first follow the one before.
+    let tracking = v["tracking"].as_array().unwrap();
+    assert_eq!(tracking.len(), 2);
+    assert!(tracking[0]["followed"].as_f64().unwrap() > 0.0);
 }
 
 #[test]

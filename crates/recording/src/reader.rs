@@ -3,7 +3,7 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use flexshape_rig::{Rig, Volume};
+use flexshape_rig::{Rig, SkippedFile, Volume};
 use image::{GrayImage, RgbImage};
 
 use crate::command::Command;
@@ -17,6 +17,7 @@ pub struct RecordingReader {
     layout: Layout,
     rig: Rig,
     frames: Vec<u64>,
+    skipped: Vec<SkippedFile>,
 }
 
 impl RecordingReader {
@@ -32,10 +33,10 @@ impl RecordingReader {
                     .into(),
             });
         }
-        let rig = if layout.rig().is_file() {
-            Rig::load(&layout.rig())?
+        let (rig, skipped) = if layout.rig().is_file() {
+            (Rig::load(&layout.rig())?, Vec::new())
         } else {
-            Rig::from_calibration_dir(&layout.calibration_dir(), Volume::default())?
+            Rig::from_calibration_dir_skipping(&layout.calibration_dir(), Volume::default())?
         };
         let mut frames: Option<(String, BTreeSet<u64>)> = None;
         for cam in &rig.cameras {
@@ -84,7 +85,14 @@ impl RecordingReader {
             layout,
             rig,
             frames,
+            skipped,
         })
+    }
+
+    /// Files in `calibration/` that were not camera files and were skipped (only when the rig
+    /// came from that folder), for the caller to report.
+    pub fn skipped_files(&self) -> &[SkippedFile] {
+        &self.skipped
     }
 
     /// The recording's rig.

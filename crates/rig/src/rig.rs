@@ -24,6 +24,30 @@ use crate::camera_file;
 use crate::error::RigError;
 use crate::volume::Volume;
 
+/// A file in a calibration folder that is not a camera file, and why.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SkippedFile {
+    /// The file.
+    pub file: PathBuf,
+    /// Why it is not a camera file.
+    pub reason: String,
+}
+
+impl std::fmt::Display for SkippedFile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.file.display(), self.reason)
+    }
+}
+
+/// `None` when `file` is (meant as) a camera file: it names `camera_matrix`. Otherwise why
+/// not. Unreadable files are left to the camera reader's error.
+fn camera_file_or_why_not(file: &Path) -> Option<String> {
+    let text = std::fs::read(file).ok()?;
+    let text = String::from_utf8_lossy(&text);
+    (!text.contains("camera_matrix"))
+        .then(|| "not a camera file (no camera_matrix); skipped".to_string())
+}
+
 /// One camera of a rig.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RigCamera {
@@ -185,8 +209,20 @@ impl Rig {
     }
 
     /// Builds a rig from a folder of camera files (`*.yml`, `*.yaml`, `*.json`), one camera per
-    /// file named after the file stem, sorted by name.
+    /// file named after the file stem, sorted by name. Files of those extensions that are not
+    /// camera files (no `camera_matrix`: another tool's rig, notes) are skipped; see
+    /// [`Rig::from_calibration_dir_skipping`] to learn which.
     pub fn from_calibration_dir(dir: &Path, volume: Volume) -> Result<Rig, RigError> {
+        Self::from_calibration_dir_skipping(dir, volume).map(|(rig, _)| rig)
+    }
+
+    /// As [`Rig::from_calibration_dir`], and the files skipped as not being camera files, each
+    /// with the reason. A file that mentions `camera_matrix` is a camera file: its problems
+    /// are errors. Refused when no camera file is found.
+    pub fn from_calibration_dir_skipping(
+        dir: &Path,
+        volume: Volume,
+    ) -> Result<(Rig, Vec<SkippedFile>), RigError> {
         let entries = std::fs::read_dir(dir).map_err(|source| RigError::Read {
             file: dir.to_path_buf(),
             source,
@@ -194,17 +230,45 @@ impl Rig {
         let mut files: Vec<PathBuf> = entries
             .filter_map(|e| e.ok().map(|e| e.path()))
             .filter(|p| {
-                p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
-                    matches!(e.to_ascii_lowercase().as_str(), "yml" | "yaml" | "json")
-                })
+                p.is_file()
+                    && p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                        matches!(e.to_ascii_lowercase().as_str(), "yml" | "yaml" | "json")
+                    })
             })
             .collect();
         files.sort();
+        let mut skipped = Vec::new();
+        files.retain(|f| match camera_file_or_why_not(f) {
+            None => true,
+            Some(reason) => {
+                skipped.push(SkippedFile {
+                    file: f.clone(),
+                    reason,
+                });
+                false
+            }
+        });
         if files.is_empty() {
+            let also = if skipped.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " ({} other file{} skipped: {})",
+                    skipped.len(),
+                    if skipped.len() == 1 { "" } else { "s" },
+                    skipped
+                        .iter()
+                        .map(|s| s.to_string())
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                )
+            };
             return Err(RigError::field(
                 dir,
                 "cameras",
-                "no camera files (*.yml, *.yaml, *.json) in this folder",
+                format!(
+                    "no camera files (*.yml, *.yaml, *.json with a camera_matrix) in this folder{also}"
+                ),
             ));
         }
         let toml = files
@@ -217,7 +281,7 @@ impl Rig {
             .collect::<String>();
         let mut rig = Self::parse(&toml, &dir.join("(calibration folder)"))?;
         rig.volume = volume;
-        Ok(rig)
+        Ok((rig, skipped))
     }
 
     /// The rig as TOML text.

@@ -282,6 +282,51 @@ fn rig_round_trips_with_its_camera_files() {
     assert_eq!(names, ["cam0", "cam1", "cam2"]);
 }
 
+/// A calibration folder holding another tool's files beside the camera files: the cameras
+/// load, each other file is skipped with its name; a broken camera file is still an error,
+/// and a folder with no camera file is refused.
+#[test]
+fn a_calibration_folder_skips_files_that_are_not_cameras() {
+    let dir = tempfile::tempdir().unwrap();
+    write_rig(dir.path());
+    let cal = dir.path().join("calibration");
+    std::fs::write(
+        cal.join("rig.json"),
+        r#"{"cameras": ["cam0", "cam1"], "tool": "other"}"#,
+    )
+    .unwrap();
+    std::fs::write(cal.join("notes.yaml"), "operator: me\nlens: 8 mm\n").unwrap();
+    std::fs::write(cal.join("README.md"), "calibrated on Monday").unwrap();
+    let (rig, skipped) = Rig::from_calibration_dir_skipping(&cal, Volume::default()).unwrap();
+    let names: Vec<_> = rig.cameras.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["cam0", "cam1", "cam2"]);
+    let files: Vec<_> = skipped
+        .iter()
+        .map(|s| s.file.file_name().unwrap().to_str().unwrap().to_string())
+        .collect();
+    assert_eq!(files, ["notes.yaml", "rig.json"]);
+    assert!(skipped[0].to_string().contains("not a camera file"));
+    // A camera file with a problem is an error, not a skip.
+    let cam1 = cal.join("cam1.yml");
+    let text = std::fs::read_to_string(&cam1).unwrap();
+    std::fs::write(&cam1, text.replace("image_width", "image_wdth")).unwrap();
+    match Rig::from_calibration_dir(&cal, Volume::default()) {
+        Err(RigError::Field { field, .. }) => assert_eq!(field, "image_width"),
+        other => panic!("{other:?}"),
+    }
+    // Nothing but other files: refused, naming what was skipped.
+    for f in ["cam0.yml", "cam1.yml", "cam2.json"] {
+        std::fs::remove_file(cal.join(f)).unwrap();
+    }
+    let e = Rig::from_calibration_dir(&cal, Volume::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("no camera files") && e.contains("rig.json"),
+        "{e}"
+    );
+}
+
 fn rig_error(edit: impl Fn(&str) -> String) -> (PathBuf, String, String) {
     let dir = tempfile::tempdir().unwrap();
     let path = write_rig(dir.path());

@@ -102,11 +102,19 @@ pub(crate) fn catheter_for(default: &Catheter, params: &ManipulatorParams) -> Ca
 pub(crate) fn load_rig(path: &std::path::Path) -> anyhow::Result<flexshape_rig::Rig> {
     use anyhow::Context;
     if path.is_dir() {
-        flexshape_rig::Rig::from_calibration_dir(path, flexshape_rig::Volume::default())
+        let (rig, skipped) = flexshape_rig::Rig::from_calibration_dir_skipping(
+            path,
+            flexshape_rig::Volume::default(),
+        )
+        .with_context(|| format!("{} is not a valid rig", path.display()))?;
+        for s in &skipped {
+            eprintln!("warning: {s}");
+        }
+        Ok(rig)
     } else {
         flexshape_rig::Rig::load(path)
+            .with_context(|| format!("{} is not a valid rig", path.display()))
     }
-    .with_context(|| format!("{} is not a valid rig", path.display()))
 }
 
 /// The pipeline with its centerline method set from `--method`, if given.

@@ -15,6 +15,9 @@ use crate::cli::SilhouettesArgs;
 pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
     let rec = RecordingReader::open(&args.recording)
         .with_context(|| format!("cannot open the recording {}", args.recording.display()))?;
+    for s in rec.skipped_files() {
+        eprintln!("warning: {s}");
+    }
     if !rec.frames().contains(&args.frame) {
         bail!(
             "{}: no frame {:06} (frames {} to {})",

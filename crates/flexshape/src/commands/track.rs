@@ -152,6 +152,9 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
     if let Some(dir) = &args.recording {
         let rec = RecordingReader::open(dir)
             .with_context(|| format!("cannot open the recording {}", dir.display()))?;
+        for s in rec.skipped_files() {
+            eprintln!("warning: {s}");
+        }
         let mut rig = rec.rig().clone();
         let mut rig_name = rec.layout().rig().display().to_string();
         if let Some(path) = &args.rig {
