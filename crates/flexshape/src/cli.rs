@@ -245,7 +245,8 @@ pub struct TrackArgs {
     #[arg(required_unless_present_any = ["images", "video", "camera"])]
     pub recording: Option<PathBuf>,
     /// Plain image folder of one camera, NAME=DIR (repeat per camera): images with the same
-    /// file name in every folder make one frame, in natural order of the names.
+    /// file name in every folder make one frame, in natural order of the names. Or one image
+    /// file per camera, NAME=FILE: a single frame (views named differently).
     #[arg(long, value_name = "NAME=DIR", value_parser = parse_named_path, conflicts_with_all = ["recording", "video", "camera"])]
     pub images: Vec<(String, PathBuf)>,
     /// Video file of one camera, NAME=FILE (repeat per camera), decoded by ffmpeg; the n-th

@@ -132,6 +132,17 @@ fn demo_runs_headless_and_reports_accuracy_and_speed() {
     assert!(rec.join("truth/000002.json").is_file());
 }
 
+/// An error whose message already names its cause says it once.
+#[test]
+fn an_error_names_its_cause_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("nowhere.toml");
+    let o = flexshape(&["rig", "check", missing.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let t = text(&o);
+    assert_eq!(t.matches("No such file").count(), 1, "{t}");
+}
+
 #[test]
 fn bad_arguments_are_clear() {
     let o = flexshape(&["simulate", "--out", "/tmp/never", "--size", "640by480"]);

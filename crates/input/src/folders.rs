@@ -1,6 +1,7 @@
 //! Plain image folders, one per camera: images with the same file name (without extension)
 //! in every folder were taken at the same instant and make one frame; frames follow the names
-//! in natural order (`img2` before `img10`).
+//! in natural order (`img2` before `img10`). Or one image file per camera: a single frame
+//! (static multi-view sets name each view's image differently).
 
 use std::cmp::Ordering;
 use std::collections::{BTreeMap, BTreeSet};
@@ -19,12 +20,35 @@ pub struct FolderSource {
 const EXTENSIONS: [&str; 3] = ["png", "jpg", "jpeg"];
 
 impl FolderSource {
-    /// Pairs the images of `folders` (camera name, folder), in the rig's camera order.
+    /// Pairs the images of `folders` (camera name, folder), in the rig's camera order; when
+    /// every path is an image file instead, they make one frame.
     pub fn open(folders: &[(String, PathBuf)]) -> Result<Self, InputError> {
         if folders.is_empty() {
             return Err(InputError::Cameras(
                 "no image folders given: give one per camera".into(),
             ));
+        }
+        let files = folders.iter().filter(|(_, p)| p.is_file()).count();
+        if files == folders.len() {
+            return Self::single(folders);
+        }
+        if files > 0 {
+            return Err(InputError::Cameras(format!(
+                "give every camera an image folder, or every camera one image file; {} are files ({})",
+                files,
+                folders
+                    .iter()
+                    .filter(|(_, p)| p.is_file())
+                    .map(|(c, p)| format!("{c}={}", p.display()))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+        if let Some((camera, missing)) = folders.iter().find(|(_, p)| !p.exists()) {
+            return Err(InputError::Cameras(format!(
+                "camera `{camera}`: {} does not exist; give an image folder (or one image file per camera)",
+                missing.display()
+            )));
         }
         let mut per_camera = Vec::new();
         for (camera, dir) in folders {
@@ -70,6 +94,29 @@ impl FolderSource {
         })
     }
 
+    /// One frame of one image file per camera, named after the first camera's file.
+    fn single(files: &[(String, PathBuf)]) -> Result<Self, InputError> {
+        for (camera, f) in files {
+            if !is_image(f) {
+                return Err(InputError::Cameras(format!(
+                    "camera `{camera}`: {} is not a PNG or JPEG image",
+                    f.display()
+                )));
+            }
+        }
+        let name = files[0]
+            .1
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("frame")
+            .to_string();
+        Ok(FolderSource {
+            frames: vec![(name, files.iter().map(|(_, f)| f.clone()).collect())],
+            unpaired: Vec::new(),
+            next: 0,
+        })
+    }
+
     /// Image names found in some folders but not all (left out).
     pub fn unpaired(&self) -> &[String] {
         &self.unpaired
@@ -93,17 +140,20 @@ impl FrameSource for FolderSource {
     }
 }
 
+/// Whether the path names a PNG or JPEG file (by extension).
+fn is_image(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| EXTENSIONS.iter().any(|x| e.eq_ignore_ascii_case(x)))
+}
+
 /// The images of a folder by file stem.
 fn images_in(dir: &Path) -> Result<BTreeMap<String, PathBuf>, InputError> {
     let entries = std::fs::read_dir(dir).map_err(|e| InputError::io(dir, e))?;
     let mut images = BTreeMap::new();
     for entry in entries {
         let path = entry.map_err(|e| InputError::io(dir, e))?.path();
-        let is_image = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| EXTENSIONS.iter().any(|x| e.eq_ignore_ascii_case(x)));
-        if let (true, Some(stem)) = (is_image, path.file_stem().and_then(|s| s.to_str())) {
+        if let (true, Some(stem)) = (is_image(&path), path.file_stem().and_then(|s| s.to_str())) {
             images.insert(stem.to_string(), path.clone());
         }
     }
@@ -210,5 +260,42 @@ mod tests {
         let folders = [("c".to_string(), dir.path().join("empty"))];
         let err = FolderSource::open(&folders).err().unwrap();
         assert!(err.to_string().contains("no PNG or JPEG"), "{err}");
+    }
+
+    /// One image file per camera (view sets name each view differently): one frame. Files
+    /// mixed with folders, a file that is not an image and a path that does not exist are
+    /// refused, each once and by name.
+    #[test]
+    fn one_image_file_per_camera_is_one_frame() {
+        let dir = tempfile::tempdir().unwrap();
+        let pixel = image::RgbImage::from_pixel(4, 3, image::Rgb([1, 2, 3]));
+        for n in ["templeSR0001", "templeSR0002"] {
+            pixel.save(dir.path().join(format!("{n}.png"))).unwrap();
+        }
+        let files = [("a", "templeSR0001.png"), ("b", "templeSR0002.png")]
+            .map(|(c, f)| (c.to_string(), dir.path().join(f)));
+        let mut source = FolderSource::open(&files).unwrap();
+        assert_eq!(source.len_hint(), Some(1));
+        let set = source.next_frame().unwrap().unwrap();
+        assert_eq!(set.name.as_deref(), Some("templeSR0001"));
+        assert_eq!(set.images.len(), 2);
+        assert!(source.next_frame().is_none());
+        std::fs::create_dir(dir.path().join("folder")).unwrap();
+        let mixed = [
+            ("a".to_string(), dir.path().join("templeSR0001.png")),
+            ("b".to_string(), dir.path().join("folder")),
+        ];
+        let err = FolderSource::open(&mixed).err().unwrap().to_string();
+        assert!(
+            err.contains("every camera one image file") && err.contains("a="),
+            "{err}"
+        );
+        std::fs::write(dir.path().join("notes.txt"), "x").unwrap();
+        let text = [("a".to_string(), dir.path().join("notes.txt"))];
+        let err = FolderSource::open(&text).err().unwrap().to_string();
+        assert!(err.contains("not a PNG or JPEG"), "{err}");
+        let missing = [("a".to_string(), dir.path().join("nowhere"))];
+        let err = FolderSource::open(&missing).err().unwrap().to_string();
+        assert!(err.contains("does not exist"), "{err}");
     }
 }
