@@ -142,6 +142,10 @@ const SETTLED_MM: f64 = 0.02;
 /// Samples around a free end needed in a camera before its end is checked apart.
 const END_SAMPLES: usize = 4;
 
+/// Gauss–Newton steps on one measurement's boundaries at most: where a moved tip left most
+/// of its cap unmeasured, fresh boundaries serve better than more steps on the few found.
+const INNER_STEPS: usize = 4;
+
 /// Boundary measurements per fit at most (each followed by Gauss–Newton steps on them).
 const MEASUREMENTS: usize = 4;
 
@@ -246,8 +250,9 @@ impl TubeFitter {
                     settled = Some(measured);
                     break 'outer;
                 }
-                if across < CONVERGED_MM {
-                    // Converged on these boundaries: measure them again.
+                if across < CONVERGED_MM || inner + 1 >= INNER_STEPS {
+                    // Converged on these boundaries (or still creeping, as Huber weights make
+                    // it when some boundaries were found far off): measure them again.
                     break;
                 }
                 current = against(&self.cameras, &tube, &measured);
@@ -411,6 +416,7 @@ impl TubeFitter {
         ) else {
             return Ok((previous.clone(), None));
         };
+        let from = start.frame(1.0).0;
         let fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
         // What the hull would have said before the fit: whether the tip runs out of the
         // volume; bands come from the images alone.
@@ -419,7 +425,19 @@ impl TubeFitter {
         } else {
             Status::Ok
         });
-        let record = self.conclude(estimator, volume, views, &fit, &base);
+        let mut record = self.conclude(estimator, volume, views, &fit, &base);
+        // The boundaries are searched a few pixels from the prediction: a tip that moved
+        // farther than that between frames was not followed but pulled, and may have settled
+        // short of where it is.
+        let moved = (fit.tube.frame(1.0).0 - from).norm();
+        if moved > s.track_max_move_mm {
+            record.status = Status::Inconsistent {
+                reason: format!(
+                    "the tip moved {moved:.1} mm from the previous frame's (at most {:.1} for a followed fit)",
+                    s.track_max_move_mm
+                ),
+            };
+        }
         Ok((record, Some(fit)))
     }
 

@@ -74,6 +74,9 @@ pub struct FitSettings {
     /// Tracking: how far around the previous frame's tube the silhouettes are classified,
     /// pixels (more than the tube's image moves between frames).
     pub track_margin_px: f64,
+    /// Tracking: a followed fit whose tip moved farther than this from the previous frame's is
+    /// not trusted (the frame is carved again), mm.
+    pub track_max_move_mm: f64,
 }
 
 impl Default for FitSettings {
@@ -100,6 +103,7 @@ impl Default for FitSettings {
             max_sigma_mm: 0.1,
             track: false,
             track_margin_px: 24.0,
+            track_max_move_mm: 3.0,
         }
     }
 }
@@ -147,6 +151,7 @@ impl FitSettings {
             ("max_ghost_mm", self.max_ghost_mm),
             ("max_sigma_mm", self.max_sigma_mm),
             ("track_margin_px", self.track_margin_px),
+            ("track_max_move_mm", self.track_max_move_mm),
         ];
         for (field, v) in non_negative {
             if !(v.is_finite() && v >= 0.0) {

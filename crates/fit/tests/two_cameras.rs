@@ -67,22 +67,23 @@ fn two_cameras_never_report_a_ghost_as_ok() {
             ghosts_caught += 1;
         }
     }
-    // Measured: 4 of 20 ok (rms ≤ 0.033 mm, lengths within 0.2 mm); the 12 frames whose hull
+    // Measured: 5 of 20 ok (rms ≤ 0.081 mm, lengths within 0.2 mm); the 12 frames whose hull
     // is a ghost (rms > 1 mm) are all `ambiguous` or `inconsistent`, and so are the frames the
     // two views leave loose (1-σ across the tube above 0.1 mm: one was 0.35 mm off). The test
     // means something only if both kinds occur.
     println!("{ok} ok, {ghosts_caught} ghosts caught");
     assert!(ok >= 3, "only {ok} frames ok");
     assert!(ghosts_caught >= 4, "only {ghosts_caught} ghost frames");
-    // Each of the fit's own checks is among the reasons: outlines the tube does not explain,
-    // a free end where the image shows none, and a shape the two views leave loose. (The
-    // ghost check's reason, hull left away from the fitted tube, comes after those; it is
-    // tested apart in `selfcheck`.)
-    for kind in [
-        "from the image's boundary",
-        "free end",
-        "pin the centerline",
-    ] {
+    // The fit's own checks are among the reasons: outlines the tube does not explain, a shape
+    // the two views leave loose, and hull left away from the fitted tube or a free end where
+    // the image shows none (whichever comes first; each is also tested apart in `selfcheck`).
+    assert!(
+        reasons
+            .iter()
+            .any(|r| r.contains("away from the fitted shape") || r.contains("free end")),
+        "{reasons:#?}"
+    );
+    for kind in ["from the image's boundary", "pin the centerline"] {
         assert!(
             reasons.iter().any(|r| r.contains(kind)),
             "no frame flagged for '{kind}': {reasons:#?}"

@@ -496,8 +496,8 @@ pub struct BenchArgs {
     /// Frames of the smooth motion the tracking figures are measured on (filmed at `--rate`).
     #[arg(long, default_value_t = 60)]
     pub track_frames: usize,
-    /// Frame rate of that motion, frames per second (at 120 the tip moves up to about 0.4 mm
-    /// a frame).
+    /// Frame rate of that motion, frames per second (at 120 the tip moves up to about 1 mm a
+    /// frame, at 30 up to 5).
     #[arg(long, allow_negative_numbers = true, default_value_t = 120.0)]
     pub rate: f64,
     /// Print the figures as JSON instead of a table.

@@ -45,7 +45,7 @@ pub fn sweep(catheter: &Catheter, seed: u64, frames: usize) -> Vec<CatheterPose>
 /// `frames` poses of a smooth motion filmed at `rate_hz` frames per second, as a tracker sees
 /// it: the bend angle swings between 5° and 150° and back every 6 s, the bending plane turns
 /// once every 9 s, the insertion runs 0–30 mm and back every 7 s (at 30 Hz the tip moves up
-/// to about 1.5 mm between frames), compression following the bend. The seed sets the
+/// to about 5 mm between frames, at 120 Hz about 1 mm), compression following the bend. The seed sets the
 /// phases.
 pub fn motion(catheter: &Catheter, seed: u64, frames: usize, rate_hz: f64) -> Vec<CatheterPose> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x00F0_1100);

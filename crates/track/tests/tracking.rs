@@ -43,9 +43,9 @@ fn images(frame: &flexshape_sim::SimFrame) -> Vec<&RgbImage> {
     frame.views.iter().map(|v| &v.image).collect()
 }
 
-/// At 120 frames per second (the tip moves up to 0.4 mm a frame) every frame follows the one
-/// before. (At 30 the followed fit's tip lags the real one; the free-end check catches it and
-/// those frames are carved again.)
+/// At 120 frames per second (the tip moves up to about 1 mm a frame) every frame follows the
+/// one before. (At 30 the tip moves up to 4–5 mm a frame on this motion; where it moved more
+/// than `track_max_move_mm` the frame is carved again.)
 #[test]
 fn a_smooth_motion_is_tracked_without_carving_and_as_accurately() {
     let (sim, pipeline) = common::simulated_chain();
