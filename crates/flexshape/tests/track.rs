@@ -300,3 +300,63 @@ fn videos_without_ffmpeg_name_the_package() {
         "{e}"
     );
 }
+
+/// `track --follow` on a smooth simulated motion: after the first frame every frame starts
+/// from the one before (nothing carved) and is as right; without `--follow` every frame is
+/// carved.
+#[test]
+fn follow_starts_each_frame_from_the_previous_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let o = flexshape(&[
+        "simulate",
+        "--out",
+        rec.to_str().unwrap(),
+        "--frames",
+        "4",
+        "--motion",
+        "120",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reader = RecordingReader::open(&rec).unwrap();
+    for follow in [true, false] {
+        let out = dir.path().join(format!("follow-{follow}.jsonl"));
+        let mut args = vec![
+            "track",
+            rec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--threads",
+            "1",
+        ];
+        if follow {
+            args.push("--follow");
+        }
+        let o = flexshape(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let records: Vec<Value> = std::fs::read_to_string(&out)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .filter(|v: &Value| v.get("frame").is_some())
+            .collect();
+        assert_eq!(records.len(), 4);
+        for (i, r) in records.iter().enumerate() {
+            assert_eq!(r["status"], "ok", "{r}");
+            let expected = if follow && i > 0 { "previous" } else { "hull" };
+            assert_eq!(r["start"], expected, "frame {i}");
+            assert_eq!(r["voxels"].as_u64().unwrap() == 0, expected == "previous");
+            assert_eq!(r.get("ghost_mm").is_none(), expected == "previous");
+            // As right as the truth says.
+            let truth = reader.read_truth(i as u64).unwrap().unwrap();
+            let tip: Vec<f64> = r["tip"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect();
+            let d = (Point3::new(tip[0], tip[1], tip[2]) - Point3::from(truth.tip)).norm();
+            assert!(d < 0.3, "frame {i}: tip {d:.3} mm off");
+        }
+    }
+}

@@ -36,9 +36,18 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             )
         }
     };
+    if let Some(hz) = args.motion {
+        anyhow::ensure!(
+            hz.is_finite() && hz > 0.0,
+            "--motion must be a positive number of frames per second"
+        );
+    }
     let sim = Simulator::new(config).context("cannot set up the simulated rig")?;
     let (poses, commands) = match &experiment {
-        None => (sim.sweep(args.frames), Vec::new()),
+        None => match args.motion {
+            Some(hz) => (sim.motion(args.frames, hz), Vec::new()),
+            None => (sim.sweep(args.frames), Vec::new()),
+        },
         Some(e) => {
             let catheter = &sim.config().catheter;
             e.iter()
