@@ -17,7 +17,7 @@ use flexshape_silhouette::BitMask;
 use image::RgbImage;
 use nalgebra::{Point3, Vector2, Vector3};
 
-use crate::outline::Spheres;
+use crate::outline::{Spheres, sphere_centres};
 use crate::tube::Tube;
 
 /// Spacing of the colour samples along the tube, mm.
@@ -51,9 +51,15 @@ pub(crate) fn locate(
 ) -> Vec<CurveBand> {
     let table = ArcTable::new(tube);
     let n = (table.length() / STEP).floor() as usize;
+    // The centerline every STEP and the visibility spheres, shared by the cameras.
+    let frames: Vec<(Point3<f64>, Vector3<f64>)> = (0..=n)
+        .map(|k| tube.frame(table.u_of(k as f64 * STEP)))
+        .collect();
+    let centres = sphere_centres(tube, tube.length());
     let mut seen: Vec<Seen> = Vec::new();
     for ((camera, image), mask) in cameras.iter().zip(images).zip(markers) {
-        let samples = sample(camera, image, mask, tube, &table, n);
+        let spheres = Spheres::from_centres(camera, tube, &centres, 0.0);
+        let samples = sample(camera, image, mask, tube.radius, &frames, &spheres);
         seen.extend(runs(&samples, tube.capped[1]));
     }
     merge(seen, table.length())
@@ -65,22 +71,20 @@ pub(crate) fn locate(
         .collect()
 }
 
-/// Colour samples of one camera every `STEP` mm from the tube's start (`None` where it does not
-/// see the tube's side there).
+/// Colour samples of one camera at the centerline points `frames` (centre and unit tangent,
+/// every `STEP` mm from the tube's start; `None` where it does not see the tube's side there).
 fn sample(
     camera: &Camera,
     image: &RgbImage,
     mask: &BitMask,
-    tube: &Tube,
-    table: &ArcTable,
-    n: usize,
+    r: f64,
+    frames: &[(Point3<f64>, Vector3<f64>)],
+    spheres: &Spheres,
 ) -> Vec<Option<Sample>> {
     let eye = camera.centre();
-    let spheres = Spheres::new(camera, tube, 0.0);
-    let r = tube.radius;
-    (0..=n)
-        .map(|k| {
-            let (c, t) = tube.frame(table.u_of(k as f64 * STEP));
+    frames
+        .iter()
+        .map(|&(c, t)| {
             let to = c - eye;
             let d = to / to.norm();
             let sin = d.cross(&t).norm();

@@ -103,21 +103,18 @@ pub(crate) struct Residuals {
 }
 
 /// The tube drawn into masks of the camera's image size: a disc per sphere of the swept
-/// surface, every half radius along the centerline, and separately the straight continuation
+/// surface about `centres` (every half radius along the centerline, [`crate::outline::sphere_centres`]), and separately the straight continuation
 /// of each open end until it leaves the image (the tube goes on beyond the volume, how far is
 /// not known: the check neither asks for nor objects to silhouette pixels there).
-pub(crate) fn render(camera: &Camera, tube: &Tube) -> (BitMask, BitMask) {
+pub(crate) fn render(camera: &Camera, tube: &Tube, centres: &[Point3<f64>]) -> (BitMask, BitMask) {
     let (w, h) = (
         camera.intrinsics.width as usize,
         camera.intrinsics.height as usize,
     );
     let mut mask = BitMask::new(w, h);
     let step = (tube.radius / 2.0).max(0.05);
-    let length = tube.length();
-    let n = (length / step).ceil() as usize;
-    for i in 0..=n {
-        let (c, _) = tube.frame(i as f64 / n as f64);
-        disc(&mut mask, camera, &c, tube.radius);
+    for c in centres {
+        disc(&mut mask, camera, c, tube.radius);
     }
     let mut beyond = BitMask::new(w, h);
     for end in [0, 1] {

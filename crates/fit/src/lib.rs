@@ -269,6 +269,7 @@ impl TubeFitter {
                 .unwrap_or_else(|| DMatrix::zeros(tube.parameters(), tube.parameters()))
                 * sigma_px.powi(2);
         let length = tube.length();
+        let centres = outline::sphere_centres(&tube, length);
         let cameras = self
             .cameras
             .iter()
@@ -278,7 +279,7 @@ impl TubeFitter {
             .map(|(((cam, name), view), m)| {
                 let res = check::residual_stats(m);
                 let ends = check::end_stats(m, &tube, length);
-                let rendered = check::render(cam, &tube);
+                let rendered = check::render(cam, &tube, &centres);
                 let (iou, unexplained_px) =
                     check::overlap(&rendered, view.silhouette, s.explain_px);
                 CameraCheck {
@@ -309,7 +310,10 @@ impl TubeFitter {
     /// `tube` drawn into camera `camera`'s image as the self-check sees it: the tube, and the
     /// straight continuations of its open ends, or `None` for a camera index outside the rig.
     pub fn render(&self, camera: usize, tube: &Tube) -> Option<(BitMask, BitMask)> {
-        self.cameras.get(camera).map(|c| check::render(c, tube))
+        let centres = outline::sphere_centres(tube, tube.length());
+        self.cameras
+            .get(camera)
+            .map(|c| check::render(c, tube, &centres))
     }
 
     /// Every camera's predicted outline of `tube` and the boundary measured for each point:

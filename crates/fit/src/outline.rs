@@ -88,7 +88,7 @@ impl Sampled {
 }
 
 /// Centres of spheres every half radius along the centerline, world mm.
-fn sphere_centres(tube: &Tube, length: f64) -> Vec<Point3<f64>> {
+pub(crate) fn sphere_centres(tube: &Tube, length: f64) -> Vec<Point3<f64>> {
     let n = (length / (tube.radius / 2.0)).ceil().max(4.0) as usize;
     (0..=n).map(|i| tube.frame(i as f64 / n as f64).0).collect()
 }
@@ -426,17 +426,14 @@ impl Grid {
 }
 
 impl Spheres {
-    pub(crate) fn new(camera: &Camera, tube: &Tube, clearance: f64) -> Self {
-        Self::from_centres(
-            camera,
-            tube,
-            &sphere_centres(tube, tube.length()),
-            clearance,
-        )
-    }
-
-    /// As [`Spheres::new`], with the centres along the centerline already computed.
-    fn from_centres(camera: &Camera, tube: &Tube, centres: &[Point3<f64>], clearance: f64) -> Self {
+    /// The spheres about `centres` (along the centerline, see [`sphere_centres`]) and the
+    /// continuations of the tube's open ends in `camera`'s image; `clearance` as in `hide`.
+    pub(crate) fn from_centres(
+        camera: &Camera,
+        tube: &Tube,
+        centres: &[Point3<f64>],
+        clearance: f64,
+    ) -> Self {
         let r = tube.radius;
         let mut items: Vec<_> = centres
             .iter()
