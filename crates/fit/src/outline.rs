@@ -104,15 +104,24 @@ pub(crate) fn outline(
     clearance_px: f64,
 ) -> Vec<OutlinePoint> {
     let mut out = Vec::with_capacity(2 * sampled.sides.len() + 40);
+    let eye = camera.centre();
     for (u, basis, c, t) in &sampled.sides {
+        let Ok(centre) = camera.project(c) else {
+            continue;
+        };
+        let at = Centre {
+            u: *u,
+            basis: *basis,
+            point: c,
+            pixel: centre.pixel.coords,
+            tangent: t,
+        };
         for side in [-1.0, 1.0] {
             out.extend(side_at(
                 camera,
-                tube,
-                *u,
-                *basis,
-                c,
-                t,
+                &eye,
+                tube.radius,
+                &at,
                 side,
                 sampled.stride,
             ));
@@ -147,13 +156,19 @@ pub(crate) fn again(
             let at = tube.centerline.eval_basis(&basis);
             let t = Vector3::from(at.d1);
             let t = t / t.norm().max(1e-300);
+            let c = Point3::from(at.value);
+            let centre = Centre {
+                u: p.u,
+                basis,
+                point: &c,
+                pixel: camera.project(&c).ok()?.pixel.coords,
+                tangent: &t,
+            };
             side_at(
                 camera,
-                tube,
-                p.u,
-                basis,
-                &Point3::from(at.value),
-                &t,
+                &camera.centre(),
+                tube.radius,
+                &centre,
                 p.which,
                 stride,
             )
@@ -162,22 +177,29 @@ pub(crate) fn again(
     }
 }
 
-/// The side outline point on side `side` (±1) of the centerline point `c` (unit tangent `t`)
-/// at `u`, whose basis functions are `basis`.
-#[allow(clippy::too_many_arguments)]
-fn side_at(
-    camera: &Camera,
-    tube: &Tube,
+/// A centerline point an outline sample stands on.
+struct Centre<'a> {
     u: f64,
     basis: Basis,
-    c: &Point3<f64>,
-    t: &Vector3<f64>,
+    point: &'a Point3<f64>,
+    /// Its pixel in the camera.
+    pixel: Vector2<f64>,
+    /// Unit tangent.
+    tangent: &'a Vector3<f64>,
+}
+
+/// The side outline point on side `side` (±1) at the centerline point `at`, seen from `eye`;
+/// `r` the tube's radius.
+fn side_at(
+    camera: &Camera,
+    eye: &Point3<f64>,
+    r: f64,
+    at: &Centre<'_>,
     side: f64,
     stride: f64,
 ) -> Option<OutlinePoint> {
-    let o = camera.centre();
-    let r = tube.radius;
-    let v = c - o;
+    let (c, t) = (at.point, at.tangent);
+    let v = c - eye;
     let v_perp = v - t * v.dot(t);
     let d = v_perp.norm();
     if d <= 1.5 * r {
@@ -187,15 +209,14 @@ fn side_at(
     let e2 = t.cross(&e1);
     let a = -r / d;
     let b = (1.0 - a * a).sqrt();
-    let centre = camera.project(c).ok()?.pixel.coords;
     let normal = e1 * a + e2 * (side * b);
     let sample = Sample {
-        part: Part::Side(basis),
-        u,
+        part: Part::Side(at.basis),
+        u: at.u,
         which: side,
         stride: Some((*t, stride)),
     };
-    grazing(camera, centre, c, &o, normal, r, sample)
+    grazing(camera, at.pixel, c, eye, normal, r, sample)
 }
 
 /// A cap as one camera sees it: the sphere about an end, its grazing circle, and the half of
@@ -354,6 +375,9 @@ fn grazing(
 pub(crate) struct Spheres {
     /// Centre (world), its pixel, and the sphere's image radius in pixels.
     items: Vec<(Point3<f64>, Vector2<f64>, f64)>,
+    /// Per sphere, squared: its image radius less a quarter pixel (a pixel it surely covers)
+    /// and plus a pixel (beyond, it surely does not), pixels².
+    reach2: Vec<(f64, f64)>,
     radius: f64,
     /// How far outside an outline point the image must show background, pixels.
     clearance: f64,
@@ -461,6 +485,13 @@ impl Spheres {
         }
         Spheres {
             grid: Grid::new(w, h, &items),
+            reach2: items
+                .iter()
+                .map(|(_, _, rp)| {
+                    let inner = (rp - 0.25).max(0.0);
+                    (inner * inner, (rp + 1.0) * (rp + 1.0))
+                })
+                .collect(),
             items,
             radius: r,
             clearance,
@@ -480,8 +511,8 @@ impl Spheres {
         let d = to / depth;
         let limit = self.radius * 0.98;
         self.grid.near(pixel).iter().any(|&i| {
-            let (c, px, rp) = &self.items[i as usize];
-            if (px - pixel).norm() > *rp + 1.0 {
+            let (c, px, _) = &self.items[i as usize];
+            if (px - pixel).norm_squared() > self.reach2[i as usize].1 {
                 return false;
             }
             let v = c - eye;
@@ -501,14 +532,14 @@ impl Spheres {
         let covers_outside = [0.75, 1.5, self.clearance].iter().any(|&step| {
             let q = p.pixel + p.normal * step;
             self.grid.near(q).iter().any(|&i| {
-                let (_, px, rp) = &self.items[i as usize];
-                (px - q).norm() < rp - 0.25
+                let px = &self.items[i as usize].1;
+                (px - q).norm_squared() < self.reach2[i as usize].0
             })
         });
         covers_outside
             || self.grid.near(p.pixel).iter().any(|&i| {
-                let (c, px, rp) = &self.items[i as usize];
-                if (px - p.pixel).norm() > *rp + 1.0 {
+                let (c, px, _) = &self.items[i as usize];
+                if (px - p.pixel).norm_squared() > self.reach2[i as usize].1 {
                     return false;
                 }
                 let v = c - eye;
