@@ -29,6 +29,12 @@ pub enum Status {
         /// Which camera and which check, with the figures.
         reason: String,
     },
+    /// A camera's silhouette covers more of its image than is plausible for the tube: the
+    /// background model does not describe the scene, and nothing was carved.
+    BadSilhouette {
+        /// Which camera, the share covered and what to do, for the operator.
+        reason: String,
+    },
     /// A shape, but fewer bands than expected.
     BandsMissing {
         /// Bands found.

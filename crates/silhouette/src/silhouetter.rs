@@ -24,6 +24,9 @@ pub struct SilhouetteSettings {
     pub keep: KeepComponents,
     /// Marker tape.
     pub markers: MarkerSettings,
+    /// Largest share of the image the object may cover; beyond it the silhouette is
+    /// implausible (a dark or changed backdrop the classifier takes for foreground).
+    pub max_foreground: f64,
 }
 
 impl Default for SilhouetteSettings {
@@ -33,6 +36,7 @@ impl Default for SilhouetteSettings {
             close_radius: 1,
             keep: KeepComponents::MinArea(40),
             markers: MarkerSettings::default(),
+            max_foreground: 0.5,
         }
     }
 }
@@ -83,12 +87,28 @@ impl SilhouetteSettings {
             .map_err(|e: toml::de::Error| setting(format!("{} (camera {camera})", e.message())))?;
         settings.classifier.validate()?;
         settings.markers.validate()?;
+        settings.validate_share()?;
         Ok(settings)
     }
 }
 
+impl SilhouetteSettings {
+    fn validate_share(&self) -> Result<(), SilhouetteError> {
+        if !(self.max_foreground > 0.0 && self.max_foreground <= 1.0) {
+            return Err(SilhouetteError::Setting {
+                field: "max_foreground",
+                problem: format!(
+                    "{} must be a share of the image above 0 and at most 1",
+                    self.max_foreground
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
 /// What a frame's silhouette found.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SilhouetteStatus {
     /// An object with marker pixels.
@@ -97,6 +117,12 @@ pub enum SilhouetteStatus {
     NoObject,
     /// An object but no marker pixels.
     NoMarkers,
+    /// The object covers more of the image than `max_foreground`: the background model does
+    /// not describe the scene (a dark backdrop, lights changed, the camera moved).
+    Implausible {
+        /// Share of the image marked as object.
+        fraction: f64,
+    },
 }
 
 /// One camera's silhouette of one frame.
@@ -129,6 +155,7 @@ impl Silhouetter {
     ) -> Result<Self, SilhouetteError> {
         settings.classifier.validate()?;
         settings.markers.validate()?;
+        settings.validate_share()?;
         if settings.close_radius > 16 {
             return Err(SilhouetteError::Setting {
                 field: "close_radius",
@@ -179,7 +206,10 @@ impl Silhouetter {
             .close(self.settings.close_radius);
         let (object, components) = keep_components(&closed, self.settings.keep);
         let markers = find_markers(frame, &object, &self.settings.markers);
-        let status = if object.count() == 0 {
+        let fraction = object.count() as f64 / (w as f64 * h as f64);
+        let status = if fraction > self.settings.max_foreground {
+            SilhouetteStatus::Implausible { fraction }
+        } else if object.count() == 0 {
             SilhouetteStatus::NoObject
         } else if markers.count() == 0 {
             SilhouetteStatus::NoMarkers

@@ -14,7 +14,9 @@ use flexshape_carve::{Band, BandRule, HierarchicalCarver, Occupancy, OutsideImag
 use flexshape_fit::{Fit, FitSettings, Method, Tube, TubeFitter, View};
 use flexshape_rig::{Rig, Volume};
 use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status};
-use flexshape_silhouette::{BackgroundModel, Region, Silhouette, SilhouetteSettings, Silhouetter};
+use flexshape_silhouette::{
+    BackgroundModel, Region, Silhouette, SilhouetteSettings, SilhouetteStatus, Silhouetter,
+};
 use image::RgbImage;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -313,6 +315,23 @@ impl Pipeline {
         })
     }
 
+    /// Why a frame's silhouettes cannot be the tube's, if one camera's covers more of its
+    /// image than its `max_foreground`.
+    fn implausible(&self, silhouettes: &[Silhouette]) -> Option<String> {
+        silhouettes
+            .iter()
+            .zip(&self.names)
+            .zip(&self.silhouetters)
+            .find_map(|((s, name), sil)| match s.status {
+                SilhouetteStatus::Implausible { fraction } => Some(format!(
+                    "camera {name}: {:.0} % of the image is foreground (at most {:.0} %): the background model does not describe the scene (a dark or changed backdrop, changed light, a moved camera); capture the background again or choose another classifier in [processing.silhouette]",
+                    fraction * 100.0,
+                    sil.settings().max_foreground * 100.0
+                )),
+                _ => None,
+            })
+    }
+
     fn check_count(&self, images: &[&RgbImage]) -> Result<(), TrackError> {
         if images.len() != self.cameras.len() {
             return Err(TrackError::CameraCount {
@@ -342,6 +361,23 @@ impl Pipeline {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let silhouettes_ms = ms(t);
+        if let Some(reason) = self.implausible(&silhouettes) {
+            return Ok(Tracked {
+                silhouettes,
+                occupancy: Occupancy {
+                    volume: *self.carver.volume(),
+                    voxels: Vec::new(),
+                },
+                bands: Vec::new(),
+                shape: ShapeRecord::empty(Status::BadSilhouette { reason }),
+                fit: None,
+                timings: StageTimings {
+                    silhouettes: silhouettes_ms,
+                    ..StageTimings::default()
+                },
+                start: Start::Hull,
+            });
+        }
         let t = Instant::now();
         let objects: Vec<_> = silhouettes.iter().map(|s| &s.object).collect();
         let occupancy = self.carver.carve(&objects, OutsideImage::Carve)?;

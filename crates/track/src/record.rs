@@ -102,8 +102,8 @@ impl ModelFrame {
 pub struct TrackRecord {
     /// Frame number.
     pub frame: u64,
-    /// `ok`, `no_object`, `ambiguous`, `leaves_volume`, `inconsistent`, `bands_missing` or
-    /// `error`.
+    /// `ok`, `no_object`, `ambiguous`, `leaves_volume`, `inconsistent`, `bad_silhouette`,
+    /// `bands_missing` or `error`.
     pub status: String,
     /// Why, when the status is not `ok`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -196,6 +196,7 @@ impl TrackRecord {
                 ),
             ),
             Status::Inconsistent { reason } => ("inconsistent", Some(reason.clone())),
+            Status::BadSilhouette { reason } => ("bad_silhouette", Some(reason.clone())),
             Status::BandsMissing { found, expected } => (
                 "bands_missing",
                 Some(format!("{found} of {expected} bands found")),

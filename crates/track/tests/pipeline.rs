@@ -39,3 +39,32 @@ fn a_frame_becomes_a_record_in_world_coordinates() {
         })
     ));
 }
+
+/// Lights turned down after the background was captured: the classifier takes most of a
+/// camera's image for the object. The frame says so (`bad_silhouette`, naming the camera and
+/// the share) instead of carving nonsense; the other cameras' frames are not blamed.
+#[test]
+fn a_silhouette_covering_most_of_the_image_is_bad_not_carved() {
+    let (sim, pipeline) = common::simulated_chain();
+    let frame = sim.render(0, &sim.sweep(1)[0]).unwrap();
+    let mut dark = frame.views[1].image.clone();
+    for p in dark.pixels_mut() {
+        p.0 = p.0.map(|v| v / 5);
+    }
+    let images = vec![&frame.views[0].image, &dark, &frame.views[2].image];
+    let t = pipeline.process(&images).unwrap();
+    let record = TrackRecord::from_tracked(0, &t);
+    assert_eq!(record.status, "bad_silhouette");
+    let reason = record.reason.unwrap();
+    assert!(
+        reason.starts_with("camera cam1:") && reason.contains("% of the image"),
+        "{reason}"
+    );
+    assert!(t.occupancy.is_empty() && t.fit.is_none() && record.centerline.is_empty());
+    // The undarkened frame is fine.
+    let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+    assert_eq!(
+        TrackRecord::from_tracked(0, &pipeline.process(&images).unwrap()).status,
+        "ok"
+    );
+}
