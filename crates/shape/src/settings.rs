@@ -172,11 +172,25 @@ impl ShapeSettings {
                 format!("{} is outside 1..=16", self.cell_voxels),
             );
         }
-        if !(self.slice_mm.is_finite() && self.slice_mm >= 0.0) {
-            return bad("slice_mm", format!("{} must be ≥ 0", self.slice_mm));
+        // Slices and samples are counted along the tube: a spacing far below a voxel, or far
+        // beyond a tube's width, gives nonsense or exhausts memory.
+        if !(self.slice_mm == 0.0 || (SPACING_MM.0..=SPACING_MM.1).contains(&self.slice_mm)) {
+            return bad(
+                "slice_mm",
+                format!(
+                    "{} must be 0 (the smallest voxel edge) or between {} and {} mm",
+                    self.slice_mm, SPACING_MM.0, SPACING_MM.1
+                ),
+            );
         }
-        if !(self.sample_mm.is_finite() && self.sample_mm > 0.0) {
-            return bad("sample_mm", format!("{} must be > 0", self.sample_mm));
+        if !(SPACING_MM.0..=SPACING_MM.1).contains(&self.sample_mm) {
+            return bad(
+                "sample_mm",
+                format!(
+                    "{} must be between {} and {} mm",
+                    self.sample_mm, SPACING_MM.0, SPACING_MM.1
+                ),
+            );
         }
         if let Some(r) = self.radius_mm
             && !(r.is_finite() && r > 0.0)
@@ -227,9 +241,44 @@ impl ShapeSettings {
     }
 }
 
+/// The range of slice and sample spacings, mm.
+const SPACING_MM: (f64, f64) = (0.05, 20.0);
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Spacings that crashed the shape stage (a capacity overflow at 300 mm, an index out of
+    /// bounds at 1e-300, terabyte allocations at 1e-9) are refused, naming the field.
+    #[test]
+    fn spacings_out_of_range_are_refused() {
+        for (field, value) in [
+            ("slice_mm", "300.0"),
+            ("slice_mm", "1e-300"),
+            ("slice_mm", "1e-9"),
+            ("slice_mm", "-1.0"),
+            ("slice_mm", "nan"),
+            ("sample_mm", "1e-9"),
+            ("sample_mm", "1e9"),
+            ("sample_mm", "0.0"),
+        ] {
+            let table: toml::Table =
+                toml::from_str(&format!("[shape]\n{field} = {value}\n")).unwrap();
+            let e = ShapeSettings::from_processing(&table)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(field), "{field} = {value}: {e}");
+        }
+        for ok in [
+            "slice_mm = 0.0",
+            "slice_mm = 0.5",
+            "slice_mm = 20.0",
+            "sample_mm = 0.05",
+        ] {
+            let table: toml::Table = toml::from_str(&format!("[shape]\n{ok}\n")).unwrap();
+            assert!(ShapeSettings::from_processing(&table).is_ok(), "{ok}");
+        }
+    }
 
     #[test]
     fn reads_the_rig_table_and_names_bad_fields() {
