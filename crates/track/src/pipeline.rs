@@ -299,10 +299,7 @@ impl Pipeline {
         }
         Ok(Tracked {
             silhouettes,
-            occupancy: Occupancy {
-                volume: *self.carver.volume(),
-                voxels: Vec::new(),
-            },
+            occupancy: self.nothing_carved(),
             bands: Vec::new(),
             shape,
             fit,
@@ -330,6 +327,14 @@ impl Pipeline {
                 )),
                 _ => None,
             })
+    }
+
+    /// The occupancy of a frame that was not carved.
+    fn nothing_carved(&self) -> Occupancy {
+        Occupancy {
+            volume: *self.carver.volume(),
+            voxels: Vec::new(),
+        }
     }
 
     fn check_count(&self, images: &[&RgbImage]) -> Result<(), TrackError> {
@@ -364,10 +369,7 @@ impl Pipeline {
         if let Some(reason) = self.implausible(&silhouettes) {
             return Ok(Tracked {
                 silhouettes,
-                occupancy: Occupancy {
-                    volume: *self.carver.volume(),
-                    voxels: Vec::new(),
-                },
+                occupancy: self.nothing_carved(),
                 bands: Vec::new(),
                 shape: ShapeRecord::empty(Status::BadSilhouette { reason }),
                 fit: None,
