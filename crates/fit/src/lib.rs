@@ -450,12 +450,9 @@ impl TubeFitter {
     /// the rig.
     pub fn image_region(&self, camera: usize, tube: &Tube, margin_px: f64) -> Option<Region> {
         let cam = self.cameras.get(camera)?;
-        let r = tube.radius;
-        let n = (tube.length() / (r / 2.0)).ceil().max(4.0) as usize;
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for i in 0..=n {
-            let Some((_, px, rp)) = outline::sphere(cam, tube.frame(i as f64 / n as f64).0, r)
-            else {
+        for c in outline::sphere_centres(tube, tube.length()) {
+            let Some((_, px, rp)) = outline::sphere(cam, c, tube.radius) else {
                 continue;
             };
             for k in 0..2 {
