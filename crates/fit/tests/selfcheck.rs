@@ -87,27 +87,13 @@ fn a_missed_distal_part_makes_the_frame_inconsistent() {
 /// `ambiguous`; the same frame with its own hull is `ok`.
 #[test]
 fn hull_away_from_the_fitted_tube_makes_the_frame_ambiguous() {
-    use flexshape_fit::View;
-    use flexshape_silhouette::Silhouette;
     let chain = Chain::new(SimConfig::default());
     let sim = &chain.sim;
     let frame = sim.render(0, &sim.sweep(1)[0]).unwrap();
     let both = chain.run(frame);
     assert_eq!(both.fitted.status, Status::Ok);
-    let sil: Vec<Silhouette> = chain.silhouettes(&both.frame);
-    let views: Vec<View> = both
-        .frame
-        .views
-        .iter()
-        .zip(&chain.backgrounds)
-        .zip(&sil)
-        .map(|((v, b), s)| View {
-            image: &v.image,
-            background: b.means(),
-            silhouette: &s.object,
-            markers: &s.markers,
-        })
-        .collect();
+    let sil = chain.silhouettes(&both.frame);
+    let views = chain.views(&both.frame, &sil);
     // The tube's own voxels: 1-mm voxels within its radius of the fitted centerline.
     let pts = &both.fitted.points;
     let r = both.fitted.radius;

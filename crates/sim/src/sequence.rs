@@ -30,14 +30,7 @@ pub fn sweep(catheter: &Catheter, seed: u64, frames: usize) -> Vec<CatheterPose>
             let phi = TAU * frac(offsets[1] + i * golden) + rng.random_range(-0.05..0.05);
             let insertion = MAX_INSERTION * frac(offsets[2] + i * 2f64.sqrt());
             let eps = [0.01 * rng.random::<f64>(), 0.03 * rng.random::<f64>()];
-            let arc = catheter.bend_length * (1.0 - eps[1]);
-            let kappa = angle / arc;
-            CatheterPose::arc(
-                catheter,
-                [kappa * phi.cos(), kappa * phi.sin()],
-                eps,
-                insertion,
-            )
+            bent(catheter, angle, phi, eps, insertion)
         })
         .collect()
 }
@@ -45,8 +38,8 @@ pub fn sweep(catheter: &Catheter, seed: u64, frames: usize) -> Vec<CatheterPose>
 /// `frames` poses of a smooth motion filmed at `rate_hz` frames per second, as a tracker sees
 /// it: the bend angle swings between 5° and 150° and back every 6 s, the bending plane turns
 /// once every 9 s, the insertion runs 0–30 mm and back every 7 s (at 30 Hz the tip moves up
-/// to about 5 mm between frames, at 120 Hz about 1 mm), compression following the bend. The seed sets the
-/// phases.
+/// to about 5 mm between frames, at 120 Hz about 1 mm), compression following the bend. The
+/// seed sets the phases.
 pub fn motion(catheter: &Catheter, seed: u64, frames: usize, rate_hz: f64) -> Vec<CatheterPose> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x00F0_1100);
     let phase: [f64; 3] = [
@@ -62,15 +55,25 @@ pub fn motion(catheter: &Catheter, seed: u64, frames: usize, rate_hz: f64) -> Ve
             let angle = low + (high - low) * swing;
             let phi = TAU * t / 9.0 + phase[1];
             let insertion = MAX_INSERTION * (0.5 - 0.5 * (TAU * t / 7.0 + phase[2]).cos());
-            let eps = [0.01 * swing, 0.03 * swing];
-            let arc = catheter.bend_length * (1.0 - eps[1]);
-            let kappa = angle / arc;
-            CatheterPose::arc(
+            bent(
                 catheter,
-                [kappa * phi.cos(), kappa * phi.sin()],
-                eps,
+                angle,
+                phi,
+                [0.01 * swing, 0.03 * swing],
                 insertion,
             )
         })
         .collect()
+}
+
+/// The constant-curvature pose of bend angle `angle` (radians, over the compressed bending
+/// section) in the plane at `phi`, with compressions `eps` and `insertion` mm.
+fn bent(catheter: &Catheter, angle: f64, phi: f64, eps: [f64; 2], insertion: f64) -> CatheterPose {
+    let kappa = angle / (catheter.bend_length * (1.0 - eps[1]));
+    CatheterPose::arc(
+        catheter,
+        [kappa * phi.cos(), kappa * phi.sin()],
+        eps,
+        insertion,
+    )
 }

@@ -81,6 +81,22 @@ impl Chain {
             .collect()
     }
 
+    /// How the fit sees a rendered frame with its silhouettes.
+    pub fn views<'a>(&'a self, frame: &'a SimFrame, sil: &'a [Silhouette]) -> Vec<View<'a>> {
+        frame
+            .views
+            .iter()
+            .zip(&self.backgrounds)
+            .zip(sil)
+            .map(|((v, b), s)| View {
+                image: &v.image,
+                background: b.means(),
+                silhouette: &s.object,
+                markers: &s.markers,
+            })
+            .collect()
+    }
+
     /// The hull's shape and the fitted one, for a rendered frame.
     pub fn run(&self, frame: SimFrame) -> Both {
         self.run_from(frame, |_| {})
@@ -95,18 +111,7 @@ impl Chain {
         let bands = find_bands(&occ, &self.cameras, &markers, &BandRule::default()).unwrap();
         let mut hull = self.estimator.estimate(&occ, &bands);
         edit(&mut hull);
-        let views: Vec<View> = frame
-            .views
-            .iter()
-            .zip(&self.backgrounds)
-            .zip(&sil)
-            .map(|((v, b), s)| View {
-                image: &v.image,
-                background: b.means(),
-                silhouette: &s.object,
-                markers: &s.markers,
-            })
-            .collect();
+        let views = self.views(&frame, &sil);
         let (fitted, fit) = self
             .fitter
             .refine(

@@ -69,16 +69,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     );
     let sim =
         Simulator::new(super::sim_config(&args.sim)).context("cannot set up the simulated rig")?;
-    let frames: Vec<Vec<RgbImage>> = sim
-        .sweep(args.frames)
-        .iter()
-        .enumerate()
-        .map(|(i, pose)| {
-            sim.render(i as u64, pose)
-                .map(|f| f.views.into_iter().map(|v| v.image).collect())
-        })
-        .collect::<Result<_, _>>()
-        .context("cannot render the simulated frames")?;
+    let frames =
+        render(&sim, &sim.sweep(args.frames)).context("cannot render the simulated frames")?;
     let backgrounds = sim
         .backgrounds()
         .iter()
@@ -93,15 +85,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             track: true,
             ..pipeline.fit_settings().clone()
         })?;
-    let motion: Vec<Vec<RgbImage>> = if following.tracks() {
-        sim.motion(args.track_frames, args.rate)
-            .iter()
-            .enumerate()
-            .map(|(i, pose)| {
-                sim.render(i as u64, pose)
-                    .map(|f| f.views.into_iter().map(|v| v.image).collect())
-            })
-            .collect::<Result<_, _>>()
+    let motion = if following.tracks() {
+        render(&sim, &sim.motion(args.track_frames, args.rate))
             .context("cannot render the simulated motion")?
     } else {
         Vec::new()
@@ -115,7 +100,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             .context("cannot start worker threads")?;
         results.push(pool.install(|| measure(&pipeline, &frames, args.rounds))?);
         if !motion.is_empty() {
-            tracking.push(pool.install(|| measure_tracking(&following, &motion, args.rounds))?);
+            tracking.push(pool.install(|| measure(&following, &motion, args.rounds))?);
         }
     }
     let report = Report {
@@ -140,45 +125,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Figures over `frames`: latency one frame at a time, throughput with one frame per thread in
+/// flight (thread `k` takes frames `k`, `k + n`, …). A pipeline that tracks starts each frame
+/// from the one before (for throughput, from its own previous one, `n` frames back, as the
+/// runner's workers do); one that does not starts every frame from its hull.
 fn measure(
-    pipeline: &Pipeline,
-    frames: &[Vec<RgbImage>],
-    rounds: usize,
-) -> anyhow::Result<Figures> {
-    let refs: Vec<Vec<&RgbImage>> = frames.iter().map(|f| f.iter().collect()).collect();
-    // One frame at a time.
-    let mut timings = Vec::new();
-    let mut totals = Vec::new();
-    for _ in 0..rounds {
-        for f in &refs {
-            let t = Instant::now();
-            let tracked = pipeline.process(f)?;
-            totals.push(t.elapsed().as_secs_f64() * 1e3);
-            timings.push(tracked.timings);
-        }
-    }
-    // Frames in flight, one per thread.
-    let start = Instant::now();
-    for _ in 0..rounds {
-        refs.par_iter()
-            .map(|f| pipeline.process(f).map(|_| ()))
-            .collect::<Result<Vec<()>, _>>()?;
-    }
-    let throughput_fps = (rounds * frames.len()) as f64 / start.elapsed().as_secs_f64();
-    let stages = stage_summaries(&timings);
-    Ok(Figures {
-        threads: rayon::current_num_threads(),
-        stages,
-        frame_median_ms: quantile(&mut totals, 0.5),
-        throughput_fps,
-        followed: None,
-    })
-}
-
-/// Tracking figures over a motion: latency one frame at a time (each from the one before),
-/// throughput with one frame per thread in flight (thread `k` takes frames `k`, `k + n`, …,
-/// each from its own previous one, `n` frames back, as the runner's workers do).
-fn measure_tracking(
     pipeline: &Pipeline,
     frames: &[Vec<RgbImage>],
     rounds: usize,
@@ -222,8 +173,25 @@ fn measure_tracking(
         stages: stage_summaries(&timings),
         frame_median_ms: quantile(&mut totals, 0.5),
         throughput_fps,
-        followed: Some(followed as f64 / (rounds * (frames.len() - 1)) as f64),
+        followed: pipeline
+            .tracks()
+            .then(|| followed as f64 / (rounds * (frames.len() - 1).max(1)) as f64),
     })
+}
+
+/// Every camera's image of each pose, rendered.
+fn render(
+    sim: &Simulator,
+    poses: &[flexshape_sim::CatheterPose],
+) -> Result<Vec<Vec<RgbImage>>, flexshape_sim::SimError> {
+    poses
+        .iter()
+        .enumerate()
+        .map(|(i, pose)| {
+            sim.render(i as u64, pose)
+                .map(|f| f.views.into_iter().map(|v| v.image).collect())
+        })
+        .collect()
 }
 
 /// Median time to decode one frame stored as PNG, ms.
