@@ -21,6 +21,7 @@ mod edges;
 mod outline;
 mod settings;
 mod solve;
+mod stereo;
 mod tube;
 
 use flexshape_camera::Camera;

@@ -1,5 +1,7 @@
-//! Two cameras: the visual hull grows ghost branches that both silhouettes allow. Every frame
-//! must be right (sub-0.15 mm, the right length, the right way round) or say it is not `ok`.
+//! Two cameras: the visual hull grows ghost branches that both silhouettes allow (and often
+//! falls into pieces). Every frame must be right (sub-0.15 mm, the right length, the right way
+//! round) or say it is not `ok`; frames whose hull is a ghost are started again from the two
+//! silhouettes matched along epipolar lines, and must then come out right.
 
 mod common;
 
@@ -20,10 +22,10 @@ fn two_cameras_never_report_a_ghost_as_ok() {
     };
     let chain = Chain::new(config);
     let sim = &chain.sim;
-    let (mut ok, mut ghosts_caught) = (0, 0);
+    let (mut ok, mut ghosts_resolved, mut ghosts_caught) = (0, 0, 0);
     let mut reasons = Vec::new();
     for (n, pose) in sim.sweep(20).iter().enumerate() {
-        let b = chain.run(sim.render(n as u64, pose).unwrap());
+        let (b, from_views) = chain.run_two_views(sim.render(n as u64, pose).unwrap());
         let truth = &b.frame.truth;
         let inside: Vec<Point3<f64>> = truth
             .centerline
@@ -37,7 +39,8 @@ fn two_cameras_never_report_a_ghost_as_ok() {
         let hull_rms = centerline_rms(truth, sim, &b.hull.points);
         let tip = tip_error(truth, &b.fitted);
         println!(
-            "frame {n:2}: {:?}, rms {rms:.3} mm (hull {hull_rms:.3}), tip {tip:.2} mm, length {:.1}/{true_length:.1}, σ max {:.3} tip {:.3}",
+            "frame {n:2}{}: {:?}, rms {rms:.3} mm (hull {hull_rms:.3}), tip {tip:.2} mm, length {:.1}/{true_length:.1}, σ max {:.3} tip {:.3}",
+            if from_views { " (two views)" } else { "" },
             b.fitted.status,
             b.fitted.length,
             b.fitted.sigma.iter().copied().fold(0.0, f64::max),
@@ -48,6 +51,9 @@ fn two_cameras_never_report_a_ghost_as_ok() {
         }
         if b.fitted.status == Status::Ok {
             ok += 1;
+            if from_views && hull_rms > 1.0 {
+                ghosts_resolved += 1;
+            }
             // The bound; measured ≤ 0.033 mm.
             assert!(rms <= 0.15, "frame {n}: ok with rms {rms:.3} mm");
             // Measured ≤ 0.09 mm.
@@ -67,21 +73,20 @@ fn two_cameras_never_report_a_ghost_as_ok() {
             ghosts_caught += 1;
         }
     }
-    // Measured: 5 of 20 ok (rms ≤ 0.081 mm, lengths within 0.2 mm); the 12 frames whose hull
-    // is a ghost (rms > 1 mm) are all `ambiguous` or `inconsistent`, and so are the frames the
-    // two views leave loose (1-σ across the tube above 0.1 mm: one was 0.35 mm off). The test
-    // means something only if both kinds occur.
-    println!("{ok} ok, {ghosts_caught} ghosts caught");
-    assert!(ok >= 3, "only {ok} frames ok");
-    assert!(ghosts_caught >= 4, "only {ghosts_caught} ghost frames");
-    // The fit's own checks are among the reasons: outlines the tube does not explain, a shape
-    // the two views leave loose, and hull left away from the fitted tube or a free end where
-    // the image shows none (whichever comes first; each is also tested apart in `selfcheck`).
+    // Measured: 12 of 20 ok (rms ≤ 0.081 mm, tips ≤ 0.25 mm, lengths within 0.2 mm), 7 of them
+    // frames whose hull is a ghost or in pieces (rms > 1 mm), started from the two views (the
+    // start from the hull alone gave 5 ok). The rest are `ambiguous` (the two views leave the
+    // centerline loose: 1-σ across the tube above 0.1 mm) or `inconsistent`. Over 100 more
+    // frames (seeds 2 and 3, a floating base) no frame was `ok` and wrong.
+    println!("{ok} ok, {ghosts_resolved} ghosts resolved, {ghosts_caught} caught");
+    assert!(ok >= 10, "only {ok} frames ok");
     assert!(
-        reasons
-            .iter()
-            .any(|r| r.contains("away from the fitted shape") || r.contains("free end")),
-        "{reasons:#?}"
+        ghosts_resolved >= 5,
+        "only {ghosts_resolved} ghost frames resolved"
+    );
+    assert!(
+        ghosts_caught >= 1,
+        "no ghost frame left unresolved: the test says less"
     );
     for kind in ["from the image's boundary", "pin the centerline"] {
         assert!(

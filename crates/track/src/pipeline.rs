@@ -2,6 +2,10 @@
 //! carving → marker bands → the hull's shape → the tube fitted to the images and checked
 //! against them.
 //!
+//! Two-camera rigs: when the fit from the hull gives no right shape (the hull's ghosts mislead
+//! its centerline), the fit starts again from the two silhouettes matched along epipolar
+//! lines ([`TubeFitter::from_two_views`]).
+//!
 //! Tracking ([`Pipeline::process_after`]): when an earlier frame's shape was right (a
 //! [`Prior`]), the frame starts from it instead: silhouettes only around the tube, no carve,
 //! no hull, the fit warm-started. When that fit does not explain the images, the frame runs
@@ -81,6 +85,9 @@ pub enum Start {
     Hull,
     /// An earlier frame's fitted shape (tracking; nothing carved).
     Previous,
+    /// The two cameras' silhouettes matched along epipolar lines (two-camera rigs, when the
+    /// hull's start gave no right shape: its ghosts mislead it).
+    Views,
 }
 
 /// A frame's shape that later frames may start from: one fitted to the images whose status
@@ -392,19 +399,35 @@ impl Pipeline {
         let hull = self.shape.estimate(&occupancy, &bands);
         let shape_ms = ms(t);
         let t = Instant::now();
+        let mut start = Start::Hull;
         let (shape, fit) = match self.fitter.settings().method {
             Method::Hull => (hull, None),
             Method::Fit => {
                 let views = self.views(images, &silhouettes);
                 let radius = self.shape.settings().radius_mm;
-                self.fitter.refine(
+                let (shape, fit) = self.fitter.refine(
                     &self.shape,
                     self.carver.volume(),
                     &views,
                     &hull,
                     &occupancy.centres(),
                     radius,
-                )?
+                )?;
+                // Two cameras' hull grows ghosts its centerline may follow: a start from the
+                // two silhouettes themselves may find the shape that explains them.
+                let from_views = if is_right(&shape.status) {
+                    None
+                } else {
+                    self.fitter
+                        .from_two_views(&self.shape, self.carver.volume(), &views, radius)?
+                };
+                match from_views {
+                    Some((shape, fit)) => {
+                        start = Start::Views;
+                        (shape, Some(fit))
+                    }
+                    None => (shape, fit),
+                }
             }
         };
         let fit_ms = ms(t);
@@ -421,7 +444,7 @@ impl Pipeline {
                 shape: shape_ms,
                 fit: fit_ms,
             },
-            start: Start::Hull,
+            start,
         })
     }
 }

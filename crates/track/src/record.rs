@@ -261,6 +261,7 @@ impl TrackRecord {
                 match t.start {
                     Start::Hull => "hull",
                     Start::Previous => "previous",
+                    Start::Views => "views",
                 }
                 .into()
             }),

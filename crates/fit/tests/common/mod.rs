@@ -7,7 +7,7 @@ use flexshape_carve::{BandRule, HierarchicalCarver, OutsideImage, find_bands};
 use flexshape_curve::Polyline;
 use flexshape_fit::{Fit, FitSettings, TubeFitter, View};
 use flexshape_recording::Truth;
-use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings};
+use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status};
 use flexshape_silhouette::{BackgroundModel, Silhouette, SilhouetteSettings, Silhouetter};
 use flexshape_sim::{SimConfig, SimFrame, Simulator};
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -100,6 +100,32 @@ impl Chain {
     /// The hull's shape and the fitted one, for a rendered frame.
     pub fn run(&self, frame: SimFrame) -> Both {
         self.run_from(frame, |_| {})
+    }
+
+    /// As `run`, and when the hull's start gives no right shape, the two-view start's shape
+    /// (if it finds one) replaces it: what the tracking pipeline does on two-camera rigs.
+    /// The flag says whether the two-view start gave the shape.
+    pub fn run_two_views(&self, frame: SimFrame) -> (Both, bool) {
+        let mut b = self.run(frame);
+        let right = matches!(
+            b.fitted.status,
+            Status::Ok | Status::BandsMissing { .. } | Status::LeavesVolume
+        );
+        if right {
+            return (b, false);
+        }
+        let sil = self.silhouettes(&b.frame);
+        let views = self.views(&b.frame, &sil);
+        let found = self
+            .fitter
+            .from_two_views(&self.estimator, &self.sim.rig().volume, &views, None)
+            .unwrap();
+        let Some((record, fit)) = found else {
+            return (b, false);
+        };
+        b.fitted = record;
+        b.fit = Some(fit);
+        (b, true)
     }
 
     /// As `run`, with the hull's record changed by `edit` before the fit starts from it.
