@@ -8,8 +8,8 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use flexshape_carve::{BandRule, HierarchicalCarver, OutsideImage, find_bands};
 use flexshape_fit::{FitSettings, Tube, TubeFitter, View};
 use flexshape_shape::{ShapeEstimator, ShapeSettings};
-use flexshape_silhouette::{BackgroundModel, SilhouetteSettings, Silhouetter};
-use flexshape_sim::{SimConfig, Simulator};
+use flexshape_silhouette::{BackgroundModel, Silhouette, SilhouetteSettings, Silhouetter};
+use flexshape_sim::{SimConfig, SimFrame, Simulator};
 
 fn bench(c: &mut Criterion) {
     let sim = Simulator::new(SimConfig::default()).unwrap();
@@ -21,16 +21,7 @@ fn bench(c: &mut Criterion) {
         .iter()
         .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
         .collect();
-    let sil: Vec<_> = models
-        .iter()
-        .zip(&frame.views)
-        .map(|(m, v)| {
-            Silhouetter::new(m, SilhouetteSettings::default())
-                .unwrap()
-                .process(&v.image)
-                .unwrap()
-        })
-        .collect();
+    let sil = silhouettes(&models, &frame);
     let objects: Vec<_> = sil.iter().map(|s| &s.object).collect();
     let markers: Vec<_> = sil.iter().map(|s| &s.markers).collect();
     let carver = HierarchicalCarver::new(&cameras, &rig.volume).unwrap();
@@ -40,19 +31,8 @@ fn bench(c: &mut Criterion) {
         ShapeEstimator::new(ShapeSettings::from_processing(&rig.processing).unwrap()).unwrap();
     let hull = estimator.estimate(&occ, &bands);
     let names = rig.cameras.iter().map(|c| c.name.clone()).collect();
-    let fitter = TubeFitter::new(cameras, names, FitSettings::default()).unwrap();
-    let views: Vec<View> = frame
-        .views
-        .iter()
-        .zip(&models)
-        .zip(&sil)
-        .map(|((v, m), s)| View {
-            image: &v.image,
-            background: m.means(),
-            silhouette: &s.object,
-            markers: &s.markers,
-        })
-        .collect();
+    let fitter = TubeFitter::new(cameras.clone(), names, FitSettings::default()).unwrap();
+    let frame_views = views(&frame, &models, &sil);
     let centres = occ.centres();
     let start = Tube::through(&hull.points, hull.radius, [false, true], 15.0, 10.0).unwrap();
     let mut group = c.benchmark_group("fit");
@@ -61,15 +41,81 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             black_box(
                 fitter
-                    .refine(&estimator, &rig.volume, &views, &hull, &centres, None)
+                    .refine(&estimator, &rig.volume, &frame_views, &hull, &centres, None)
                     .unwrap(),
             )
         })
     });
     group.bench_function("fit_only_3cam", |b| {
-        b.iter(|| black_box(fitter.fit(&views, start.clone(), true).unwrap()))
+        b.iter(|| black_box(fitter.fit(&frame_views, start.clone(), true).unwrap()))
+    });
+    // Tracking: the next frame of a smooth motion filmed at 120 Hz, fitted from this one's
+    // shape (silhouettes of the whole image here; the pipeline classifies only a box).
+    let poses = sim.motion(2, 120.0);
+    let first = sim.render(0, &poses[0]).unwrap();
+    let next = sim.render(1, &poses[1]).unwrap();
+    let sil0 = silhouettes(&models, &first);
+    let objects: Vec<_> = sil0.iter().map(|s| &s.object).collect();
+    let markers: Vec<_> = sil0.iter().map(|s| &s.markers).collect();
+    let occ = carver.carve(&objects, OutsideImage::Carve).unwrap();
+    let bands = find_bands(&occ, &cameras, &markers, &BandRule::default()).unwrap();
+    let hull = estimator.estimate(&occ, &bands);
+    let (previous, _) = fitter
+        .refine(
+            &estimator,
+            &rig.volume,
+            &views(&first, &models, &sil0),
+            &hull,
+            &occ.centres(),
+            None,
+        )
+        .unwrap();
+    let sil1 = silhouettes(&models, &next);
+    let next_views = views(&next, &models, &sil1);
+    group.bench_function("follow_120hz_3cam", |b| {
+        b.iter(|| {
+            black_box(
+                fitter
+                    .follow(&estimator, &rig.volume, &next_views, &previous, None)
+                    .unwrap(),
+            )
+        })
     });
     group.finish();
+}
+
+/// Every camera's silhouette of `frame`.
+fn silhouettes(models: &[BackgroundModel], frame: &SimFrame) -> Vec<Silhouette> {
+    models
+        .iter()
+        .zip(&frame.views)
+        .map(|(m, v)| {
+            Silhouetter::new(m, SilhouetteSettings::default())
+                .unwrap()
+                .process(&v.image)
+                .unwrap()
+        })
+        .collect()
+}
+
+/// How the fit sees `frame`.
+fn views<'a>(
+    frame: &'a SimFrame,
+    models: &'a [BackgroundModel],
+    sil: &'a [Silhouette],
+) -> Vec<View<'a>> {
+    frame
+        .views
+        .iter()
+        .zip(models)
+        .zip(sil)
+        .map(|((v, m), s)| View {
+            image: &v.image,
+            background: m.means(),
+            silhouette: &s.object,
+            markers: &s.markers,
+        })
+        .collect()
 }
 
 criterion_group!(benches, bench);

@@ -242,21 +242,27 @@ pub enum RigCommand {
 pub struct TrackArgs {
     /// Recording folder (the layout `flexshape simulate` writes: rig.toml, calibration/,
     /// background/, frames/). Or give the frames with `--images`, `--video` or `--camera`.
-    #[arg(required_unless_present_any = ["images", "video", "camera"])]
+    #[arg(required_unless_present_any = ["images", "masks", "video", "camera"])]
     pub recording: Option<PathBuf>,
     /// Plain image folder of one camera, NAME=DIR (repeat per camera): images with the same
     /// file name in every folder make one frame, in natural order of the names. Or one image
     /// file per camera, NAME=FILE: a single frame (views named differently).
-    #[arg(long, value_name = "NAME=DIR", value_parser = parse_named_path, conflicts_with_all = ["recording", "video", "camera"])]
+    #[arg(long, value_name = "NAME=DIR", value_parser = parse_named_path, conflicts_with_all = ["recording", "masks", "video", "camera"])]
     pub images: Vec<(String, PathBuf)>,
+    /// Mask folder of one camera, NAME=DIR (repeat per camera), or one mask file per camera,
+    /// NAME=FILE: the object white (or light) on black, binary or 8-bit PNG/JPEG, from the
+    /// lab's own segmentation — used as the silhouettes (a pixel of level 128 or more is
+    /// object); paired like `--images`; no backgrounds needed; no marker bands.
+    #[arg(long, value_name = "NAME=DIR", value_parser = parse_named_path, conflicts_with_all = ["recording", "images", "video", "camera", "backgrounds"])]
+    pub masks: Vec<(String, PathBuf)>,
     /// Video file of one camera, NAME=FILE (repeat per camera), decoded by ffmpeg; the n-th
     /// frames of all videos make frame n.
-    #[arg(long, value_name = "NAME=FILE", value_parser = parse_named_path, conflicts_with_all = ["recording", "images", "camera"])]
+    #[arg(long, value_name = "NAME=FILE", value_parser = parse_named_path, conflicts_with_all = ["recording", "images", "masks", "camera"])]
     pub video: Vec<(String, PathBuf)>,
     /// Live camera, NAME=INPUT (repeat per camera): a V4L2 device (/dev/video0), a stream URL,
     /// or a video file played in real time; read by ffmpeg. Tracking always takes the newest
     /// frame of every camera and counts the frames it drops.
-    #[arg(long, value_name = "NAME=INPUT", value_parser = parse_named_path, conflicts_with_all = ["recording", "images", "video"])]
+    #[arg(long, value_name = "NAME=INPUT", value_parser = parse_named_path, conflicts_with_all = ["recording", "images", "masks", "video"])]
     pub camera: Vec<(String, PathBuf)>,
     /// The rig: a rig TOML or a folder of OpenCV camera files (NAME.yml). Default: the
     /// recording's rig.toml; needed with `--images`, `--video` and `--camera`.

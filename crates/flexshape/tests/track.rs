@@ -360,3 +360,124 @@ fn follow_starts_each_frame_from_the_previous_one() {
         }
     }
 }
+
+/// Masks from a lab's own segmentation instead of images and backgrounds: binary grey, colour
+/// and soft 8-bit masks all give the shape (no bands: a mask has no colour), and a mask of the
+/// wrong size is that frame's error, naming the file.
+#[test]
+fn masks_instead_of_images_give_the_shape_without_backgrounds() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    common::run(&["simulate", "--out", rec.to_str().unwrap(), "--frames", "3"]);
+    let reader = RecordingReader::open(&rec).unwrap();
+    let masks = dir.path().join("masks");
+    for cam in ["cam0", "cam1", "cam2"] {
+        std::fs::create_dir_all(masks.join(cam)).unwrap();
+        for frame in 0..3 {
+            let truth = rec.join(format!("truth/masks/{cam}/{frame:06}.png"));
+            let grey = image::open(&truth).unwrap().to_luma8();
+            let out = masks.join(format!("{cam}/{frame:06}.png"));
+            match cam {
+                // Binary grey, as thresholding writes it.
+                "cam0" => grey.save(&out).unwrap(),
+                // Colour (white on black).
+                "cam1" => image::DynamicImage::ImageLuma8(grey)
+                    .to_rgb8()
+                    .save(&out)
+                    .unwrap(),
+                // Soft, as a network's probabilities.
+                _ => image::imageops::blur(&grey, 0.7).save(&out).unwrap(),
+            }
+        }
+    }
+    // Frame 2 of cam2 at the wrong size.
+    image::GrayImage::new(320, 240)
+        .save(masks.join("cam2/000002.png"))
+        .unwrap();
+    let out = dir.path().join("masks.jsonl");
+    let mut args = vec![
+        "track".to_string(),
+        "--rig".into(),
+        rec.join("rig.toml").display().to_string(),
+        "--out".into(),
+        out.display().to_string(),
+    ];
+    for cam in ["cam0", "cam1", "cam2"] {
+        args.extend([
+            "--masks".into(),
+            format!("{cam}={}", masks.join(cam).display()),
+        ]);
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    common::run(&args);
+    let (records, summary) = read_lines(&out);
+    assert_eq!(summary["frames"], 3);
+    for (i, r) in records.iter().enumerate().take(2) {
+        // The rig expects two bands; masks show none.
+        assert_eq!(r["status"], "bands_missing", "frame {i}: {r}");
+        assert_eq!(r["start"], "hull");
+        let truth = reader.read_truth(i as u64).unwrap().unwrap();
+        let tip: Vec<f64> = r["tip"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        // Measured 0.03–0.17 mm over 10 frames of binary masks.
+        let d = (Point3::new(tip[0], tip[1], tip[2]) - Point3::from(truth.tip)).norm();
+        assert!(d < 0.3, "frame {i}: tip {d:.3} mm off");
+        // The outline of a binary mask is placed to within half a pixel.
+        for c in r["cameras"].as_array().unwrap() {
+            assert!(c["residual_px"].as_f64().unwrap() < 0.4, "{c}");
+        }
+    }
+    assert_eq!(records[2]["status"], "error");
+    let reason = records[2]["reason"].as_str().unwrap();
+    assert!(
+        reason.contains("000002.png") && reason.contains("320"),
+        "{reason}"
+    );
+    // A recording folder with masks/ instead of frames/ and background/.
+    let mrec = dir.path().join("mrec");
+    std::fs::create_dir_all(mrec.join("calibration")).unwrap();
+    std::fs::copy(rec.join("rig.toml"), mrec.join("rig.toml")).unwrap();
+    for cam in ["cam0", "cam1", "cam2"] {
+        let yml = format!("calibration/{cam}.yml");
+        std::fs::copy(rec.join(&yml), mrec.join(&yml)).unwrap();
+        std::fs::create_dir_all(mrec.join("masks").join(cam)).unwrap();
+        for frame in 0..2 {
+            let name = format!("{cam}/{frame:06}.png");
+            std::fs::copy(masks.join(&name), mrec.join("masks").join(&name)).unwrap();
+        }
+    }
+    let mout = dir.path().join("mrec.jsonl");
+    common::run(&[
+        "track",
+        mrec.to_str().unwrap(),
+        "--out",
+        mout.to_str().unwrap(),
+    ]);
+    let (from_folder, _) = read_lines(&mout);
+    assert_eq!(from_folder.len(), 2);
+    for (a, b) in from_folder.iter().zip(&records) {
+        assert_eq!(a["tip"], b["tip"]);
+    }
+    let e = common::fails(&[
+        "track",
+        mrec.to_str().unwrap(),
+        "--backgrounds",
+        rec.join("background").to_str().unwrap(),
+    ]);
+    assert!(e.contains("holds masks"), "{e}");
+    // Masks need no backgrounds, and refuse them.
+    let e = common::fails(&[
+        "track",
+        "--rig",
+        rec.join("rig.toml").to_str().unwrap(),
+        "--masks",
+        &format!("cam0={}", masks.join("cam0").display()),
+        "--backgrounds",
+        rec.join("background").to_str().unwrap(),
+    ]);
+    assert!(e.contains("--backgrounds"), "{e}");
+}

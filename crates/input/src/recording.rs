@@ -26,13 +26,12 @@ impl FrameSource for RecordingSource {
     fn next_frame(&mut self) -> Option<Result<FrameSet, InputError>> {
         let &frame = self.reader.frames().get(self.next)?;
         self.next += 1;
-        let layout = self.reader.layout();
         let images = self
             .reader
             .rig()
             .cameras
             .iter()
-            .map(|c| FrameImage::File(layout.frame(&c.name, frame)))
+            .map(|c| FrameImage::File(self.reader.frame_path(&c.name, frame)))
             .collect();
         let mut set = FrameSet::new(frame, images);
         match self.reader.read_command(frame) {

@@ -50,6 +50,17 @@ impl Layout {
         self.frames_dir(cam).join(format!("{frame:06}.png"))
     }
 
+    /// `DIR/masks/<cam>`: masks from the lab's own segmentation, in a recording that has them
+    /// instead of frames.
+    pub fn masks_dir(&self, cam: &str) -> PathBuf {
+        self.root.join("masks").join(cam)
+    }
+
+    /// `DIR/masks/<cam>/<frame:06>.png`.
+    pub fn mask(&self, cam: &str, frame: u64) -> PathBuf {
+        self.masks_dir(cam).join(format!("{frame:06}.png"))
+    }
+
     /// `DIR/truth/<frame:06>.json`.
     pub fn truth(&self, frame: u64) -> PathBuf {
         self.root.join("truth").join(format!("{frame:06}.json"))

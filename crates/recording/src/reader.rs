@@ -18,12 +18,15 @@ pub struct RecordingReader {
     rig: Rig,
     frames: Vec<u64>,
     skipped: Vec<SkippedFile>,
+    masks: bool,
 }
 
 impl RecordingReader {
     /// Opens the recording at `root`: the rig from `rig.toml` if present, otherwise from the
     /// camera files in `calibration/` (with the default volume); then lists
     /// `frames/<cam>/NNNNNN.png` for every camera and checks they hold the same frame numbers.
+    /// A recording without `frames/` but with `masks/` is one of masks: the same, from
+    /// `masks/<cam>/NNNNNN.png`.
     pub fn open(root: &Path) -> Result<Self, RecordingError> {
         let layout = Layout::new(root);
         if !root.is_dir() {
@@ -38,12 +41,17 @@ impl RecordingReader {
         } else {
             Rig::from_calibration_dir_skipping(&layout.calibration_dir(), Volume::default())?
         };
+        let masks = !root.join("frames").exists() && root.join("masks").is_dir();
         let mut frames: Option<(String, BTreeSet<u64>)> = None;
         for cam in &rig.cameras {
-            let dir = layout.frames_dir(&cam.name);
+            let (dir, what) = if masks {
+                (layout.masks_dir(&cam.name), "masks")
+            } else {
+                (layout.frames_dir(&cam.name), "frames")
+            };
             let entries = std::fs::read_dir(&dir).map_err(|e| RecordingError::Layout {
                 path: dir.clone(),
-                problem: format!("camera `{}` has no frames folder ({e})", cam.name),
+                problem: format!("camera `{}` has no {what} folder ({e})", cam.name),
             })?;
             let numbers: BTreeSet<u64> = entries
                 .filter_map(|e| e.ok())
@@ -86,6 +94,7 @@ impl RecordingReader {
             rig,
             frames,
             skipped,
+            masks,
         })
     }
 
@@ -110,10 +119,26 @@ impl RecordingReader {
         &self.frames
     }
 
-    /// Reads frame `frame` of camera number `cam` as 8-bit RGB, checking its size.
+    /// Whether the recording holds masks (`masks/`) instead of frames.
+    pub fn has_masks(&self) -> bool {
+        self.masks
+    }
+
+    /// The file of frame `frame` of camera `cam` (by name): its image, or its mask in a
+    /// recording of masks.
+    pub fn frame_path(&self, cam: &str, frame: u64) -> PathBuf {
+        if self.masks {
+            self.layout.mask(cam, frame)
+        } else {
+            self.layout.frame(cam, frame)
+        }
+    }
+
+    /// Reads frame `frame` of camera number `cam` as 8-bit RGB (a mask in a recording of
+    /// masks), checking its size.
     pub fn read_frame(&self, cam: usize, frame: u64) -> Result<RgbImage, RecordingError> {
         let name = &self.rig.cameras[cam].name;
-        self.read_rgb(cam, &self.layout.frame(name, frame))
+        self.read_rgb(cam, &self.frame_path(name, frame))
     }
 
     /// Reads camera `cam`'s background image, if the recording has one.

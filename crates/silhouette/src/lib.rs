@@ -22,4 +22,6 @@ pub use classify::{Classifier, ColourShadow, Difference, GreenMatte, Region};
 pub use components::KeepComponents;
 pub use error::SilhouetteError;
 pub use markers::MarkerSettings;
-pub use silhouetter::{Silhouette, SilhouetteSettings, SilhouetteStatus, Silhouetter, debug_image};
+pub use silhouetter::{
+    MASK_LEVEL, Silhouette, SilhouetteSettings, SilhouetteStatus, Silhouetter, debug_image,
+};

@@ -93,6 +93,28 @@ impl SilhouetteSettings {
 }
 
 impl SilhouetteSettings {
+    /// The settings that read masks given as the frames (the object white or light on black,
+    /// binary or 8-bit): a pixel whose brightest channel is at least 128 is object, against a
+    /// black [`BackgroundModel::uniform`] backdrop; no closing (the mask is taken as it is).
+    /// Which components are kept and the plausibility limit come from `rig`, the settings the
+    /// rig file gives the camera; no marker bands are read (a mask has no colour).
+    pub fn for_masks(rig: &SilhouetteSettings) -> Self {
+        SilhouetteSettings {
+            classifier: Classifier::Difference(crate::classify::Difference {
+                min_difference: MASK_LEVEL - 1.0,
+                noise_factor: 0.0,
+            }),
+            close_radius: 0,
+            keep: rig.keep,
+            markers: MarkerSettings {
+                // Darker than anything: no pixel of a mask is tested as tape.
+                min_level: 766.0,
+                ..rig.markers.clone()
+            },
+            max_foreground: rig.max_foreground,
+        }
+    }
+
     fn validate_share(&self) -> Result<(), SilhouetteError> {
         if !(self.max_foreground > 0.0 && self.max_foreground <= 1.0) {
             return Err(SilhouetteError::Setting {
@@ -106,6 +128,9 @@ impl SilhouetteSettings {
         Ok(())
     }
 }
+
+/// The grey level from which a mask's pixel is object.
+pub const MASK_LEVEL: f32 = 128.0;
 
 /// What a frame's silhouette found.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -130,6 +130,51 @@ impl Pipeline {
         backgrounds: &[BackgroundModel],
         volume: &Volume,
     ) -> Result<Self, TrackError> {
+        Self::with_silhouettes(rig, backgrounds, volume, |s| s)
+    }
+
+    /// The chain for frames that are masks — the object white (or light) on black, binary or
+    /// 8-bit, as a lab's own segmentation writes them — instead of camera images: a pixel
+    /// whose brightest channel reaches [`flexshape_silhouette::MASK_LEVEL`] is object, no
+    /// background model is needed, no marker bands are read, and the image fit measures the
+    /// outline on the mask itself. A binary mask places the outline only to within half a
+    /// pixel, so the self-check allows a tenth of the outline up to [`MASK_P90_PX`] from it
+    /// and twice the default 1-σ uncertainty (unless the rig allows more).
+    pub fn for_masks(rig: &Rig, volume: &Volume) -> Result<Self, TrackError> {
+        let black = rig
+            .cameras
+            .iter()
+            .map(|c| {
+                let (w, h) = (c.camera.intrinsics.width, c.camera.intrinsics.height);
+                BackgroundModel::uniform(w, h, [0.0; 3], 0.0).map_err(|source| {
+                    TrackError::Silhouette {
+                        camera: c.name.clone(),
+                        source,
+                    }
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let pipeline =
+            Self::with_silhouettes(rig, &black, volume, |s| SilhouetteSettings::for_masks(&s))?;
+        let fit = pipeline.fit_settings();
+        let settings = FitSettings {
+            max_p90_px: fit.max_p90_px.max(MASK_P90_PX),
+            // The outline's noise doubles (measured: 0.2 px RMS against 0.1 from images), and
+            // so does the uncertainty of a fit the cameras do pin down.
+            max_sigma_mm: fit
+                .max_sigma_mm
+                .max(2.0 * FitSettings::default().max_sigma_mm),
+            ..fit.clone()
+        };
+        pipeline.with_fit_settings(settings)
+    }
+
+    fn with_silhouettes(
+        rig: &Rig,
+        backgrounds: &[BackgroundModel],
+        volume: &Volume,
+        adapt: impl Fn(SilhouetteSettings) -> SilhouetteSettings,
+    ) -> Result<Self, TrackError> {
         if backgrounds.len() != rig.cameras.len() {
             return Err(TrackError::CameraCount {
                 what: "background models",
@@ -148,7 +193,7 @@ impl Pipeline {
                 };
                 let settings =
                     SilhouetteSettings::from_processing(&rig.processing, &cam.name).map_err(err)?;
-                Silhouetter::new(bg, settings).map_err(err)
+                Silhouetter::new(bg, adapt(settings)).map_err(err)
             })
             .collect::<Result<Vec<_>, _>>()?;
         let cameras: Vec<Camera> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
@@ -448,6 +493,10 @@ impl Pipeline {
         })
     }
 }
+
+/// The self-check's 90th percentile of outline residuals for frames that are binary masks,
+/// pixels: their boundary lies on pixel edges, up to half a pixel from the true outline.
+pub const MASK_P90_PX: f64 = 0.5;
 
 /// Whether a fitted shape with this status is right: one a later frame may start from.
 fn is_right(status: &Status) -> bool {

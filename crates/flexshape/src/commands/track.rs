@@ -28,7 +28,8 @@ struct Input {
     rig: Rig,
     /// What to name when the rig is wrong.
     rig_name: String,
-    backgrounds: Vec<BackgroundModel>,
+    /// `None`: the frames are masks (no background model).
+    backgrounds: Option<Vec<BackgroundModel>>,
     source: Box<dyn FrameSource>,
 }
 
@@ -36,7 +37,11 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let stop = Interrupt::install();
     let mut input = open_input(args)?;
     let volume = volume(&input.rig.volume, args)?;
-    let pipeline = Pipeline::new(&input.rig, &input.backgrounds, &volume)
+    let pipeline = match &input.backgrounds {
+        Some(backgrounds) => Pipeline::new(&input.rig, backgrounds, &volume),
+        None => Pipeline::for_masks(&input.rig, &volume),
+    };
+    let pipeline = pipeline
         .and_then(|p| super::with_method(p, args.method))
         .and_then(|p| {
             let track = (args.follow || p.fit_settings().track) && args.ply.is_none();
@@ -170,9 +175,20 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
             }
             (rig, rig_name) = (other, path.display().to_string());
         }
+        if rec.has_masks() && args.backgrounds.is_some() {
+            bail!(
+                "{} holds masks (masks/) instead of frames: it needs no backgrounds; leave out --backgrounds",
+                dir.display()
+            );
+        }
         let backgrounds = match &args.backgrounds {
-            Some(dir) => load_backgrounds(&rig, |name| dir.join(format!("{name}.png")))?,
-            None => load_backgrounds(&rig, |name| rec.layout().background(name))?,
+            _ if rec.has_masks() => None,
+            Some(dir) => Some(load_backgrounds(&rig, |name| {
+                dir.join(format!("{name}.png"))
+            })?),
+            None => Some(load_backgrounds(&rig, |name| {
+                rec.layout().background(name)
+            })?),
         };
         return Ok(Input {
             rig,
@@ -183,6 +199,8 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
     }
     let what = if !args.images.is_empty() {
         "--images"
+    } else if !args.masks.is_empty() {
+        "--masks"
     } else if !args.video.is_empty() {
         "--video"
     } else {
@@ -192,6 +210,14 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
         bail!("{what} needs the rig: give --rig RIG.toml or --rig CALIBRATION_DIR");
     };
     let rig = super::load_rig(rig_path)?;
+    if !args.masks.is_empty() {
+        return Ok(Input {
+            source: folders(&rig, &args.masks, what)?,
+            rig,
+            rig_name: rig_path.display().to_string(),
+            backgrounds: None,
+        });
+    }
     let Some(bg_dir) = &args.backgrounds else {
         bail!(
             "{what} needs a background image per camera: give --backgrounds DIR holding NAME.png for each camera (make them with `flexshape background`)"
@@ -203,16 +229,7 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
             .map(|c| (c.camera.intrinsics.width, c.camera.intrinsics.height))
     };
     let source: Box<dyn FrameSource> = if !args.images.is_empty() {
-        let folders = per_camera(&rig, &args.images, what)?;
-        let source = FolderSource::open(&folders)?;
-        if !source.unpaired().is_empty() {
-            eprintln!(
-                "left out {} images not present for every camera: {}",
-                source.unpaired().len(),
-                source.unpaired().join(", ")
-            );
-        }
-        Box::new(source)
+        folders(&rig, &args.images, what)?
     } else if !args.video.is_empty() {
         let videos: Vec<_> = per_camera(&rig, &args.video, what)?
             .into_iter()
@@ -235,9 +252,26 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
     Ok(Input {
         rig,
         rig_name: rig_path.display().to_string(),
-        backgrounds,
+        backgrounds: Some(backgrounds),
         source,
     })
+}
+
+/// Frames from one folder (or file) per camera, `what` the option that named them.
+fn folders(
+    rig: &Rig,
+    given: &[(String, PathBuf)],
+    what: &str,
+) -> anyhow::Result<Box<dyn FrameSource>> {
+    let source = FolderSource::open(&per_camera(rig, given, what)?)?;
+    if !source.unpaired().is_empty() {
+        eprintln!(
+            "left out {} images not present for every camera: {}",
+            source.unpaired().len(),
+            source.unpaired().join(", ")
+        );
+    }
+    Ok(Box::new(source))
 }
 
 /// The model frame `flexshape model fit --save-frame` wrote.
