@@ -236,6 +236,119 @@ pub enum RigCommand {
         /// Rig TOML file, or a folder of camera files (*.yml, *.yaml, *.json).
         path: PathBuf,
     },
+    /// Turn another tool's calibration into a rig: OpenCV camera files (NAME.yml) and
+    /// rig.toml in --out, ready for `track --rig`.
+    Import(RigImportArgs),
+    /// Write a rig's cameras in another tool's format.
+    Export(RigExportArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct RigImportArgs {
+    /// The format: projection (3×4 P = K[R|t] as text, KITTI `NAME:` lines or NumPy .npy),
+    /// middlebury (*_par.txt), camera-info (ROS CameraInfo YAML, one per camera), kalibr
+    /// (camchain.yaml) or colmap (the folder of cameras.txt and images.txt).
+    #[arg(value_enum)]
+    pub format: ImportFormatArg,
+    /// The files (or the COLMAP folder).
+    #[arg(required = true, value_name = "FILE")]
+    pub inputs: Vec<PathBuf>,
+    /// Output folder for NAME.yml per camera and rig.toml.
+    #[arg(long, short = 'o', value_name = "DIR")]
+    pub out: PathBuf,
+    /// Image size where the format lacks it (projection; middlebury without its images).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// Length unit of the files: mm, cm or m. Needed for projection and colmap (their files do
+    /// not say); the others default to metres, as their tools write them.
+    #[arg(long, value_parser = parse_unit)]
+    pub unit: Option<flexshape_rig::import::Unit>,
+    /// The working volume written into rig.toml, world mm (default: 256 mm cube at the
+    /// origin). World = the tool's frame (cam0's for kalibr, the left camera's rectified frame
+    /// for camera-info).
+    #[arg(long, allow_hyphen_values = true, value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", value_parser = parse_box)]
+    pub volume: Option<[f64; 6]>,
+    /// Voxel edge for --volume, mm.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "MM",
+        default_value = "1"
+    )]
+    pub voxel: f64,
+    /// Replace files already in --out.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct RigExportArgs {
+    /// The rig: a rig TOML or a folder of OpenCV camera files.
+    pub rig: PathBuf,
+    /// camera-info (ROS CameraInfo YAML per camera: intrinsics only) or colmap (text model:
+    /// cameras and poses).
+    #[arg(long, value_enum)]
+    pub format: ExportFormatArg,
+    /// Output folder.
+    #[arg(long, short = 'o', value_name = "DIR")]
+    pub out: PathBuf,
+    /// Length unit of the written poses: mm, cm or m.
+    #[arg(long, value_parser = parse_unit, default_value = "mm")]
+    pub unit: flexshape_rig::import::Unit,
+    /// Replace files already in --out.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+/// `rig import FORMAT`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ImportFormatArg {
+    /// 3×4 projection matrices.
+    Projection,
+    /// Middlebury *_par.txt.
+    Middlebury,
+    /// ROS CameraInfo YAML.
+    CameraInfo,
+    /// Kalibr camchain.yaml.
+    Kalibr,
+    /// COLMAP text model folder.
+    Colmap,
+}
+
+impl From<ImportFormatArg> for flexshape_rig::import::Format {
+    fn from(f: ImportFormatArg) -> Self {
+        use flexshape_rig::import::Format;
+        match f {
+            ImportFormatArg::Projection => Format::Projection,
+            ImportFormatArg::Middlebury => Format::Middlebury,
+            ImportFormatArg::CameraInfo => Format::CameraInfo,
+            ImportFormatArg::Kalibr => Format::Kalibr,
+            ImportFormatArg::Colmap => Format::Colmap,
+        }
+    }
+}
+
+/// `rig export --format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ExportFormatArg {
+    /// ROS CameraInfo YAML per camera.
+    CameraInfo,
+    /// COLMAP text model.
+    Colmap,
+}
+
+impl From<ExportFormatArg> for flexshape_rig::import::ExportFormat {
+    fn from(f: ExportFormatArg) -> Self {
+        use flexshape_rig::import::ExportFormat;
+        match f {
+            ExportFormatArg::CameraInfo => ExportFormat::CameraInfo,
+            ExportFormatArg::Colmap => ExportFormat::Colmap,
+        }
+    }
+}
+
+fn parse_unit(s: &str) -> Result<flexshape_rig::import::Unit, String> {
+    s.parse()
 }
 
 #[derive(Debug, Args)]

@@ -303,6 +303,21 @@ fn negative_numbers_reach_the_options() {
             ],
             "square",
         ),
+        (
+            vec![
+                "rig".into(),
+                "import".into(),
+                "kalibr".into(),
+                out("none.yaml"),
+                "-o".into(),
+                out("imported"),
+                "--volume".into(),
+                "-100,-100,-100,100,100,100".into(),
+                "--voxel".into(),
+                "-1".into(),
+            ],
+            "none.yaml",
+        ),
     ];
     for (args, expected) in cases {
         let refs: Vec<&str> = args.iter().map(String::as_str).collect();
@@ -472,4 +487,98 @@ fn validate_points_registers_and_reports_per_axis_rms() {
         "{}",
         text(&o)
     );
+}
+
+/// `rig import` writes a rig `track` and `rig check` load, refuses to replace it, asks for
+/// what a format lacks; `rig export` writes what imports back.
+#[test]
+fn rig_import_and_export_round_trip_other_tools_calibrations() {
+    let fixtures =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../rig/tests/fixtures/import");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rig");
+    let o = out.to_str().unwrap();
+    let chain = fixtures.join("camchain.yaml");
+    let text = common::run(&["rig", "import", "kalibr", chain.to_str().unwrap(), "-o", o]);
+    assert!(text.contains("cam2") && text.contains("mm apart"), "{text}");
+    let check = common::run(&["rig", "check", &format!("{o}/rig.toml")]);
+    assert!(check.contains("3 cameras"), "{check}");
+    let e = common::fails(&["rig", "import", "kalibr", chain.to_str().unwrap(), "-o", o]);
+    assert!(
+        e.contains("already exist") && e.contains("--overwrite"),
+        "{e}"
+    );
+    common::run(&[
+        "rig",
+        "import",
+        "kalibr",
+        chain.to_str().unwrap(),
+        "-o",
+        o,
+        "--overwrite",
+    ]);
+    // A projection matrix holds neither the image size nor the unit.
+    let p = fixtures.join("cam0_P.txt");
+    let other = dir.path().join("p");
+    let e = common::fails(&[
+        "rig",
+        "import",
+        "projection",
+        p.to_str().unwrap(),
+        "-o",
+        other.to_str().unwrap(),
+        "--unit",
+        "mm",
+    ]);
+    assert!(e.contains("image size") && e.contains("WxH"), "{e}");
+    let e = common::fails(&[
+        "rig",
+        "import",
+        "projection",
+        p.to_str().unwrap(),
+        "-o",
+        other.to_str().unwrap(),
+        "--size",
+        "640x480",
+    ]);
+    assert!(e.contains("unit"), "{e}");
+    common::run(&[
+        "rig",
+        "import",
+        "projection",
+        p.to_str().unwrap(),
+        "-o",
+        other.to_str().unwrap(),
+        "--size",
+        "640x480",
+        "--unit",
+        "mm",
+    ]);
+    assert!(other.join("cam0_P.yml").is_file());
+    // Out again as COLMAP, and back in.
+    let colmap = dir.path().join("colmap");
+    common::run(&[
+        "rig",
+        "export",
+        &format!("{o}/rig.toml"),
+        "--format",
+        "colmap",
+        "-o",
+        colmap.to_str().unwrap(),
+    ]);
+    let back = dir.path().join("back");
+    let text = common::run(&[
+        "rig",
+        "import",
+        "colmap",
+        colmap.to_str().unwrap(),
+        "--unit",
+        "mm",
+        "-o",
+        back.to_str().unwrap(),
+    ]);
+    assert!(text.contains("cam1"), "{text}");
+    let a = std::fs::read_to_string(out.join("cam1.yml")).unwrap();
+    let b = std::fs::read_to_string(back.join("cam1.yml")).unwrap();
+    assert!(a.contains("image_width: 640") && b.contains("image_width: 640"));
 }

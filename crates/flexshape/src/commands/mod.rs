@@ -9,6 +9,7 @@ mod model;
 mod model_fit;
 mod report;
 mod rig_check;
+mod rig_import;
 mod silhouettes;
 mod simulate;
 mod track;
@@ -43,9 +44,11 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         },
         Command::Report(args) => report::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
-        Command::Rig {
-            command: RigCommand::Check { path },
-        } => rig_check::run(&path),
+        Command::Rig { command } => match command {
+            RigCommand::Check { path } => rig_check::run(&path),
+            RigCommand::Import(args) => rig_import::import(&args),
+            RigCommand::Export(args) => rig_import::export(&args),
+        },
     }
 }
 

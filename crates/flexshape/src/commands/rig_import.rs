@@ -1,0 +1,128 @@
+//! `flexshape rig import` and `rig export`: other tools' calibrations in and out.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use flexshape_rig::import::{self, ImportOptions};
+use flexshape_rig::{Rig, Volume};
+
+use crate::cli::{RigExportArgs, RigImportArgs};
+
+pub fn import(args: &RigImportArgs) -> anyhow::Result<()> {
+    let format = args.format.into();
+    let read = import::read(
+        format,
+        &args.inputs,
+        ImportOptions {
+            unit: args.unit,
+            size: args.size,
+        },
+    )?;
+    let volume = match args.volume {
+        Some(b) => Volume::from_bounds([b[0], b[1], b[2]], [b[3], b[4], b[5]], args.voxel)
+            .context("invalid --volume / --voxel")?,
+        None => Volume::default(),
+    };
+    let source = args.inputs.first().map_or(Path::new("."), PathBuf::as_path);
+    let rig = import::rig_of(read.cameras, volume, source)?;
+    let rig_path = args.out.join("rig.toml");
+    let mut files: Vec<PathBuf> = rig.cameras.iter().map(|c| args.out.join(&c.file)).collect();
+    files.push(rig_path.clone());
+    refuse_existing(&files, args.overwrite)?;
+    rig.save(&rig_path)?;
+    for note in &read.notes {
+        eprintln!("note: {note}");
+    }
+    print_cameras(&rig);
+    println!(
+        "wrote {} ({} camera files and rig.toml); check what each camera sees of the volume with: flexshape rig check {}",
+        args.out.display(),
+        rig.cameras.len(),
+        rig_path.display()
+    );
+    Ok(())
+}
+
+pub fn export(args: &RigExportArgs) -> anyhow::Result<()> {
+    let rig = super::load_rig(&args.rig)?;
+    let format = args.format.into();
+    let planned: Vec<PathBuf> = match format {
+        import::ExportFormat::CameraInfo => rig
+            .cameras
+            .iter()
+            .map(|c| args.out.join(format!("{}.yaml", c.name)))
+            .collect(),
+        import::ExportFormat::Colmap => ["cameras.txt", "images.txt", "points3D.txt"]
+            .iter()
+            .map(|f| args.out.join(f))
+            .collect(),
+    };
+    refuse_existing(&planned, args.overwrite)?;
+    let written = import::export(&rig, format, &args.out, args.unit)?;
+    println!(
+        "wrote {}{}",
+        written
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
+        if format == import::ExportFormat::CameraInfo {
+            " (CameraInfo holds intrinsics only: publish the poses as TF from the rig's camera files)"
+        } else {
+            ""
+        }
+    );
+    Ok(())
+}
+
+/// Refuses to replace any of `files` unless `overwrite`.
+fn refuse_existing(files: &[PathBuf], overwrite: bool) -> anyhow::Result<()> {
+    if overwrite {
+        return Ok(());
+    }
+    let existing: Vec<String> = files
+        .iter()
+        .filter(|f| f.exists())
+        .map(|f| f.display().to_string())
+        .collect();
+    if !existing.is_empty() {
+        let more = match existing.len() {
+            n if n > 3 => format!(" and {} more", n - 3),
+            _ => String::new(),
+        };
+        bail!(
+            "{}{more} already exist{}: give --overwrite to replace, or another --out",
+            existing[..existing.len().min(3)].join(", "),
+            if existing.len() == 1 { "s" } else { "" }
+        );
+    }
+    Ok(())
+}
+
+/// Each camera's size, focal length and centre, and the distances between the centres (to see
+/// at a glance whether the unit was right).
+fn print_cameras(rig: &Rig) {
+    for c in &rig.cameras {
+        let i = &c.camera.intrinsics;
+        let o = c.camera.centre();
+        println!(
+            "  {:<12} {}×{}  fx {:.1} fy {:.1}  centre ({:.1}, {:.1}, {:.1}) mm",
+            c.name, i.width, i.height, i.fx, i.fy, o.x, o.y, o.z
+        );
+    }
+    let centres: Vec<_> = rig.cameras.iter().map(|c| c.camera.centre()).collect();
+    let mut gaps = Vec::new();
+    for a in 0..centres.len() {
+        for b in a + 1..centres.len() {
+            gaps.push((centres[a] - centres[b]).norm());
+        }
+    }
+    if !gaps.is_empty() {
+        let (lo, hi) = gaps
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));
+        println!(
+            "  cameras {lo:.1}–{hi:.1} mm apart (if that is off by 10× or 1000×, give --unit)"
+        );
+    }
+}

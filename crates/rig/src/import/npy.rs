@@ -1,0 +1,169 @@
+//! NumPy `.npy` arrays of floats (format versions 1–3): little- or big-endian `f8`/`f4`, C or
+//! Fortran order. Enough for the projection matrices labs save with `np.save`.
+
+use std::path::Path;
+
+use crate::RigError;
+
+/// An array: its shape and its values in C (row-major) order.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Array {
+    pub shape: Vec<usize>,
+    pub data: Vec<f64>,
+}
+
+/// Parses the bytes of a `.npy` file (`path` names it in errors).
+pub(crate) fn parse(path: &Path, bytes: &[u8]) -> Result<Array, RigError> {
+    let bad = |problem: &str| RigError::field(path, "npy header", problem.to_string());
+    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+        return Err(bad("not a NumPy .npy file (no \\x93NUMPY magic)"));
+    }
+    let (len, start) = match bytes[6] {
+        1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
+        2 | 3 if bytes.len() >= 12 => (
+            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
+            12,
+        ),
+        v => return Err(bad(&format!("format version {v} is not 1, 2 or 3"))),
+    };
+    let header = bytes
+        .get(start..start + len)
+        .and_then(|h| std::str::from_utf8(h).ok())
+        .ok_or_else(|| bad("header cut short or not text"))?;
+    let descr = value_of(header, "descr").ok_or_else(|| bad("no 'descr'"))?;
+    let descr = descr
+        .trim_start_matches(['\'', '"'])
+        .split(['\'', '"'])
+        .next()
+        .unwrap_or("");
+    let (size, big) = match descr {
+        "<f8" | "=f8" | "|f8" => (8, false),
+        ">f8" => (8, true),
+        "<f4" | "=f4" | "|f4" => (4, false),
+        ">f4" => (4, true),
+        other => {
+            return Err(bad(&format!(
+                "element type {other}: only float64 or float32 arrays are read (save with .astype(np.float64))"
+            )));
+        }
+    };
+    let fortran = value_of(header, "fortran_order")
+        .ok_or_else(|| bad("no 'fortran_order'"))?
+        .starts_with("True");
+    let shape_text = value_of(header, "shape").ok_or_else(|| bad("no 'shape'"))?;
+    let shape: Vec<usize> = shape_text
+        .trim_start_matches('(')
+        .split(')')
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            s.parse::<usize>()
+                .map_err(|_| bad("shape is not a tuple of sizes"))
+        })
+        .collect::<Result<_, _>>()?;
+    let count = shape
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .ok_or_else(|| bad("shape too large"))?;
+    let body = &bytes[start + len..];
+    if body.len() != count * size {
+        return Err(bad(&format!(
+            "shape {shape:?} needs {} bytes of data, the file has {}",
+            count * size,
+            body.len()
+        )));
+    }
+    let mut data: Vec<f64> = body
+        .chunks_exact(size)
+        .map(|c| match (size, big) {
+            (8, false) => f64::from_le_bytes(c.try_into().unwrap_or([0; 8])),
+            (8, true) => f64::from_be_bytes(c.try_into().unwrap_or([0; 8])),
+            (_, false) => f32::from_le_bytes(c.try_into().unwrap_or([0; 4])) as f64,
+            (_, true) => f32::from_be_bytes(c.try_into().unwrap_or([0; 4])) as f64,
+        })
+        .collect();
+    if fortran && shape.len() > 1 {
+        data = to_c_order(&data, &shape);
+    }
+    Ok(Array { shape, data })
+}
+
+/// The text after `'key':` in a header dictionary, up to the end of the header.
+fn value_of<'a>(header: &'a str, key: &str) -> Option<&'a str> {
+    let at = header
+        .find(&format!("'{key}'"))
+        .or_else(|| header.find(&format!("\"{key}\"")))?;
+    let rest = &header[at + key.len() + 2..];
+    Some(rest.trim_start().strip_prefix(':')?.trim_start())
+}
+
+/// Column-major values reordered row-major.
+fn to_c_order(data: &[f64], shape: &[usize]) -> Vec<f64> {
+    let n = shape.len();
+    let mut out = vec![0.0; data.len()];
+    let mut index = vec![0usize; n];
+    for (f, &v) in data.iter().enumerate() {
+        // Fortran: the first index runs fastest.
+        let mut r = f;
+        for (k, i) in index.iter_mut().enumerate() {
+            *i = r % shape[k];
+            r /= shape[k];
+        }
+        let c = index.iter().zip(shape).fold(0, |acc, (&i, &d)| acc * d + i);
+        out[c] = v;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn npy(descr: &str, fortran: bool, shape: &str, body: &[u8]) -> Vec<u8> {
+        let mut header = format!(
+            "{{'descr': '{descr}', 'fortran_order': {}, 'shape': {shape}, }}",
+            if fortran { "True" } else { "False" }
+        );
+        while (10 + header.len() + 1) % 64 != 0 {
+            header.push(' ');
+        }
+        header.push('\n');
+        let mut out = b"\x93NUMPY\x01\x00".to_vec();
+        out.extend((header.len() as u16).to_le_bytes());
+        out.extend(header.as_bytes());
+        out.extend(body);
+        out
+    }
+
+    #[test]
+    fn reads_c_and_fortran_order_doubles_and_floats() {
+        let values: Vec<u8> = (0..6).flat_map(|v| (v as f64).to_le_bytes()).collect();
+        let a = parse(Path::new("a.npy"), &npy("<f8", false, "(2, 3)", &values)).unwrap();
+        assert_eq!(a.shape, vec![2, 3]);
+        assert_eq!(a.data, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+        // Fortran order: the same bytes are the columns.
+        let f = parse(Path::new("f.npy"), &npy("<f8", true, "(2, 3)", &values)).unwrap();
+        assert_eq!(f.data, vec![0.0, 2.0, 4.0, 1.0, 3.0, 5.0]);
+        let floats: Vec<u8> = [1.5f32, -2.0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let g = parse(Path::new("g.npy"), &npy("<f4", false, "(2,)", &floats)).unwrap();
+        assert_eq!((g.shape, g.data), (vec![2], vec![1.5, -2.0]));
+    }
+
+    #[test]
+    fn refuses_what_it_cannot_read_naming_why() {
+        let e = parse(Path::new("x.npy"), b"hello").unwrap_err().to_string();
+        assert!(e.contains("x.npy") && e.contains("magic"), "{e}");
+        let ints = npy("<i8", false, "(1,)", &[0; 8]);
+        let e = parse(Path::new("i.npy"), &ints).unwrap_err().to_string();
+        assert!(e.contains("float64"), "{e}");
+        let short = npy("<f8", false, "(3, 4)", &[0; 8]);
+        let e = parse(Path::new("s.npy"), &short).unwrap_err().to_string();
+        assert!(e.contains("96 bytes"), "{e}");
+    }
+}

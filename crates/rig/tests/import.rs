@@ -1,0 +1,202 @@
+//! Each import format against files written by the original tools' conventions
+//! (`fixtures/import/make_fixtures.py`): the imported cameras must project test points to the
+//! pixels OpenCV's `projectPoints` gives with the original calibration.
+
+use std::path::{Path, PathBuf};
+
+use flexshape_camera::Camera;
+use flexshape_camera::nalgebra::Point3;
+use flexshape_rig::import::{self, Format, ImportOptions, Unit};
+use serde_json::Value;
+
+fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/import")
+}
+
+fn expected() -> Value {
+    serde_json::from_str(&std::fs::read_to_string(fixtures().join("expected.json")).unwrap())
+        .unwrap()
+}
+
+fn points(v: &Value) -> Vec<Point3<f64>> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            let c: Vec<f64> = p
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect();
+            Point3::new(c[0], c[1], c[2])
+        })
+        .collect()
+}
+
+/// The largest distance between `camera`'s projections of `points` and OpenCV's pixels.
+fn worst(camera: &Camera, points: &[Point3<f64>], pixels: &Value) -> f64 {
+    points
+        .iter()
+        .zip(pixels.as_array().unwrap())
+        .map(|(p, px)| {
+            let q = camera.project(p).unwrap().pixel;
+            let (u, v) = (px[0].as_f64().unwrap(), px[1].as_f64().unwrap());
+            ((q.x - u).powi(2) + (q.y - v).powi(2)).sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
+fn read(
+    format: Format,
+    inputs: &[&str],
+    unit: Option<Unit>,
+    size: Option<(u32, u32)>,
+) -> import::Import {
+    let inputs: Vec<PathBuf> = inputs.iter().map(|f| fixtures().join(f)).collect();
+    import::read(format, &inputs, ImportOptions { unit, size }).unwrap()
+}
+
+#[test]
+fn projection_matrices_in_text_kitti_lines_and_npy_project_as_opencv() {
+    let e = expected();
+    let pts = points(&e["points_mm"]);
+    let px = &e["projection_pixels"];
+    let size = Some((640, 480));
+    let text = read(
+        Format::Projection,
+        &["cam0_P.txt"],
+        Some(Unit::Millimetre),
+        size,
+    );
+    assert_eq!(text.cameras[0].name, "cam0_P");
+    assert!(worst(&text.cameras[0].camera, &pts, &px["cam0"]) < 1e-6);
+    let npy = read(Format::Projection, &["P_all.npy"], Some(Unit::Metre), size);
+    let kitti = read(
+        Format::Projection,
+        &["kitti_calib.txt"],
+        Some(Unit::Metre),
+        size,
+    );
+    assert_eq!(kitti.notes.len(), 2, "{:?}", kitti.notes);
+    for (i, name) in ["cam0", "cam1", "cam2"].iter().enumerate() {
+        assert!(
+            worst(&npy.cameras[i].camera, &pts, &px[name]) < 1e-6,
+            "{name}"
+        );
+        assert!(
+            worst(&kitti.cameras[i].camera, &pts, &px[name]) < 1e-6,
+            "{name}"
+        );
+    }
+    assert_eq!(kitti.cameras[2].name, "P2");
+    // The unit must be given: the files do not say.
+    let e = import::read(
+        Format::Projection,
+        &[fixtures().join("cam0_P.txt")],
+        ImportOptions { unit: None, size },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("unit"), "{e}");
+}
+
+#[test]
+fn a_ros_stereo_pair_projects_as_opencv_in_the_left_rectified_frame() {
+    let e = expected();
+    let pts = points(&e["camera_info_points_mm"]);
+    let pair = read(Format::CameraInfo, &["left.yaml", "right.yaml"], None, None);
+    assert_eq!(pair.cameras[0].name, "left");
+    assert!(worst(&pair.cameras[0].camera, &pts, &e["cameras"]["cam0"]) < 1e-6);
+    assert!(worst(&pair.cameras[1].camera, &pts, &e["cameras"]["cam1"]) < 1e-6);
+}
+
+#[test]
+fn a_kalibr_chain_projects_as_opencv_in_cam0s_frame() {
+    let e = expected();
+    let pts = points(&e["kalibr_points_mm"]);
+    let chain = read(Format::Kalibr, &["camchain.yaml"], None, None);
+    for (i, name) in ["cam0", "cam1", "cam2"].iter().enumerate() {
+        assert_eq!(chain.cameras[i].name, *name);
+        assert!(
+            worst(&chain.cameras[i].camera, &pts, &e["cameras"][name]) < 1e-6,
+            "{name}"
+        );
+    }
+}
+
+#[test]
+fn a_colmap_model_projects_as_opencv() {
+    let e = expected();
+    let pts = points(&e["points_mm"]);
+    let model = read(Format::Colmap, &["colmap"], Some(Unit::Metre), None);
+    for (i, name) in ["cam0", "cam1", "cam2"].iter().enumerate() {
+        assert_eq!(model.cameras[i].name, *name);
+        assert!(
+            worst(&model.cameras[i].camera, &pts, &e["cameras"][name]) < 1e-6,
+            "{name}"
+        );
+    }
+}
+
+#[test]
+fn an_imported_rig_exports_and_imports_back() {
+    let chain = read(Format::Kalibr, &["camchain.yaml"], None, None);
+    let rig = import::rig_of(
+        chain.cameras.clone(),
+        Default::default(),
+        Path::new("camchain.yaml"),
+    )
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    rig.save(&dir.path().join("rig.toml")).unwrap();
+    let loaded = flexshape_rig::Rig::load(&dir.path().join("rig.toml")).unwrap();
+    assert_eq!(loaded.cameras.len(), 3);
+    let out = dir.path().join("colmap");
+    import::export(
+        &loaded,
+        import::ExportFormat::Colmap,
+        &out,
+        Unit::Millimetre,
+    )
+    .unwrap();
+    let back = import::read(
+        Format::Colmap,
+        &[out],
+        ImportOptions {
+            unit: Some(Unit::Millimetre),
+            size: None,
+        },
+    )
+    .unwrap();
+    let pts = [
+        Point3::new(10.0, 20.0, 600.0),
+        Point3::new(-40.0, 0.0, 550.0),
+    ];
+    for (a, b) in chain.cameras.iter().zip(&back.cameras) {
+        assert_eq!(a.name, b.name);
+        for p in &pts {
+            let d = a.camera.project(p).unwrap().pixel - b.camera.project(p).unwrap().pixel;
+            assert!(d.norm() < 1e-6);
+        }
+    }
+    let info = dir.path().join("info");
+    let files = import::export(
+        &loaded,
+        import::ExportFormat::CameraInfo,
+        &info,
+        Unit::Metre,
+    )
+    .unwrap();
+    let one = import::read(Format::CameraInfo, &files[..1], ImportOptions::default()).unwrap();
+    assert_eq!(
+        one.cameras[0].camera.intrinsics,
+        chain.cameras[0].camera.intrinsics
+    );
+    // Two cameras of one name are refused.
+    let twice = vec![chain.cameras[0].clone(), chain.cameras[0].clone()];
+    let e = import::rig_of(twice, Default::default(), Path::new("x"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("two cameras are named `cam0`"), "{e}");
+}
