@@ -121,7 +121,9 @@ impl PointCloud {
             path: path.display().to_string(),
             source,
         };
-        let mut out = std::io::BufWriter::new(std::fs::File::create(path).map_err(err)?);
+        // Written whole beside it, then renamed into place: a cloud is complete or absent.
+        let part = path.with_extension("ply.part");
+        let mut out = std::io::BufWriter::new(std::fs::File::create(&part).map_err(err)?);
         let mut text = format!(
             "ply\nformat ascii 1.0\ncomment flexshape carved voxel centres, world frame, mm; band 0 = no band\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty ushort band\nend_header\n",
             self.points.len()
@@ -132,6 +134,8 @@ impl PointCloud {
             text.push_str(&format!("{} {} {} {rgb} {b}\n", p[0], p[1], p[2]));
         }
         out.write_all(text.as_bytes()).map_err(err)?;
-        out.flush().map_err(err)
+        out.flush().map_err(err)?;
+        drop(out);
+        std::fs::rename(&part, path).map_err(err)
     }
 }

@@ -385,8 +385,9 @@ pub struct TrackArgs {
     /// Default: the recording's background/; needed with `--images`, `--video`, `--camera`.
     #[arg(long, value_name = "DIR")]
     pub backgrounds: Option<PathBuf>,
-    /// Output file for the JSON Lines records; `-` for standard output.
-    #[arg(long, default_value = "-")]
+    /// Output file for the JSON Lines records; `-` for standard output. An existing file is
+    /// not replaced without --overwrite; none of the inputs ever is.
+    #[arg(long, short = 'o', default_value = "-")]
     pub out: PathBuf,
     /// Also write a CSV summary, one row per frame (tip, arc length, curvature, …).
     #[arg(long, value_name = "FILE")]
@@ -395,6 +396,9 @@ pub struct TrackArgs {
     /// is then carved, whatever `--follow` says).
     #[arg(long, value_name = "DIR")]
     pub ply: Option<PathBuf>,
+    /// Replace existing --out and --csv files and PLY clouds.
+    #[arg(long)]
+    pub overwrite: bool,
     /// Start each frame's fit from the previous frame's shape when that one was right, and
     /// carve only when it does not explain the images (tracking, `[processing.fit] track`):
     /// faster for slow, smooth motion; such records have `start` = `previous`, `voxels` 0 and

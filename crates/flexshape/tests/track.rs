@@ -481,3 +481,60 @@ fn masks_instead_of_images_give_the_shape_without_backgrounds() {
     ]);
     assert!(e.contains("--backgrounds"), "{e}");
 }
+
+/// Nothing already recorded is lost: outputs never replace an input, existing outputs only
+/// with `--overwrite`, and a file another process is writing is refused.
+#[test]
+fn outputs_never_replace_inputs_or_existing_files_unasked() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "1"]);
+    let rig = std::fs::read(rec.join("rig.toml")).unwrap();
+    let frame = rec.join("frames/cam0/000000.png");
+    let png = std::fs::read(&frame).unwrap();
+    for (out, what) in [
+        (rec.join("rig.toml"), "the input"),
+        (frame.clone(), "inside the input folder"),
+        (rec.join("calibration/cam0.yml"), "inside the input folder"),
+    ] {
+        let e = common::fails(&["track", r, "--out", out.to_str().unwrap(), "--overwrite"]);
+        assert!(e.contains(what) && e.contains("elsewhere"), "{e}");
+    }
+    assert_eq!(std::fs::read(rec.join("rig.toml")).unwrap(), rig);
+    assert_eq!(std::fs::read(&frame).unwrap(), png);
+    // Beside the inputs is fine; once.
+    let out = rec.join("shapes.jsonl");
+    let o = out.to_str().unwrap();
+    let ply = dir.path().join("clouds");
+    common::run(&["track", r, "-o", o, "--ply", ply.to_str().unwrap()]);
+    let first = std::fs::read_to_string(&out).unwrap();
+    let e = common::fails(&["track", r, "-o", o]);
+    assert!(
+        e.contains("already exists") && e.contains("--overwrite"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), first);
+    let other = dir.path().join("other.jsonl");
+    let e = common::fails(&[
+        "track",
+        r,
+        "-o",
+        other.to_str().unwrap(),
+        "--ply",
+        ply.to_str().unwrap(),
+    ]);
+    assert!(e.contains("PLY clouds"), "{e}");
+    // Clouds are renamed into place whole: nothing partial is left.
+    let names: Vec<String> = std::fs::read_dir(&ply)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["000000.ply"]);
+    common::run(&["track", r, "-o", o, "--overwrite"]);
+    // A file another process holds is refused, even with --overwrite.
+    let held = std::fs::File::create(&other).unwrap();
+    held.lock().unwrap();
+    let e = common::fails(&["track", r, "-o", other.to_str().unwrap(), "--overwrite"]);
+    assert!(e.contains("another process"), "{e}");
+}

@@ -31,6 +31,36 @@ struct Input {
     /// `None`: the frames are masks (no background model).
     backgrounds: Option<Vec<BackgroundModel>>,
     source: Box<dyn FrameSource>,
+    /// Files and folders read: no output may replace them.
+    files: Vec<PathBuf>,
+}
+
+/// Whether output `path` is `input` or lies inside it (compared as canonical paths; an
+/// output that does not exist yet by its folder's).
+fn within(path: &Path, input: &Path) -> bool {
+    if path == Path::new("-") {
+        return false;
+    }
+    let Ok(input) = input.canonicalize() else {
+        return false;
+    };
+    let canonical = path.canonicalize().ok().or_else(|| {
+        let parent = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        Some(parent.canonicalize().ok()?.join(path.file_name()?))
+    });
+    canonical.is_some_and(|c| c == input || (input.is_dir() && c.starts_with(&input)))
+}
+
+/// What `args` reads besides the recording or frames: the rig, backgrounds, model frame.
+fn named_inputs(args: &TrackArgs) -> Vec<PathBuf> {
+    [&args.rig, &args.backgrounds, &args.model_frame]
+        .into_iter()
+        .flatten()
+        .cloned()
+        .collect()
 }
 
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
@@ -57,7 +87,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         .as_deref()
         .map(load_model_frame)
         .transpose()?;
-    let mut sinks = Sinks::open(args)?;
+    let mut sinks = Sinks::open(args, &input.files)?;
     let mut viewer = super::viewer::start(&args.viewer, &pipeline)?;
     let bar = progress(input.source.as_ref());
     let mut tally = Tally::new();
@@ -190,11 +220,24 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
                 rec.layout().background(name)
             })?),
         };
+        let mut files = named_inputs(args);
+        files.push(rec.layout().rig());
+        for sub in [
+            "calibration",
+            "frames",
+            "masks",
+            "background",
+            "truth",
+            "commands",
+        ] {
+            files.push(rec.layout().root().join(sub));
+        }
         return Ok(Input {
             rig,
             rig_name,
             backgrounds,
             source: Box::new(RecordingSource::new(rec)),
+            files,
         });
     }
     let what = if !args.images.is_empty() {
@@ -210,12 +253,17 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
         bail!("{what} needs the rig: give --rig RIG.toml or --rig CALIBRATION_DIR");
     };
     let rig = super::load_rig(rig_path)?;
+    let mut files = named_inputs(args);
+    for given in [&args.images, &args.masks, &args.video, &args.camera] {
+        files.extend(given.iter().map(|(_, p)| p.clone()));
+    }
     if !args.masks.is_empty() {
         return Ok(Input {
             source: folders(&rig, &args.masks, what)?,
             rig,
             rig_name: rig_path.display().to_string(),
             backgrounds: None,
+            files,
         });
     }
     let Some(bg_dir) = &args.backgrounds else {
@@ -254,6 +302,7 @@ fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
         rig_name: rig_path.display().to_string(),
         backgrounds: Some(backgrounds),
         source,
+        files,
     })
 }
 
@@ -371,17 +420,49 @@ struct Sinks {
 const CSV_HEADER: &str = "frame,image,status,tip_x,tip_y,tip_z,tip_dx,tip_dy,tip_dz,arc_length_mm,curvature_per_mm,bands,voxels,latency_ms,silhouettes_ms,carve_ms,bands_ms,shape_ms";
 
 impl Sinks {
-    fn open(args: &TrackArgs) -> anyhow::Result<Self> {
-        let out = Output::open(&args.out)?;
+    /// Opens the outputs, refusing any that is (or lies in) one of `inputs`, and existing ones
+    /// without `--overwrite`.
+    fn open(args: &TrackArgs, inputs: &[PathBuf]) -> anyhow::Result<Self> {
+        let outputs = [Some(&args.out), args.csv.as_ref(), args.ply.as_ref()];
+        for path in outputs.into_iter().flatten() {
+            if let Some(input) = inputs.iter().find(|i| within(path, i)) {
+                bail!(
+                    "{} is {} {}: write the output elsewhere",
+                    path.display(),
+                    if input.is_dir() {
+                        "inside the input folder"
+                    } else {
+                        "the input"
+                    },
+                    input.display()
+                );
+            }
+        }
+        if args.csv.as_ref() == Some(&args.out) && args.out != Path::new("-") {
+            bail!("--csv and --out are the same file {}", args.out.display());
+        }
+        let out = Output::open(&args.out, args.overwrite)?;
         let csv = match &args.csv {
             Some(path) => {
-                let mut csv = Output::open(path)?;
+                let mut csv = Output::open(path, args.overwrite)?;
                 csv.line(CSV_HEADER)?;
                 Some(csv)
             }
             None => None,
         };
         if let Some(dir) = &args.ply {
+            let clouds = std::fs::read_dir(dir).map_or(0, |entries| {
+                entries
+                    .filter_map(Result::ok)
+                    .filter(|e| e.path().extension().is_some_and(|x| x == "ply"))
+                    .count()
+            });
+            if clouds > 0 && !args.overwrite {
+                bail!(
+                    "{} already holds {clouds} PLY clouds: give --overwrite to replace them, or another --ply folder",
+                    dir.display()
+                );
+            }
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("cannot create the PLY folder {}", dir.display()))?;
         }
@@ -393,16 +474,18 @@ impl Sinks {
     }
 
     fn write(&mut self, record: &TrackRecord, p: &Processed) -> anyhow::Result<()> {
-        self.out.write(record)?;
-        if let Some(csv) = &mut self.csv {
-            csv.line(&csv_row(record))?;
-        }
+        // The cloud first (written whole, then renamed into place), so that a record never
+        // names a cloud that is not there.
         if let (Some(dir), Ok(t)) = (&self.ply, &p.result) {
             let path = dir.join(format!("{:06}.ply", record.frame));
             t.occupancy
                 .to_cloud_with_bands(&t.bands)
                 .write_ply(&path)
                 .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        self.out.write(record)?;
+        if let Some(csv) = &mut self.csv {
+            csv.line(&csv_row(record))?;
         }
         Ok(())
     }
@@ -443,7 +526,7 @@ struct Output {
 }
 
 impl Output {
-    fn open(path: &Path) -> anyhow::Result<Self> {
+    fn open(path: &Path, overwrite: bool) -> anyhow::Result<Self> {
         if path == Path::new("-") {
             return Ok(Output {
                 name: "standard output".into(),
@@ -453,8 +536,32 @@ impl Output {
         if path.is_dir() {
             bail!("{} is a folder; give a file name", path.display());
         }
-        let file =
-            File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+        // Without --overwrite the file must be new (created atomically, so two runs cannot both
+        // take it); either way it is locked while written, so a second run on it stops.
+        let file = if overwrite {
+            File::options()
+                .write(true)
+                .create(true)
+                .truncate(false)
+                .open(path)
+        } else {
+            File::options().write(true).create_new(true).open(path)
+        }
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::AlreadyExists => anyhow::anyhow!(
+                "{} already exists: give --overwrite to replace it, or another file",
+                path.display()
+            ),
+            _ => anyhow::Error::new(e).context(format!("cannot create {}", path.display())),
+        })?;
+        if file.try_lock().is_err() {
+            bail!(
+                "{} is being written by another process (another `flexshape track`?): give another file",
+                path.display()
+            );
+        }
+        file.set_len(0)
+            .with_context(|| format!("cannot empty {}", path.display()))?;
         Ok(Output {
             name: path.display().to_string(),
             sink: Box::new(BufWriter::new(file)),
