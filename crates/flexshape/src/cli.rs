@@ -139,8 +139,8 @@ pub struct CalibrateArgs {
     pub square: f64,
     /// A camera and its image folder, NAME=DIR; repeat for every camera (the first is the
     /// reference).
-    #[arg(long = "images", value_name = "NAME=DIR", required = true)]
-    pub images: Vec<String>,
+    #[arg(long = "images", value_name = "NAME=DIR", required = true, value_parser = parse_named_path)]
+    pub images: Vec<(String, PathBuf)>,
     /// Output folder: NAME.yml per camera (OpenCV FileStorage), rig.toml, calibration.json,
     /// residuals.png/svg.
     #[arg(long)]
@@ -674,6 +674,9 @@ fn parse_box(s: &str) -> Result<[f64; 6], String> {
 /// `NAME=PATH` → (NAME, PATH).
 fn parse_named_path(s: &str) -> Result<(String, PathBuf), String> {
     match s.split_once('=') {
+        Some((name, _)) if !name.is_empty() && !flexshape_rig::valid_name(name) => Err(format!(
+            "camera name `{name}`: use letters, digits, `_` and `-` only (it names files and folders)"
+        )),
         Some((name, path)) if !name.is_empty() && !path.is_empty() => {
             Ok((name.to_string(), PathBuf::from(path)))
         }

@@ -151,6 +151,23 @@ fn bad_arguments_are_clear() {
     let o = flexshape(&["demo", "--frames", "1", "--cams", "0"]);
     assert!(!o.status.success());
     assert!(text(&o).contains("cameras"), "{}", text(&o));
+    // A camera name becomes a file name: `../x` would write outside --out.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cal");
+    let o = flexshape(&[
+        "calibrate",
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--images",
+        &format!("../x={}", dir.path().display()),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("camera name `../x`"), "{}", text(&o));
+    assert!(!dir.path().join("x.yml").exists() && !out.exists());
 }
 
 #[test]

@@ -20,7 +20,7 @@ mod rig;
 mod volume;
 
 pub use error::RigError;
-pub use rig::{Rig, RigCamera, SkippedFile};
+pub use rig::{Rig, RigCamera, SkippedFile, valid_name};
 pub use volume::{MAX_VOXELS, Volume, VolumeError};
 
 /// Per-stage processing settings (`[processing.<stage>]` tables of the rig file).

@@ -342,7 +342,9 @@ impl Rig {
     }
 }
 
-fn valid_name(name: &str) -> bool {
+/// Whether `name` can name a camera: letters, digits, `_` and `-` only (it names files and
+/// folders, so no separators, dots or spaces).
+pub fn valid_name(name: &str) -> bool {
     !name.is_empty()
         && name
             .chars()

@@ -229,17 +229,14 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
 }
 
 /// `NAME=DIR` arguments → cameras and their image files (sorted by name).
-fn cameras(specs: &[String]) -> anyhow::Result<Vec<CameraImages>> {
+fn cameras(specs: &[(String, PathBuf)]) -> anyhow::Result<Vec<CameraImages>> {
     let mut seen = BTreeMap::new();
     let mut out = Vec::new();
-    for spec in specs {
-        let Some((name, dir)) = spec.split_once('=') else {
-            bail!("--images {spec}: give NAME=DIR, e.g. cam0=images/cam0");
-        };
+    for (name, dir) in specs {
         if seen.insert(name.to_string(), ()).is_some() {
             bail!("--images: camera {name} is given twice");
         }
-        let dir = Path::new(dir);
+        let dir = dir.as_path();
         let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
             .with_context(|| format!("camera {name}: cannot read the folder {}", dir.display()))?
             .filter_map(|e| e.ok().map(|e| e.path()))
