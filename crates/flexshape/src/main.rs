@@ -5,9 +5,12 @@ mod cli;
 mod commands;
 mod interrupt;
 
+use std::io::Write;
+
 use clap::Parser;
 
 fn main() -> std::process::ExitCode {
+    end_quietly_on_failed_prints();
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
@@ -18,10 +21,47 @@ fn main() -> std::process::ExitCode {
     match commands::run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", message(&e));
+            // Standard error may be full or closed too: nothing more to do then.
+            let _ = writeln!(std::io::stderr(), "error: {}", message(&e));
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// Exit status of a program whose output pipe closed (128 + SIGPIPE), as shells expect.
+const CLOSED_PIPE: i32 = 141;
+
+/// A print that fails — standard output or error on a full disk (`/dev/full`) or a closed
+/// pipe (`flexshape demo | head -1`) — ends the program with one line (or, for a closed pipe,
+/// silently, as Unix tools do) instead of a panic. Files the commands write are flushed per
+/// record, so nothing written before is lost.
+fn end_quietly_on_failed_prints() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let text = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        let Some(rest) = text.strip_prefix("failed printing to ") else {
+            return default(info);
+        };
+        if rest.contains("Broken pipe") {
+            std::process::exit(CLOSED_PIPE);
+        }
+        let (stream, reason) = rest.split_once(": ").unwrap_or((rest, ""));
+        let stream = if stream == "stdout" {
+            "output"
+        } else {
+            "error"
+        };
+        let _ = writeln!(
+            std::io::stderr(),
+            "error: cannot write to the standard {stream}: {reason}"
+        );
+        std::process::exit(1);
+    }));
 }
 
 /// The error and its causes on one line, each cause once: library errors often name their

@@ -599,3 +599,55 @@ fn rig_import_and_export_round_trip_other_tools_calibrations() {
     let b = std::fs::read_to_string(back.join("cam1.yml")).unwrap();
     assert!(a.contains("image_width: 640") && b.contains("image_width: 640"));
 }
+
+/// Standard output on a full disk or a closed pipe: one clear line (or, for the pipe, a quiet
+/// end with status 141 as Unix tools give), never a panic.
+#[test]
+fn a_full_disk_or_closed_pipe_on_stdout_is_no_panic() {
+    use std::process::{Command, Stdio};
+    let bin = env!("CARGO_BIN_EXE_flexshape");
+    let dir = tempfile::tempdir().unwrap();
+    let chain = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../rig/tests/fixtures/import/camchain.yaml");
+    let out = dir.path().join("rig");
+    let import = vec![
+        "rig",
+        "import",
+        "kalibr",
+        chain.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    if std::path::Path::new("/dev/full").exists() {
+        for args in [vec!["model", "template"], import] {
+            let o = Command::new(bin)
+                .args(&args)
+                .stdout(std::fs::File::create("/dev/full").unwrap())
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+            assert!(!err.contains("panicked"), "{args:?}: {err}");
+            assert!(
+                err.contains("cannot write to the standard output"),
+                "{args:?}: {err}"
+            );
+        }
+    }
+    // A pipe closed after the first line.
+    let mut child = Command::new(bin)
+        .args(["model", "template"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        matches!(o.status.code(), Some(0) | Some(141)),
+        "{:?}: {err}",
+        o.status
+    );
+}
