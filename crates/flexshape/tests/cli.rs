@@ -520,6 +520,12 @@ fn rig_import_and_export_round_trip_other_tools_calibrations() {
     assert!(text.contains("cam2") && text.contains("mm apart"), "{text}");
     let check = common::run(&["rig", "check", &format!("{o}/rig.toml")]);
     assert!(check.contains("3 cameras"), "{check}");
+    // Without --volume, the volume is a box every camera sees.
+    assert_eq!(
+        check.matches("volume corners in view 8/8").count(),
+        3,
+        "{check}"
+    );
     let e = common::fails(&["rig", "import", "kalibr", chain.to_str().unwrap(), "-o", o]);
     assert!(
         e.contains("already exist") && e.contains("--overwrite"),

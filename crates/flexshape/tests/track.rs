@@ -538,3 +538,31 @@ fn outputs_never_replace_inputs_or_existing_files_unasked() {
     let e = common::fails(&["track", r, "-o", other.to_str().unwrap(), "--overwrite"]);
     assert!(e.contains("another process"), "{e}");
 }
+
+/// A volume the cameras do not look at is named, with the box they all see.
+#[test]
+fn a_volume_no_camera_sees_is_warned_about_with_one_they_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "1"]);
+    let out = dir.path().join("far.jsonl");
+    let o = flexshape(&[
+        "track",
+        r,
+        "-o",
+        out.to_str().unwrap(),
+        "--volume",
+        "2000,2000,2000,2100,2100,2100",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("8 of the volume's 8 corners are seen by no camera"),
+        "{err}"
+    );
+    assert!(err.contains("every camera sees --volume"), "{err}");
+    // The rig's own volume draws no warning.
+    let near = dir.path().join("near.jsonl");
+    let o = flexshape(&["track", r, "-o", near.to_str().unwrap()]);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("seen by no camera"));
+}

@@ -6,12 +6,14 @@
 //! - [`Rig`]: named cameras + volume + per-stage processing settings, in one TOML file that
 //!   points at the per-camera files.
 //!
+//! - [`coverage`]: which cameras see a volume's corners, and a volume they all see.
 //! - [`import`]: other tools' calibrations (projection matrices, ROS CameraInfo, Kalibr,
 //!   COLMAP; Middlebury in [`middlebury`]) read into cameras, and written back.
 //!
 //! Every loader validates what it reads and names the file and field of any problem.
 
 pub mod camera_file;
+pub mod coverage;
 mod error;
 pub mod import;
 pub mod middlebury;

@@ -136,3 +136,14 @@ pub(crate) fn with_method(
         }
     }
 }
+
+/// The box every camera sees, as the `--volume` option that sets it, e.g.
+/// `--volume -60,-60,-60,60,60,60 --voxel 1` (or `None`).
+fn suggested_volume(cameras: &[flexshape_camera::Camera], voxel: f64) -> Option<String> {
+    let v = flexshape_rig::coverage::suggest_volume(cameras, voxel)?;
+    let hi = v.max_corner();
+    Some(format!(
+        "--volume {:.0},{:.0},{:.0},{:.0},{:.0},{:.0} --voxel {}",
+        v.origin[0], v.origin[1], v.origin[2], hi.x, hi.y, hi.z, v.voxel_size[0]
+    ))
+}

@@ -83,5 +83,10 @@ pub fn run(path: &Path) -> anyhow::Result<()> {
             "  note: some cameras do not see the whole volume; parts of the volume outside a camera's view are not constrained by it"
         );
     }
+    let cameras: Vec<_> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
+    match super::suggested_volume(&cameras, v.voxel_size[0]) {
+        Some(s) => println!("  every camera sees the box {s}"),
+        None => println!("  the cameras see no box in common around where their axes meet"),
+    }
     Ok(())
 }

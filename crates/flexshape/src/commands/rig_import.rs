@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
+use flexshape_rig::coverage;
 use flexshape_rig::import::{self, ImportOptions};
 use flexshape_rig::{Rig, Volume};
 
@@ -18,10 +19,24 @@ pub fn import(args: &RigImportArgs) -> anyhow::Result<()> {
             size: args.size,
         },
     )?;
+    let cameras: Vec<_> = read.cameras.iter().map(|c| c.camera.clone()).collect();
     let volume = match args.volume {
         Some(b) => Volume::from_bounds([b[0], b[1], b[2]], [b[3], b[4], b[5]], args.voxel)
             .context("invalid --volume / --voxel")?,
-        None => Volume::default(),
+        None => match coverage::suggest_volume(&cameras, args.voxel) {
+            Some(v) => {
+                eprintln!(
+                    "note: the volume is the box every camera sees (give --volume to choose another)"
+                );
+                v
+            }
+            None => {
+                eprintln!(
+                    "note: the cameras see no box in common; the volume is the default 256 mm cube at the origin (give --volume)"
+                );
+                Volume::default()
+            }
+        },
     };
     let source = args.inputs.first().map_or(Path::new("."), PathBuf::as_path);
     let rig = import::rig_of(read.cameras, volume, source)?;
@@ -110,6 +125,12 @@ fn print_cameras(rig: &Rig) {
             c.name, i.width, i.height, i.fx, i.fy, o.x, o.y, o.z
         );
     }
+    let v = &rig.volume;
+    let hi = v.max_corner();
+    println!(
+        "  volume ({:.1}, {:.1}, {:.1}) to ({:.1}, {:.1}, {:.1}) mm, voxels of {} mm",
+        v.origin[0], v.origin[1], v.origin[2], hi.x, hi.y, hi.z, v.voxel_size[0]
+    );
     let centres: Vec<_> = rig.cameras.iter().map(|c| c.camera.centre()).collect();
     let mut gaps = Vec::new();
     for a in 0..centres.len() {

@@ -67,6 +67,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let stop = Interrupt::install();
     let mut input = open_input(args)?;
     let volume = volume(&input.rig.volume, args)?;
+    warn_unseen(&input.rig, &volume);
     let pipeline = match &input.backgrounds {
         Some(backgrounds) => Pipeline::new(&input.rig, backgrounds, &volume),
         None => Pipeline::for_masks(&input.rig, &volume),
@@ -394,6 +395,24 @@ fn per_camera(
                 })
         })
         .collect()
+}
+
+/// Warns when most of the volume's corners are seen by no camera: the rig's volume is likely
+/// not where the cameras look (an imported calibration with the default volume).
+fn warn_unseen(rig: &Rig, volume: &Volume) {
+    let cameras: Vec<_> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
+    let unseen = flexshape_rig::coverage::corners_seen(&cameras, volume)
+        .iter()
+        .filter(|&&n| n == 0)
+        .count();
+    if unseen > 4 {
+        eprintln!(
+            "warning: {unseen} of the volume's 8 corners are seen by no camera: the volume may not be where the cameras look{}",
+            super::suggested_volume(&cameras, volume.voxel_size[0])
+                .map(|s| format!("; every camera sees {s}"))
+                .unwrap_or_default()
+        );
+    }
 }
 
 /// The volume to carve: the rig's, or the one given on the command line.
