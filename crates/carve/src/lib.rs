@@ -21,9 +21,11 @@ mod hierarchical;
 mod interval;
 mod lookup;
 mod projector;
+mod surface;
 
 pub use bands::{Band, BandRule, find_bands};
 pub use cloud::{Occupancy, PointCloud};
 pub use error::CarveError;
 pub use hierarchical::HierarchicalCarver;
 pub use lookup::{LookupTable, OutsideImage};
+pub use surface::SurfaceMesh;

@@ -26,6 +26,10 @@ pub enum Command {
     /// Track a recording: silhouettes → carving → shape for every frame, written as JSON Lines
     /// (one record per frame, then a summary).
     Track(TrackArgs),
+    /// The visual hull alone, for any object (not only tubes): silhouettes → carving, written
+    /// per frame as a PLY point cloud and a PLY surface mesh, with volume figures; no bands,
+    /// no shape.
+    Carve(CarveArgs),
     /// Measure per-stage throughput on the simulated rig (1 and 2 threads) and print a table,
     /// or JSON with `--json`.
     Bench(BenchArgs),
@@ -351,8 +355,10 @@ fn parse_unit(s: &str) -> Result<flexshape_rig::import::Unit, String> {
     s.parse()
 }
 
+/// Where frames come from (`track`, `carve`): a recording, or frames with the rig and
+/// backgrounds; the volume to carve.
 #[derive(Debug, Args)]
-pub struct TrackArgs {
+pub struct FramesArgs {
     /// Recording folder (the layout `flexshape simulate` writes: rig.toml, calibration/,
     /// background/, frames/). Or give the frames with `--images`, `--video` or `--camera`.
     #[arg(required_unless_present_any = ["images", "masks", "video", "camera"])]
@@ -385,6 +391,35 @@ pub struct TrackArgs {
     /// Default: the recording's background/; needed with `--images`, `--video`, `--camera`.
     #[arg(long, value_name = "DIR")]
     pub backgrounds: Option<PathBuf>,
+    /// Carving volume as XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in world mm (default: the rig's volume;
+    /// a rig without one has the 256 mm cube centred on the origin).
+    #[arg(long, allow_hyphen_values = true, value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", value_parser = parse_box)]
+    pub volume: Option<[f64; 6]>,
+    /// Voxel edge in mm (default: the rig volume's).
+    #[arg(long, allow_negative_numbers = true, value_name = "MM")]
+    pub voxel: Option<f64>,
+}
+
+#[derive(Debug, Args)]
+pub struct CarveArgs {
+    /// Where the frames come from.
+    #[command(flatten)]
+    pub frames: FramesArgs,
+    /// Output folder: per frame NNNNNN.ply (voxel centres) and NNNNNN.surface.ply (the hull's
+    /// surface as a closed quad mesh), and hull.jsonl (one record per frame: voxels, volume,
+    /// surface area, bounding box).
+    #[arg(long, short = 'o', value_name = "DIR")]
+    pub out: PathBuf,
+    /// Replace what an earlier run wrote in --out.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct TrackArgs {
+    /// Where the frames come from.
+    #[command(flatten)]
+    pub frames: FramesArgs,
     /// Output file for the JSON Lines records; `-` for standard output. An existing file is
     /// not replaced without --overwrite; none of the inputs ever is.
     #[arg(long, short = 'o', default_value = "-")]
@@ -405,13 +440,6 @@ pub struct TrackArgs {
     /// no `ghost_mm`. Needs three cameras or more.
     #[arg(long)]
     pub follow: bool,
-    /// Carving volume as XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX in world mm (default: the rig's volume;
-    /// a rig without one has the 256 mm cube centred on the origin).
-    #[arg(long, allow_hyphen_values = true, value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", value_parser = parse_box)]
-    pub volume: Option<[f64; 6]>,
-    /// Voxel edge in mm (default: the rig volume's).
-    #[arg(long, allow_negative_numbers = true, value_name = "MM")]
-    pub voxel: Option<f64>,
     /// Frames processed at once (default: the number of cores).
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,

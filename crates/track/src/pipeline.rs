@@ -77,6 +77,20 @@ pub struct Tracked {
     pub start: Start,
 }
 
+/// One frame's visual hull ([`Pipeline::hull`]).
+#[derive(Debug, Clone)]
+pub struct Hull {
+    /// Per camera, in the rig's order.
+    pub silhouettes: Vec<Silhouette>,
+    /// The carved voxels (none when a silhouette is implausible).
+    pub occupancy: Occupancy,
+    /// Why nothing was carved: a camera's silhouette covers more of its image than its
+    /// `max_foreground`.
+    pub implausible: Option<String>,
+    /// Milliseconds of the silhouettes and the carving.
+    pub timings: StageTimings,
+}
+
 /// Where a frame's shape started.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -400,9 +414,10 @@ impl Pipeline {
         Ok(())
     }
 
-    /// One frame: one image per camera, in the rig's order, through the whole chain (the fit
-    /// started from this frame's hull).
-    pub fn process(&self, images: &[&RgbImage]) -> Result<Tracked, TrackError> {
+    /// One frame's visual hull alone: silhouettes and carving, no bands, no shape — for
+    /// objects that are not tubes (`flexshape carve`). Nothing is carved when a silhouette is
+    /// implausible ([`Hull::implausible`] says why).
+    pub fn hull(&self, images: &[&RgbImage]) -> Result<Hull, TrackError> {
         self.check_count(images)?;
         let t = Instant::now();
         let silhouettes = self
@@ -419,23 +434,52 @@ impl Pipeline {
             .collect::<Result<Vec<_>, _>>()?;
         let silhouettes_ms = ms(t);
         if let Some(reason) = self.implausible(&silhouettes) {
-            return Ok(Tracked {
+            return Ok(Hull {
                 silhouettes,
                 occupancy: self.nothing_carved(),
-                bands: Vec::new(),
-                shape: ShapeRecord::empty(Status::BadSilhouette { reason }),
-                fit: None,
+                implausible: Some(reason),
                 timings: StageTimings {
                     silhouettes: silhouettes_ms,
                     ..StageTimings::default()
                 },
-                start: Start::Hull,
             });
         }
         let t = Instant::now();
         let objects: Vec<_> = silhouettes.iter().map(|s| &s.object).collect();
         let occupancy = self.carver.carve(&objects, OutsideImage::Carve)?;
-        let carve_ms = ms(t);
+        Ok(Hull {
+            silhouettes,
+            occupancy,
+            implausible: None,
+            timings: StageTimings {
+                silhouettes: silhouettes_ms,
+                carve: ms(t),
+                ..StageTimings::default()
+            },
+        })
+    }
+
+    /// One frame: one image per camera, in the rig's order, through the whole chain (the fit
+    /// started from this frame's hull).
+    pub fn process(&self, images: &[&RgbImage]) -> Result<Tracked, TrackError> {
+        let Hull {
+            silhouettes,
+            occupancy,
+            implausible,
+            timings,
+        } = self.hull(images)?;
+        let (silhouettes_ms, carve_ms) = (timings.silhouettes, timings.carve);
+        if let Some(reason) = implausible {
+            return Ok(Tracked {
+                silhouettes,
+                occupancy,
+                bands: Vec::new(),
+                shape: ShapeRecord::empty(Status::BadSilhouette { reason }),
+                fit: None,
+                timings,
+                start: Start::Hull,
+            });
+        }
         let t = Instant::now();
         let markers: Vec<_> = silhouettes.iter().map(|s| &s.markers).collect();
         let bands = find_bands(&occupancy, &self.cameras, &markers, &self.band_rule)?;

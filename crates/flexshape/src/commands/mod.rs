@@ -3,8 +3,10 @@
 mod background;
 mod bench;
 mod calibrate;
+mod carve;
 mod demo;
 mod figures;
+mod frames;
 mod model;
 mod model_fit;
 mod report;
@@ -29,6 +31,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Background(args) => background::run(&args),
         Command::Silhouettes(args) => silhouettes::run(&args),
         Command::Track(args) => track::run(&args),
+        Command::Carve(args) => carve::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::Model { command } => match command {
             ModelCommand::Template => model::template(),

@@ -12,62 +12,21 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
-use flexshape_input::{FolderSource, FrameSource, LiveSource, RecordingSource, VideoSource};
-use flexshape_recording::RecordingReader;
-use flexshape_rig::{Rig, Volume};
-use flexshape_silhouette::BackgroundModel;
+use flexshape_input::FrameSource;
 use flexshape_track::{ModelFrame, Pipeline, Processed, SummaryLine, Tally, TrackRecord};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
+use super::frames::{self, within};
 use crate::cli::TrackArgs;
 use crate::interrupt::Interrupt;
 
-/// The rig, its backgrounds and where frames come from.
-struct Input {
-    rig: Rig,
-    /// What to name when the rig is wrong.
-    rig_name: String,
-    /// `None`: the frames are masks (no background model).
-    backgrounds: Option<Vec<BackgroundModel>>,
-    source: Box<dyn FrameSource>,
-    /// Files and folders read: no output may replace them.
-    files: Vec<PathBuf>,
-}
-
-/// Whether output `path` is `input` or lies inside it (compared as canonical paths; an
-/// output that does not exist yet by its folder's).
-fn within(path: &Path, input: &Path) -> bool {
-    if path == Path::new("-") {
-        return false;
-    }
-    let Ok(input) = input.canonicalize() else {
-        return false;
-    };
-    let canonical = path.canonicalize().ok().or_else(|| {
-        let parent = match path.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p,
-            _ => Path::new("."),
-        };
-        Some(parent.canonicalize().ok()?.join(path.file_name()?))
-    });
-    canonical.is_some_and(|c| c == input || (input.is_dir() && c.starts_with(&input)))
-}
-
-/// What `args` reads besides the recording or frames: the rig, backgrounds, model frame.
-fn named_inputs(args: &TrackArgs) -> Vec<PathBuf> {
-    [&args.rig, &args.backgrounds, &args.model_frame]
-        .into_iter()
-        .flatten()
-        .cloned()
-        .collect()
-}
-
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let stop = Interrupt::install();
-    let mut input = open_input(args)?;
-    let volume = volume(&input.rig.volume, args)?;
-    warn_unseen(&input.rig, &volume);
+    let mut input = frames::open_input(&args.frames)?;
+    let volume = frames::volume(&input.rig.volume, &args.frames)?;
+    frames::warn_unseen(&input.rig, &volume);
+    input.files.extend(args.model_frame.clone());
     let pipeline = match &input.backgrounds {
         Some(backgrounds) => Pipeline::new(&input.rig, backgrounds, &volume),
         None => Pipeline::for_masks(&input.rig, &volume),
@@ -183,147 +142,6 @@ fn progress(source: &dyn FrameSource) -> ProgressBar {
     )
 }
 
-/// The rig, backgrounds and frame source the arguments name.
-fn open_input(args: &TrackArgs) -> anyhow::Result<Input> {
-    if let Some(dir) = &args.recording {
-        let rec = RecordingReader::open(dir)
-            .with_context(|| format!("cannot open the recording {}", dir.display()))?;
-        for s in rec.skipped_files() {
-            eprintln!("warning: {s}");
-        }
-        let mut rig = rec.rig().clone();
-        let mut rig_name = rec.layout().rig().display().to_string();
-        if let Some(path) = &args.rig {
-            let other = super::load_rig(path)?;
-            let names = |r: &Rig| r.cameras.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
-            if names(&other) != names(&rig) {
-                bail!(
-                    "--rig {} has cameras {:?} but the recording has {:?}; give a rig of the same cameras",
-                    path.display(),
-                    names(&other),
-                    names(&rig)
-                );
-            }
-            (rig, rig_name) = (other, path.display().to_string());
-        }
-        if rec.has_masks() && args.backgrounds.is_some() {
-            bail!(
-                "{} holds masks (masks/) instead of frames: it needs no backgrounds; leave out --backgrounds",
-                dir.display()
-            );
-        }
-        let backgrounds = match &args.backgrounds {
-            _ if rec.has_masks() => None,
-            Some(dir) => Some(load_backgrounds(&rig, |name| {
-                dir.join(format!("{name}.png"))
-            })?),
-            None => Some(load_backgrounds(&rig, |name| {
-                rec.layout().background(name)
-            })?),
-        };
-        let mut files = named_inputs(args);
-        files.push(rec.layout().rig());
-        for sub in [
-            "calibration",
-            "frames",
-            "masks",
-            "background",
-            "truth",
-            "commands",
-        ] {
-            files.push(rec.layout().root().join(sub));
-        }
-        return Ok(Input {
-            rig,
-            rig_name,
-            backgrounds,
-            source: Box::new(RecordingSource::new(rec)),
-            files,
-        });
-    }
-    let what = if !args.images.is_empty() {
-        "--images"
-    } else if !args.masks.is_empty() {
-        "--masks"
-    } else if !args.video.is_empty() {
-        "--video"
-    } else {
-        "--camera"
-    };
-    let Some(rig_path) = &args.rig else {
-        bail!("{what} needs the rig: give --rig RIG.toml or --rig CALIBRATION_DIR");
-    };
-    let rig = super::load_rig(rig_path)?;
-    let mut files = named_inputs(args);
-    for given in [&args.images, &args.masks, &args.video, &args.camera] {
-        files.extend(given.iter().map(|(_, p)| p.clone()));
-    }
-    if !args.masks.is_empty() {
-        return Ok(Input {
-            source: folders(&rig, &args.masks, what)?,
-            rig,
-            rig_name: rig_path.display().to_string(),
-            backgrounds: None,
-            files,
-        });
-    }
-    let Some(bg_dir) = &args.backgrounds else {
-        bail!(
-            "{what} needs a background image per camera: give --backgrounds DIR holding NAME.png for each camera (make them with `flexshape background`)"
-        );
-    };
-    let backgrounds = load_backgrounds(&rig, |name| bg_dir.join(format!("{name}.png")))?;
-    let size = |name: &str| {
-        rig.camera(name)
-            .map(|c| (c.camera.intrinsics.width, c.camera.intrinsics.height))
-    };
-    let source: Box<dyn FrameSource> = if !args.images.is_empty() {
-        folders(&rig, &args.images, what)?
-    } else if !args.video.is_empty() {
-        let videos: Vec<_> = per_camera(&rig, &args.video, what)?
-            .into_iter()
-            .map(|(name, path)| {
-                let s = size(&name).unwrap_or_default();
-                (name, path, s)
-            })
-            .collect();
-        Box::new(VideoSource::open(&videos)?)
-    } else {
-        let cameras: Vec<_> = per_camera(&rig, &args.camera, what)?
-            .into_iter()
-            .map(|(name, input)| {
-                let s = size(&name).unwrap_or_default();
-                (name, input.display().to_string(), s)
-            })
-            .collect();
-        Box::new(LiveSource::open(&cameras)?)
-    };
-    Ok(Input {
-        rig,
-        rig_name: rig_path.display().to_string(),
-        backgrounds: Some(backgrounds),
-        source,
-        files,
-    })
-}
-
-/// Frames from one folder (or file) per camera, `what` the option that named them.
-fn folders(
-    rig: &Rig,
-    given: &[(String, PathBuf)],
-    what: &str,
-) -> anyhow::Result<Box<dyn FrameSource>> {
-    let source = FolderSource::open(&per_camera(rig, given, what)?)?;
-    if !source.unpaired().is_empty() {
-        eprintln!(
-            "left out {} images not present for every camera: {}",
-            source.unpaired().len(),
-            source.unpaired().join(", ")
-        );
-    }
-    Ok(Box::new(source))
-}
-
 /// The model frame `flexshape model fit --save-frame` wrote.
 fn load_model_frame(path: &Path) -> anyhow::Result<ModelFrame> {
     let text = std::fs::read_to_string(path)
@@ -338,95 +156,6 @@ fn load_model_frame(path: &Path) -> anyhow::Result<ModelFrame> {
         .validate()
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     Ok(frame)
-}
-
-fn load_backgrounds(
-    rig: &Rig,
-    path_of: impl Fn(&str) -> PathBuf,
-) -> anyhow::Result<Vec<BackgroundModel>> {
-    rig.cameras
-        .iter()
-        .map(|cam| {
-            let path = path_of(&cam.name);
-            BackgroundModel::load(&path).with_context(|| {
-                format!(
-                    "camera {}: tracking needs its background image {} (make one with `flexshape background`)",
-                    cam.name,
-                    path.display()
-                )
-            })
-        })
-        .collect()
-}
-
-/// The inputs in the rig's camera order, each camera exactly once.
-fn per_camera(
-    rig: &Rig,
-    given: &[(String, PathBuf)],
-    what: &str,
-) -> anyhow::Result<Vec<(String, PathBuf)>> {
-    for (name, _) in given {
-        if rig.camera(name).is_none() {
-            bail!(
-                "{what} {name}=…: the rig has no camera `{name}` (its cameras: {})",
-                rig.cameras
-                    .iter()
-                    .map(|c| c.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        }
-        if given.iter().filter(|(n, _)| n == name).count() > 1 {
-            bail!("{what} names camera `{name}` twice");
-        }
-    }
-    rig.cameras
-        .iter()
-        .map(|c| {
-            given
-                .iter()
-                .find(|(n, _)| *n == c.name)
-                .cloned()
-                .with_context(|| {
-                    format!(
-                        "camera `{}` of the rig has no input: give {what} {}=…",
-                        c.name, c.name
-                    )
-                })
-        })
-        .collect()
-}
-
-/// Warns when most of the volume's corners are seen by no camera: the rig's volume is likely
-/// not where the cameras look (an imported calibration with the default volume).
-fn warn_unseen(rig: &Rig, volume: &Volume) {
-    let cameras: Vec<_> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
-    let unseen = flexshape_rig::coverage::corners_seen(&cameras, volume)
-        .iter()
-        .filter(|&&n| n == 0)
-        .count();
-    if unseen > 4 {
-        eprintln!(
-            "warning: {unseen} of the volume's 8 corners are seen by no camera: the volume may not be where the cameras look{}",
-            super::suggested_volume(&cameras, volume.voxel_size[0])
-                .map(|s| format!("; every camera sees {s}"))
-                .unwrap_or_default()
-        );
-    }
-}
-
-/// The volume to carve: the rig's, or the one given on the command line.
-fn volume(rig: &Volume, args: &TrackArgs) -> anyhow::Result<Volume> {
-    let (min, max) = match args.volume {
-        Some(b) => ([b[0], b[1], b[2]], [b[3], b[4], b[5]]),
-        None if args.voxel.is_none() => return Ok(*rig),
-        None => {
-            let m = rig.max_corner();
-            (rig.origin, [m.x, m.y, m.z])
-        }
-    };
-    let voxel = args.voxel.unwrap_or(rig.voxel_size[0]);
-    Volume::from_bounds(min, max, voxel).context("invalid --volume / --voxel")
 }
 
 /// Where records go: the JSON Lines stream, and optionally CSV rows and PLY clouds.
