@@ -566,3 +566,63 @@ fn a_volume_no_camera_sees_is_warned_about_with_one_they_do() {
     let o = flexshape(&["track", r, "-o", near.to_str().unwrap()]);
     assert!(!String::from_utf8_lossy(&o.stderr).contains("seen by no camera"));
 }
+
+/// A FIFO, a device or an image announcing 20000 × 20000 pixels in place of a frame or rig
+/// is refused without being read: the frame gets an error naming the file, the run goes on.
+#[cfg(unix)]
+#[test]
+fn special_and_huge_files_are_refused_without_reading_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "3"]);
+    let fifo = rec.join("frames/cam0/000001.png");
+    std::fs::remove_file(&fifo).unwrap();
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    // A PNG header of 20000 × 20000 with no pixel data.
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let chunk = |kind: &[u8], data: &[u8]| {
+        let mut c = (data.len() as u32).to_be_bytes().to_vec();
+        let mut body = kind.to_vec();
+        body.extend(data);
+        let mut crc = 0xFFFF_FFFFu32;
+        for &b in &body {
+            crc ^= b as u32;
+            for _ in 0..8 {
+                crc = if crc & 1 == 1 {
+                    0xEDB8_8320 ^ (crc >> 1)
+                } else {
+                    crc >> 1
+                };
+            }
+        }
+        c.extend(body);
+        c.extend((!crc).to_be_bytes());
+        c
+    };
+    let mut ihdr = 20000u32.to_be_bytes().to_vec();
+    ihdr.extend(20000u32.to_be_bytes());
+    ihdr.extend([8, 2, 0, 0, 0]);
+    png.extend(chunk(b"IHDR", &ihdr));
+    png.extend(chunk(b"IDAT", &[]));
+    std::fs::write(rec.join("frames/cam1/000002.png"), png).unwrap();
+    let out = dir.path().join("out.jsonl");
+    let o = flexshape(&["track", r, "-o", out.to_str().unwrap(), "--threads", "1"]);
+    assert!(o.status.success(), "{}", common::text(&o));
+    let (records, _) = read_lines(&out);
+    assert_eq!(records[0]["status"], "ok");
+    if made.is_ok_and(|s| s.success()) {
+        let reason = records[1]["reason"].as_str().unwrap();
+        assert!(
+            reason.contains("000001.png") && reason.contains("FIFO"),
+            "{reason}"
+        );
+    }
+    let reason = records[2]["reason"].as_str().unwrap();
+    assert!(
+        reason.contains("20000×20000") && reason.contains("640×480"),
+        "{reason}"
+    );
+    let e = common::fails(&["rig", "check", "/dev/zero"]);
+    assert!(e.contains("a device"), "{e}");
+}

@@ -19,8 +19,8 @@ pub enum InputError {
         /// Underlying error.
         source: std::io::Error,
     },
-    /// An image file could not be decoded.
-    #[error("{}: cannot decode image: {message}", path.display())]
+    /// An image file could not be read or decoded.
+    #[error("{}: {message}", path.display())]
     Decode {
         /// The image file.
         path: PathBuf,

@@ -24,13 +24,26 @@ impl FrameImage {
         let (image, what) = match self {
             FrameImage::Decoded(image) => (image, format!("frame of camera `{camera}`")),
             FrameImage::File(path) => {
-                let bytes = std::fs::read(&path).map_err(|e| InputError::io(&path, e))?;
-                let image = image::load_from_memory(&bytes)
-                    .map_err(|e| InputError::Decode {
-                        path: path.clone(),
-                        message: e.to_string(),
-                    })?
-                    .to_rgb8();
+                // The size is checked from the header, before any pixel is decoded.
+                let image = match flexshape_rig::files::read_image(&path, Some(size)) {
+                    Ok(image) => image.to_rgb8(),
+                    Err(flexshape_rig::files::FileError::Size { width, height, .. }) => {
+                        return Err(InputError::Size {
+                            what: path.display().to_string(),
+                            camera: camera.into(),
+                            width,
+                            height,
+                            expected_width: size.0,
+                            expected_height: size.1,
+                        });
+                    }
+                    Err(e) => {
+                        return Err(InputError::Decode {
+                            path: path.clone(),
+                            message: e.reason(),
+                        });
+                    }
+                };
                 (image, path.display().to_string())
             }
         };

@@ -151,9 +151,24 @@ impl RecordingReader {
     }
 
     fn read_rgb(&self, cam: usize, path: &Path) -> Result<RgbImage, RecordingError> {
-        let img = decode(path)?.to_rgb8();
-        self.check_size(cam, path, img.dimensions())?;
-        Ok(img)
+        let k = &self.rig.cameras[cam].camera.intrinsics;
+        match flexshape_rig::files::read_image(path, Some((k.width, k.height))) {
+            Ok(img) => Ok(img.to_rgb8()),
+            Err(flexshape_rig::files::FileError::Size { width, height, .. }) => {
+                Err(RecordingError::ImageSize {
+                    path: path.to_path_buf(),
+                    camera: self.rig.cameras[cam].name.clone(),
+                    width,
+                    height,
+                    expected_width: k.width,
+                    expected_height: k.height,
+                })
+            }
+            Err(e) => Err(RecordingError::Image {
+                path: path.to_path_buf(),
+                message: e.reason(),
+            }),
+        }
     }
 
     fn check_size(
@@ -208,10 +223,9 @@ impl RecordingReader {
 }
 
 fn decode(path: &Path) -> Result<image::DynamicImage, RecordingError> {
-    let bytes = std::fs::read(path).map_err(|e| RecordingError::io(path, e))?;
-    image::load_from_memory(&bytes).map_err(|e| RecordingError::Image {
+    flexshape_rig::files::read_image(path, None).map_err(|e| RecordingError::Image {
         path: path.to_path_buf(),
-        message: format!("cannot decode image: {e}"),
+        message: e.reason(),
     })
 }
 

@@ -46,10 +46,7 @@ fn is_json(path: &Path) -> bool {
 
 /// Reads and validates a camera file (format by extension).
 pub fn read(path: &Path) -> Result<CameraFile, RigError> {
-    let text = std::fs::read_to_string(path).map_err(|source| RigError::Read {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let text = crate::files::read_text(path, "camera file").map_err(RigError::from)?;
     parse(&text, is_json(path), path)
 }
 

@@ -31,6 +31,9 @@ pub enum RigError {
         /// Parser message (with line and column where the parser gives them).
         message: String,
     },
+    /// The path is not a regular file, or too large to be what it should be.
+    #[error(transparent)]
+    File(#[from] crate::files::FileError),
     /// A field is missing or has an invalid value.
     #[error("{}: field `{field}`: {problem}", file.display())]
     Field {

@@ -7,6 +7,8 @@
 //!   points at the per-camera files.
 //!
 //! - [`coverage`]: which cameras see a volume's corners, and a volume they all see.
+//! - [`files`]: bounded reading of what users name (regular files only, size limits, image
+//!   sizes checked from the header).
 //! - [`import`]: other tools' calibrations (projection matrices, ROS CameraInfo, Kalibr,
 //!   COLMAP; Middlebury in [`middlebury`]) read into cameras, and written back.
 //!
@@ -15,6 +17,7 @@
 pub mod camera_file;
 pub mod coverage;
 mod error;
+pub mod files;
 pub mod import;
 pub mod middlebury;
 mod opencv_matrix;

@@ -29,10 +29,7 @@ pub fn read_par(
     height: u32,
     mm_per_unit: f64,
 ) -> Result<Vec<ParView>, RigError> {
-    let text = std::fs::read_to_string(path).map_err(|source| RigError::Read {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let text = crate::files::read_text(path, "Middlebury file").map_err(RigError::from)?;
     parse_par(path, &text, width, height, mm_per_unit)
 }
 

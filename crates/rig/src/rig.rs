@@ -42,7 +42,7 @@ impl std::fmt::Display for SkippedFile {
 /// `None` when `file` is (meant as) a camera file: it names `camera_matrix`. Otherwise why
 /// not. Unreadable files are left to the camera reader's error.
 fn camera_file_or_why_not(file: &Path) -> Option<String> {
-    let text = std::fs::read(file).ok()?;
+    let text = crate::files::read_bytes(file, crate::files::MAX_TEXT_BYTES, "camera file").ok()?;
     let text = String::from_utf8_lossy(&text);
     (!text.contains("camera_matrix"))
         .then(|| "not a camera file (no camera_matrix); skipped".to_string())
@@ -114,10 +114,7 @@ struct RigOut<'a> {
 impl Rig {
     /// Reads and validates a rig file and every camera file it names.
     pub fn load(path: &Path) -> Result<Rig, RigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| RigError::Read {
-            file: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::files::read_text(path, "rig file").map_err(RigError::from)?;
         Self::parse(&text, path)
     }
 

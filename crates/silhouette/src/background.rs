@@ -159,13 +159,13 @@ impl BackgroundModel {
             path: p.to_path_buf(),
             message,
         };
-        let img = image::open(path)
+        let img = bounded_image(path)
             .map_err(|e| file_err(path, format!("cannot read background image: {e}")))?
             .to_rgb8();
         let mut model = Self::from_frames(std::slice::from_ref(&img))?;
         let sp = Self::spread_path(path);
         if sp.is_file() {
-            let spread = image::open(&sp)
+            let spread = bounded_image(&sp)
                 .map_err(|e| file_err(&sp, format!("cannot read spread image: {e}")))?
                 .to_luma16();
             if spread.dimensions() != img.dimensions() {
@@ -236,4 +236,23 @@ mod tests {
             assert!((back.spread(i) - m.spread(i)).abs() < 1.0 / 256.0);
         }
     }
+}
+
+/// An image file, refused before opening when it is not a regular file (a FIFO would block,
+/// `/dev/zero` never ends) and before decoding when it is over 16384 pixels a side.
+fn bounded_image(path: &Path) -> Result<image::DynamicImage, String> {
+    if !std::fs::metadata(path)
+        .map_err(|e| e.to_string())?
+        .is_file()
+    {
+        return Err("not a regular file".into());
+    }
+    let mut reader = image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| e.to_string())?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(16_384);
+    limits.max_image_height = Some(16_384);
+    reader.limits(limits);
+    reader.decode().map_err(|e| e.to_string())
 }

@@ -350,7 +350,7 @@ fn world_frame(
     if let Some(file) = w.strip_prefix("points:") {
         // Lines `IMAGE,COL,ROW,X,Y,Z`: board corner (COL, ROW) in the first camera's image
         // IMAGE lies at world (X, Y, Z) mm.
-        let text = std::fs::read_to_string(file)
+        let text = flexshape_rig::files::read_text(Path::new(file), "points file")
             .with_context(|| format!("--world {w}: cannot read {file}"))?;
         let (mut world_points, mut camera_points) = (Vec::new(), Vec::new());
         for (i, line) in text.lines().enumerate() {

@@ -74,10 +74,7 @@ impl RawMatrix {
 
 /// The camera of one CameraInfo YAML file, named after the file, lengths in `unit`.
 pub fn read(path: &Path, unit: Unit) -> Result<Imported, RigError> {
-    let text = std::fs::read_to_string(path).map_err(|source| RigError::Read {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let text = crate::files::read_text(path, "CameraInfo file").map_err(RigError::from)?;
     let raw: Raw = serde_saphyr::from_str(&text).map_err(|e| RigError::Syntax {
         file: path.to_path_buf(),
         message: format!("not a ROS CameraInfo YAML file: {e}"),

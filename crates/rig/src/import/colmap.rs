@@ -26,12 +26,8 @@ const HALF_PIXEL: f64 = 0.5;
 pub fn read(dir: &Path, unit: Unit) -> Result<Vec<Imported>, RigError> {
     let cameras_path = dir.join("cameras.txt");
     let images_path = dir.join("images.txt");
-    let read_text = |p: &Path| {
-        std::fs::read_to_string(p).map_err(|source| RigError::Read {
-            file: p.to_path_buf(),
-            source,
-        })
-    };
+    let read_text =
+        |p: &Path| crate::files::read_text(p, "COLMAP model file").map_err(RigError::from);
     let intrinsics = read_cameras(&cameras_path, &read_text(&cameras_path)?)?;
     let text = read_text(&images_path)?;
     let p = images_path.as_path();

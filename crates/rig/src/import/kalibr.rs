@@ -32,10 +32,7 @@ struct RawCamera {
 /// The cameras of a Kalibr camchain file in chain order, named by their keys (`cam0`, …),
 /// lengths in `unit`.
 pub fn read(path: &Path, unit: Unit) -> Result<Vec<Imported>, RigError> {
-    let text = std::fs::read_to_string(path).map_err(|source| RigError::Read {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let text = crate::files::read_text(path, "Kalibr camchain").map_err(RigError::from)?;
     let raw: BTreeMap<String, RawCamera> =
         serde_saphyr::from_str(&text).map_err(|e| RigError::Syntax {
             file: path.to_path_buf(),

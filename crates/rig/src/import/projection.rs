@@ -114,10 +114,7 @@ pub fn read(
     unit: Unit,
 ) -> Result<(Vec<Imported>, Vec<String>), RigError> {
     let stem = sanitize(path.file_stem().and_then(|s| s.to_str()).unwrap_or("cam"));
-    let bytes = std::fs::read(path).map_err(|source| RigError::Read {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = crate::files::read_bytes(path, crate::files::MAX_TEXT_BYTES, "projection file")?;
     let camera = |values: &[f64], field: &str| {
         let p = Matrix3x4::from_row_slice(values);
         decompose(&p, width, height, unit, path, field)
