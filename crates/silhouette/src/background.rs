@@ -189,6 +189,25 @@ impl BackgroundModel {
     }
 }
 
+/// An image file, refused before opening when it is not a regular file (a FIFO would block,
+/// `/dev/zero` never ends) and before decoding when it is over 16384 pixels a side.
+fn bounded_image(path: &Path) -> Result<image::DynamicImage, String> {
+    if !std::fs::metadata(path)
+        .map_err(|e| e.to_string())?
+        .is_file()
+    {
+        return Err("not a regular file".into());
+    }
+    let mut reader = image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| e.to_string())?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(16_384);
+    limits.max_image_height = Some(16_384);
+    reader.limits(limits);
+    reader.decode().map_err(|e| e.to_string())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -236,23 +255,4 @@ mod tests {
             assert!((back.spread(i) - m.spread(i)).abs() < 1.0 / 256.0);
         }
     }
-}
-
-/// An image file, refused before opening when it is not a regular file (a FIFO would block,
-/// `/dev/zero` never ends) and before decoding when it is over 16384 pixels a side.
-fn bounded_image(path: &Path) -> Result<image::DynamicImage, String> {
-    if !std::fs::metadata(path)
-        .map_err(|e| e.to_string())?
-        .is_file()
-    {
-        return Err("not a regular file".into());
-    }
-    let mut reader = image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
-        .map_err(|e| e.to_string())?;
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(16_384);
-    limits.max_image_height = Some(16_384);
-    reader.limits(limits);
-    reader.decode().map_err(|e| e.to_string())
 }
