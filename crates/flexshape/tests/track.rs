@@ -161,6 +161,16 @@ fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
     ]);
     let (from_recording, summary) = read_lines(dir.path().join("rec.jsonl").as_path());
     assert_eq!(summary["ok"], 4);
+    // No timestamps file: the capture time is the image file's.
+    let written = std::fs::metadata(rec.join("frames/cam0/000001.png"))
+        .unwrap()
+        .modified()
+        .unwrap()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64();
+    assert_eq!(from_recording[1]["captured_from"], "file_time");
+    assert!((from_recording[1]["captured_s"].as_f64().unwrap() - written).abs() < 1e-6);
     // CSV: a header and one row per frame with the record's tip.
     let rows: Vec<String> = std::fs::read_to_string(&csv)
         .unwrap()
@@ -343,6 +353,11 @@ fn follow_starts_each_frame_from_the_previous_one() {
         assert_eq!(records.len(), 4);
         for (i, r) in records.iter().enumerate() {
             assert_eq!(r["status"], "ok", "{r}");
+            // Capture times from the recording's timestamps (filmed at 120 Hz); the wall
+            // clock when each frame was done.
+            assert_eq!(r["captured_from"], "timestamps");
+            assert!((r["captured_s"].as_f64().unwrap() - i as f64 / 120.0).abs() < 1e-12);
+            assert!(r["processed_s"].as_f64().unwrap() > 1.7e9, "{r}");
             let expected = if follow && i > 0 { "previous" } else { "hull" };
             assert_eq!(r["start"], expected, "frame {i}");
             assert_eq!(r["voxels"].as_u64().unwrap() == 0, expected == "previous");

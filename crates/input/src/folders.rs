@@ -7,7 +7,7 @@ use std::cmp::Ordering;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-use crate::{FrameImage, FrameSet, FrameSource, InputError};
+use crate::{CaptureTime, FrameImage, FrameSet, FrameSource, InputError};
 
 /// Frames from one image folder per camera.
 pub struct FolderSource {
@@ -131,6 +131,7 @@ impl FrameSource for FolderSource {
             files.iter().cloned().map(FrameImage::File).collect(),
         );
         set.name = Some(name.clone());
+        set.capture_time = files.first().and_then(|f| CaptureTime::of_file(f));
         self.next += 1;
         Some(Ok(set))
     }

@@ -61,6 +61,63 @@ impl FrameImage {
     }
 }
 
+/// Where a frame's capture time comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CaptureSource {
+    /// The wall clock when the frame arrived from a live camera (or the simulator).
+    Clock,
+    /// The recording's `timestamps.csv`.
+    Timestamps,
+    /// The image file's modification time (the first camera's).
+    FileTime,
+}
+
+impl CaptureSource {
+    /// Its name in records: `clock`, `timestamps` or `file_time`.
+    pub fn name(self) -> &'static str {
+        match self {
+            CaptureSource::Clock => "clock",
+            CaptureSource::Timestamps => "timestamps",
+            CaptureSource::FileTime => "file_time",
+        }
+    }
+}
+
+/// When a frame was captured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CaptureTime {
+    /// Seconds since the Unix epoch (UTC) — or, from a timestamps file, in that file's own
+    /// time base.
+    pub seconds: f64,
+    /// Where it comes from.
+    pub source: CaptureSource,
+}
+
+impl CaptureTime {
+    /// The wall clock at `instant` (a moment of this process, not long ago).
+    pub fn of_instant(instant: Instant) -> Option<Self> {
+        let at = std::time::SystemTime::now().checked_sub(instant.elapsed())?;
+        Some(CaptureTime {
+            seconds: unix_seconds(at)?,
+            source: CaptureSource::Clock,
+        })
+    }
+
+    /// The modification time of `path`, if the file system gives one.
+    pub fn of_file(path: &std::path::Path) -> Option<Self> {
+        let at = std::fs::metadata(path).ok()?.modified().ok()?;
+        Some(CaptureTime {
+            seconds: unix_seconds(at)?,
+            source: CaptureSource::FileTime,
+        })
+    }
+}
+
+/// Seconds since the Unix epoch.
+pub fn unix_seconds(at: std::time::SystemTime) -> Option<f64> {
+    Some(at.duration_since(std::time::UNIX_EPOCH).ok()?.as_secs_f64())
+}
+
 /// The images of one instant, one per camera in the rig's order.
 #[derive(Debug, Clone)]
 pub struct FrameSet {
@@ -73,6 +130,8 @@ pub struct FrameSet {
     pub images: Vec<FrameImage>,
     /// When the frame was captured (live input: the oldest of the cameras' frames) or read.
     pub captured: Instant,
+    /// When the frame was captured, in wall-clock terms, where the input knows it.
+    pub capture_time: Option<CaptureTime>,
     /// The commanded tendon displacements (recordings of model experiments).
     pub command: Option<Command>,
     /// Ground truth (simulated recordings).
@@ -89,6 +148,7 @@ impl FrameSet {
             name: None,
             images,
             captured: Instant::now(),
+            capture_time: None,
             command: None,
             truth: None,
             warnings: Vec::new(),

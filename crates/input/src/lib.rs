@@ -17,7 +17,7 @@ mod video;
 pub use error::InputError;
 pub use ffmpeg::{FFMPEG_PACKAGE_HINT, ffmpeg_available};
 pub use folders::{FolderSource, natural_order};
-pub use frame::{FrameImage, FrameSet};
+pub use frame::{CaptureSource, CaptureTime, FrameImage, FrameSet, unix_seconds};
 
 pub use live::{LiveCamera, LiveSource};
 pub use newest::NewestSource;

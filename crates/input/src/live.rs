@@ -16,7 +16,7 @@ use std::time::Instant;
 use image::RgbImage;
 
 use crate::ffmpeg::{Decoder, probe_size};
-use crate::{FrameImage, FrameSet, FrameSource, InputError};
+use crate::{CaptureTime, FrameImage, FrameSet, FrameSource, InputError};
 
 /// One camera's newest frame.
 #[derive(Default)]
@@ -191,6 +191,7 @@ impl FrameSource for LiveSource {
         drop(slots);
         let mut set = FrameSet::new(self.next, images);
         set.captured = oldest;
+        set.capture_time = CaptureTime::of_instant(oldest);
         self.next += 1;
         Some(Ok(set))
     }

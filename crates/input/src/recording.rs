@@ -1,19 +1,29 @@
 //! A recording folder in the project's layout (`docs/formats.md`).
 
+use std::collections::BTreeMap;
+
 use flexshape_recording::RecordingReader;
 
-use crate::{FrameImage, FrameSet, FrameSource, InputError};
+use crate::{CaptureSource, CaptureTime, FrameImage, FrameSet, FrameSource, InputError};
 
 /// Every frame of a recording, in order, with its command and truth when present.
 pub struct RecordingSource {
     reader: RecordingReader,
     next: usize,
+    /// Capture times from `timestamps.csv`, or why they could not be read.
+    timestamps: Result<BTreeMap<u64, f64>, String>,
 }
 
 impl RecordingSource {
-    /// Reads the frames of `reader`'s recording.
+    /// Reads the frames of `reader`'s recording. Capture times come from its
+    /// `timestamps.csv`, else from the first camera's file times.
     pub fn new(reader: RecordingReader) -> Self {
-        RecordingSource { reader, next: 0 }
+        let timestamps = reader.read_timestamps().map_err(|e| e.to_string());
+        RecordingSource {
+            reader,
+            next: 0,
+            timestamps,
+        }
     }
 
     /// The recording.
@@ -34,6 +44,24 @@ impl FrameSource for RecordingSource {
             .map(|c| FrameImage::File(self.reader.frame_path(&c.name, frame)))
             .collect();
         let mut set = FrameSet::new(frame, images);
+        set.capture_time = match &self.timestamps {
+            Ok(times) => times.get(&frame).map(|&seconds| CaptureTime {
+                seconds,
+                source: CaptureSource::Timestamps,
+            }),
+            Err(e) => {
+                // Said once, with the first frame.
+                if self.next == 1 {
+                    set.warnings
+                        .push(format!("{e}; capture times from the files' times"));
+                }
+                None
+            }
+        }
+        .or_else(|| match set.images.first() {
+            Some(FrameImage::File(path)) => CaptureTime::of_file(path),
+            _ => None,
+        });
         match self.reader.read_command(frame) {
             Ok(command) => set.command = command,
             Err(e) => set

@@ -61,6 +61,12 @@ impl Layout {
         self.masks_dir(cam).join(format!("{frame:06}.png"))
     }
 
+    /// `DIR/timestamps.csv`: each frame's capture time (`frame,seconds`), when the recorder
+    /// wrote one.
+    pub fn timestamps(&self) -> PathBuf {
+        self.root.join("timestamps.csv")
+    }
+
     /// `DIR/truth/<frame:06>.json`.
     pub fn truth(&self, frame: u64) -> PathBuf {
         self.root.join("truth").join(format!("{frame:06}.json"))

@@ -192,6 +192,43 @@ impl RecordingReader {
         Ok(())
     }
 
+    /// Each frame's capture time from `timestamps.csv` (lines `frame,seconds`; a header line
+    /// and `#` comments are skipped), or an empty map when there is none.
+    pub fn read_timestamps(&self) -> Result<std::collections::BTreeMap<u64, f64>, RecordingError> {
+        let path = self.layout.timestamps();
+        let mut out = std::collections::BTreeMap::new();
+        if !path.exists() {
+            return Ok(out);
+        }
+        let text = flexshape_rig::files::read_text(&path, "timestamps file").map_err(|e| {
+            RecordingError::Layout {
+                path: path.clone(),
+                problem: e.reason(),
+            }
+        })?;
+        for (n, line) in text.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') || (n == 0 && line.starts_with("frame")) {
+                continue;
+            }
+            let parsed = line.split_once(',').and_then(|(f, t)| {
+                Some((f.trim().parse::<u64>().ok()?, t.trim().parse::<f64>().ok()?))
+            });
+            match parsed {
+                Some((frame, t)) if t.is_finite() => {
+                    out.insert(frame, t);
+                }
+                _ => {
+                    return Err(RecordingError::Layout {
+                        path: path.clone(),
+                        problem: format!("line {}: `{line}` is not `frame,seconds`", n + 1),
+                    });
+                }
+            }
+        }
+        Ok(out)
+    }
+
     /// Reads `truth/<frame>.json`, if present (simulated recordings).
     pub fn read_truth(&self, frame: u64) -> Result<Option<Truth>, RecordingError> {
         read_json(self.layout.truth(frame), |path, message| {

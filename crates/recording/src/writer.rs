@@ -23,8 +23,8 @@ impl RecordingWriter {
     /// Creates the folder tree at `root` and writes `rig.toml` and `calibration/<cam>.yml`
     /// for every camera of `rig`. A non-empty `root` is refused unless `overwrite` is set, so
     /// an earlier recording is never clobbered by accident; with `overwrite`, the parts of a
-    /// recording (`rig.toml`, `calibration/`, `background/`, `frames/`, `truth/`,
-    /// `commands/`) are removed
+    /// recording (`rig.toml`, `timestamps.csv`, `calibration/`, `background/`, `frames/`,
+    /// `masks/`, `truth/`, `commands/`) are removed
     /// first so no stale frame of the old recording survives, and nothing else is touched.
     pub fn create(root: &Path, rig: &Rig, overwrite: bool) -> Result<Self, RecordingError> {
         let layout = Layout::new(root);
@@ -39,15 +39,16 @@ impl RecordingWriter {
                             .into(),
                 });
             }
-            for part in ["calibration", "background", "frames", "truth", "commands"] {
+            for part in ["calibration", "background", "frames", "masks", "truth", "commands"] {
                 let dir = root.join(part);
                 if dir.is_dir() {
                     std::fs::remove_dir_all(&dir).map_err(|e| RecordingError::io(&dir, e))?;
                 }
             }
-            let rig_file = layout.rig();
-            if rig_file.is_file() {
-                std::fs::remove_file(&rig_file).map_err(|e| RecordingError::io(&rig_file, e))?;
+            for file in [layout.rig(), layout.timestamps()] {
+                if file.is_file() {
+                    std::fs::remove_file(&file).map_err(|e| RecordingError::io(&file, e))?;
+                }
             }
         }
         let mut dirs = vec![
@@ -76,6 +77,14 @@ impl RecordingWriter {
         Ok(RecordingWriter { layout })
     }
 
+    /// A writer adding files to the recording this process created at `root` (with
+    /// [`RecordingWriter::create`]).
+    pub fn reopen(root: &Path) -> Self {
+        RecordingWriter {
+            layout: Layout::new(root),
+        }
+    }
+
     /// The layout being written.
     pub fn layout(&self) -> &Layout {
         &self.layout
@@ -94,6 +103,16 @@ impl RecordingWriter {
         image: &RgbImage,
     ) -> Result<(), RecordingError> {
         write_rgb(&self.layout.frame(cam, frame), image)
+    }
+
+    /// Writes `timestamps.csv`: each frame's capture time, seconds (`frame,seconds` lines after
+    /// a header).
+    pub fn write_timestamps(&self, times: &[(u64, f64)]) -> Result<(), RecordingError> {
+        let mut text = String::from("frame,seconds\n");
+        for (frame, t) in times {
+            text.push_str(&format!("{frame},{t:?}\n"));
+        }
+        write_atomic(&self.layout.timestamps(), text.as_bytes())
     }
 
     /// Writes `truth/<frame:06>.json`.

@@ -144,6 +144,18 @@ pub struct TrackRecord {
     /// From capture (live) or reading (offline) to the end of the chain, ms.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub latency_ms: Option<f64>,
+    /// When the frame was captured, seconds since the Unix epoch (UTC) — from a recording's
+    /// `timestamps.csv`, in that file's own time base — where the input knows it (additive).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub captured_s: Option<f64>,
+    /// Where `captured_s` comes from: `clock` (live cameras and the simulator: the wall clock
+    /// when the frame arrived), `timestamps` (the recording's `timestamps.csv`) or `file_time`
+    /// (the first camera's image file's modification time).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub captured_from: Option<String>,
+    /// When the chain finished the frame, seconds since the Unix epoch (UTC) (additive).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub processed_s: Option<f64>,
     /// How the centerline was found: `fit` (the tube fitted to every camera's outline) or
     /// `hull` (the visual hull's centerline alone).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -252,6 +264,9 @@ impl TrackRecord {
             role: None,
             image: None,
             latency_ms: None,
+            captured_s: None,
+            captured_from: None,
+            processed_s: None,
             method: Some(if t.fit.is_some() { "fit" } else { "hull" }.into()),
             radius: has_shape.then_some(s.radius),
             centerline_sigma: s.sigma.clone(),
@@ -296,6 +311,9 @@ impl TrackRecord {
         TrackRecord {
             image: p.name.clone(),
             latency_ms: Some(p.latency_ms),
+            captured_s: p.capture_time.map(|c| c.seconds),
+            captured_from: p.capture_time.map(|c| c.source.name().to_string()),
+            processed_s: p.processed_s,
             ..record.with_command(p.command.clone())
         }
     }
@@ -320,6 +338,9 @@ impl TrackRecord {
             role: None,
             image: None,
             latency_ms: None,
+            captured_s: None,
+            captured_from: None,
+            processed_s: None,
             method: None,
             radius: None,
             centerline_sigma: Vec::new(),

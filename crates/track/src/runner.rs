@@ -13,9 +13,9 @@ use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::sync::{Arc, Condvar, Mutex};
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
-use flexshape_input::{FrameSet, FrameSource, InputError};
+use flexshape_input::{CaptureTime, FrameSet, FrameSource, InputError, unix_seconds};
 use flexshape_recording::{Command, Truth};
 use image::RgbImage;
 use rayon::prelude::*;
@@ -45,6 +45,10 @@ pub struct Processed {
     pub latency_ms: f64,
     /// Frame sets the (live) source had dropped when this one was taken.
     pub dropped: u64,
+    /// When the frame was captured, where the input knows it.
+    pub capture_time: Option<CaptureTime>,
+    /// The wall clock when the chain finished the frame, seconds since the Unix epoch.
+    pub processed_s: Option<f64>,
 }
 
 impl Processed {
@@ -61,6 +65,8 @@ impl Processed {
             captured: Instant::now(),
             latency_ms: 0.0,
             dropped,
+            capture_time: None,
+            processed_s: unix_seconds(SystemTime::now()),
         }
     }
 }
@@ -277,5 +283,7 @@ fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64, prior: Option<&Prio
         captured: set.captured,
         latency_ms: set.captured.elapsed().as_secs_f64() * 1e3,
         dropped,
+        capture_time: set.capture_time,
+        processed_s: unix_seconds(SystemTime::now()),
     }
 }

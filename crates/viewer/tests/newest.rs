@@ -20,6 +20,8 @@ fn update(frame: u64) -> Update {
         captured: Instant::now(),
         latency_ms: 1.0,
         dropped: 0,
+        capture_time: None,
+        processed_s: None,
     };
     let stats = Stats {
         frames: frame as usize + 1,

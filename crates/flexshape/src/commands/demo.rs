@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use flexshape_camera::nalgebra::Point3;
 use flexshape_curve::Polyline;
-use flexshape_input::{FrameImage, FrameSet, FrameSource, InputError, NewestSource};
+use flexshape_input::{CaptureTime, FrameImage, FrameSet, FrameSource, InputError, NewestSource};
 use flexshape_model::{ManipulatorParams, Model, Sweep};
 use flexshape_recording::{Command, PoseRole, RecordingWriter, Truth};
 use flexshape_silhouette::BackgroundModel;
@@ -80,6 +80,7 @@ impl Rig {
             .map(|v| FrameImage::Decoded(v.image))
             .collect();
         let mut set = FrameSet::new(n, images);
+        set.capture_time = CaptureTime::of_instant(set.captured);
         set.truth = Some(rendered.truth);
         set.command = Some(command);
         Ok(set)

@@ -83,6 +83,13 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         })
         .with_context(|| format!("cannot write the recording to {}", out.display()))?;
     bar.finish_and_clear();
+    if let Some(hz) = args.motion {
+        // Filmed at `hz`: frame n at n / hz seconds.
+        let times: Vec<(u64, f64)> = (0..written).map(|n| (n, n as f64 / hz)).collect();
+        flexshape_recording::RecordingWriter::reopen(out)
+            .write_timestamps(&times)
+            .with_context(|| format!("cannot write the timestamps of {}", out.display()))?;
+    }
     let cams = sim.rig().cameras.len();
     println!(
         "wrote {written} frames × {cams} cameras to {} in {:.1} s{}",
