@@ -1,5 +1,5 @@
-//! Ctrl-C handling: the first Ctrl-C asks the running command to stop after the current frame
-//! (so everything written stays whole); a second one exits at once.
+//! Ctrl-C handling: the first Ctrl-C (or SIGTERM, or SIGHUP) asks the running command to stop
+//! after the current frame (so everything written stays whole); a second one exits at once.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -92,6 +92,38 @@ fn rig_check_names_the_bad_field() {
     ]);
     assert!(!o.status.success());
     assert!(text(&o).contains("/nonexistent/rig.toml"), "{}", text(&o));
+    // What `track` refuses, `rig check` refuses: a processing setting out of range, and a
+    // volume no camera sees.
+    std::fs::write(&cam, yaml).unwrap();
+    let rig_path = out.join("rig.toml");
+    let rig = std::fs::read_to_string(&rig_path).unwrap();
+    std::fs::write(
+        &rig_path,
+        rig.replacen(
+            "[processing.shape]\n",
+            "[processing.shape]\nslice_mm = 300\n",
+            1,
+        ),
+    )
+    .unwrap();
+    let o = flexshape(&["rig", "check", rig_path.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("slice_mm"), "{}", text(&o));
+    std::fs::write(
+        &rig_path,
+        rig.replacen(
+            "origin = [-128.0, -128.0, -128.0]",
+            "origin = [5000.0, 5000.0, 5000.0]",
+            1,
+        ),
+    )
+    .unwrap();
+    let o = flexshape(&["rig", "check", rig_path.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("see none of the volume"), "{}", text(&o));
+    std::fs::write(&rig_path, rig).unwrap();
+    let o = flexshape(&["rig", "check", rig_path.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
 }
 
 #[test]

@@ -641,3 +641,49 @@ fn special_and_huge_files_are_refused_without_reading_them() {
     let e = common::fails(&["rig", "check", "/dev/zero"]);
     assert!(e.contains("a device"), "{e}");
 }
+
+/// Honest exits: a run whose every frame failed, and a run stopped by SIGTERM, end non-zero
+/// with their records and the summary written.
+#[test]
+fn failed_and_terminated_runs_exit_non_zero_with_their_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "40"]);
+    // Every frame of a copy unreadable.
+    let bad = dir.path().join("bad");
+    common::run(&["simulate", "--out", bad.to_str().unwrap(), "--frames", "1"]);
+    std::fs::write(bad.join("frames/cam1/000000.png"), b"not a png").unwrap();
+    let out = dir.path().join("bad.jsonl");
+    let e = common::fails(&["track", bad.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(e.contains("every one of the 1 frames failed"), "{e}");
+    let (records, summary) = read_lines(&out);
+    assert_eq!((records.len(), summary["errors"].as_u64()), (1, Some(1)));
+    // SIGTERM: the frames in flight are finished, the summary says `stopped`.
+    #[cfg(unix)]
+    {
+        let out = dir.path().join("term.jsonl");
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_flexshape"))
+            .args(["track", r, "-o", out.to_str().unwrap(), "--threads", "1"])
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Once a frame is written, ask it to stop.
+        let start = std::time::Instant::now();
+        while std::fs::read_to_string(&out).map_or(0, |t| t.lines().count()) < 1
+            && start.elapsed().as_secs() < 60
+        {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        std::process::Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status()
+            .unwrap();
+        let status = child.wait().unwrap();
+        let (records, summary) = read_lines(&out);
+        if records.len() < 40 {
+            assert!(!status.success(), "a stopped run exits non-zero");
+            assert_eq!(summary["stopped"], true, "{summary}");
+        }
+    }
+}

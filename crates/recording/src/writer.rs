@@ -39,7 +39,14 @@ impl RecordingWriter {
                             .into(),
                 });
             }
-            for part in ["calibration", "background", "frames", "masks", "truth", "commands"] {
+            for part in [
+                "calibration",
+                "background",
+                "frames",
+                "masks",
+                "truth",
+                "commands",
+            ] {
                 let dir = root.join(part);
                 if dir.is_dir() {
                     std::fs::remove_dir_all(&dir).map_err(|e| RecordingError::io(&dir, e))?;

@@ -69,14 +69,18 @@ pub fn common_box(cameras: &[Camera]) -> Option<([f64; 3], [f64; 3])> {
         .map(|cam| (cam.centre() - centre).norm())
         .fold(f64::INFINITY, f64::min);
     // First a cube, so that no axis takes the view from the others; then each face.
+    // Views that widen with depth (a parallel stereo pair) would let a box grow without end:
+    // no face goes farther from the centre than the nearest camera is.
     let mut half = 0.0;
     let mut step = reach / 10.0;
     while step > reach * 1e-4 {
         let h = half + step;
-        if seen(
-            &[c[0] - h, c[1] - h, c[2] - h],
-            &[c[0] + h, c[1] + h, c[2] + h],
-        ) {
+        if h <= reach
+            && seen(
+                &[c[0] - h, c[1] - h, c[2] - h],
+                &[c[0] + h, c[1] + h, c[2] + h],
+            )
+        {
             half = h;
         } else {
             step /= 2.0;
@@ -94,7 +98,7 @@ pub fn common_box(cameras: &[Camera]) -> Option<([f64; 3], [f64; 3])> {
             } else {
                 l[axis] -= step;
             }
-            if seen(&l, &h) {
+            if (h[axis] - c[axis]).max(c[axis] - l[axis]) <= reach && seen(&l, &h) {
                 (lo, hi) = (l, h);
                 grew = true;
             }
@@ -170,6 +174,28 @@ mod tests {
         // A far larger volume is mostly unseen.
         let big = Volume::from_bounds([-2000.0; 3], [2000.0; 3], 10.0).unwrap();
         assert!(corners_seen(&cams, &big).iter().all(|&n| n == 0));
+    }
+
+    #[test]
+    fn a_stereo_pair_whose_views_widen_with_depth_gives_a_bounded_box() {
+        // Two cameras 120 mm apart, toed in by 2°: their views overlap ever wider with depth.
+        let cams: Vec<Camera> = [-60.0f64, 60.0]
+            .iter()
+            .map(|&x| {
+                let i = Intrinsics::new(640, 480, 800.0, 800.0, 319.5, 239.5, Distortion::NONE)
+                    .unwrap();
+                let target = Point3::new(0.0, 0.0, 60.0 / 0.035f64.tan());
+                Camera::new(i, Pose::look_at(Point3::new(x, 0.0, 0.0), target, -Vector3::y()))
+            })
+            .collect();
+        let v = suggest_volume(&cams, 1.0).unwrap();
+        assert!(corners_seen(&cams, &v).iter().all(|&n| n == 2));
+        let meet = axes_meet(&cams).unwrap();
+        let reach = (cams[0].centre() - meet).norm();
+        let hi = v.max_corner();
+        for a in 0..3 {
+            assert!(hi[a] - v.origin[a] <= 2.0 * reach + 2.0 * v.voxel_size[a], "{v:?}");
+        }
     }
 
     #[test]

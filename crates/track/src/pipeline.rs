@@ -147,6 +147,23 @@ impl Pipeline {
         Self::with_silhouettes(rig, backgrounds, volume, |s| s)
     }
 
+    /// Checks every stage's `[processing]` settings of `rig` as [`Pipeline::new`] does (the
+    /// silhouettes' of every camera, the shape's, the fit's), without backgrounds or a
+    /// volume: what `rig check` runs.
+    pub fn check_settings(rig: &Rig) -> Result<(), TrackError> {
+        for cam in &rig.cameras {
+            SilhouetteSettings::from_processing(&rig.processing, &cam.name).map_err(|source| {
+                TrackError::Silhouette {
+                    camera: cam.name.clone(),
+                    source,
+                }
+            })?;
+        }
+        ShapeEstimator::new(ShapeSettings::from_processing(&rig.processing)?)?;
+        FitSettings::from_processing(&rig.processing)?.validate()?;
+        Ok(())
+    }
+
     /// The chain for frames that are masks — the object white (or light) on black, binary or
     /// 8-bit, as a lab's own segmentation writes them — instead of camera images: a pixel
     /// whose brightest channel reaches [`flexshape_silhouette::MASK_LEVEL`] is object, no

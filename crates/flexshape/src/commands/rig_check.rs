@@ -2,10 +2,13 @@
 
 use std::path::Path;
 
+use anyhow::Context;
 use flexshape_camera::nalgebra::Point3;
 
 pub fn run(path: &Path) -> anyhow::Result<()> {
     let rig = super::load_rig(path)?;
+    flexshape_track::Pipeline::check_settings(&rig)
+        .with_context(|| format!("{}: invalid [processing] settings", path.display()))?;
     let v = &rig.volume;
     let hi = v.max_corner();
     println!(
@@ -31,6 +34,7 @@ pub fn run(path: &Path) -> anyhow::Result<()> {
     let corners = v.corners();
     let centre = Point3::from((Point3::from(v.origin).coords + hi.coords) / 2.0);
     let mut all_ok = true;
+    let mut blind = Vec::new();
     for c in &rig.cameras {
         let cam = &c.camera;
         let k = &cam.intrinsics;
@@ -63,6 +67,9 @@ pub fn run(path: &Path) -> anyhow::Result<()> {
             }
         );
         all_ok &= seen == 8;
+        if seen == 0 && !centre_px.is_ok_and(|p| k.contains(p.pixel)) {
+            blind.push(c.name.clone());
+        }
     }
     for (i, a) in rig.cameras.iter().enumerate() {
         for b in &rig.cameras[i + 1..] {
@@ -87,6 +94,15 @@ pub fn run(path: &Path) -> anyhow::Result<()> {
     match super::suggested_volume(&cameras, v.voxel_size[0]) {
         Some(s) => println!("  every camera sees the box {s}"),
         None => println!("  the cameras see no box in common around where their axes meet"),
+    }
+    if !blind.is_empty() {
+        anyhow::bail!(
+            "{}: camera{} {} see{} none of the volume (no corner, not its centre): the calibration or the volume is wrong",
+            path.display(),
+            if blind.len() > 1 { "s" } else { "" },
+            blind.join(", "),
+            if blind.len() > 1 { "" } else { "s" }
+        );
     }
     Ok(())
 }

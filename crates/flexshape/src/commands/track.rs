@@ -121,6 +121,19 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     if let Some(e) = end.input_error {
         bail!("the input broke after {} frames: {e}", summary.frames);
     }
+    // An interrupted run, or one in which every frame failed, did not do what was asked.
+    if stop.requested() {
+        bail!(
+            "interrupted after {} frames (every record written is whole, the summary says `stopped`)",
+            summary.frames
+        );
+    }
+    if summary.frames > 0 && summary.errors == summary.frames {
+        bail!(
+            "every one of the {} frames failed (see the records' `reason`)",
+            summary.frames
+        );
+    }
     Ok(())
 }
 
