@@ -185,7 +185,10 @@ mod tests {
                 let i = Intrinsics::new(640, 480, 800.0, 800.0, 319.5, 239.5, Distortion::NONE)
                     .unwrap();
                 let target = Point3::new(0.0, 0.0, 60.0 / 0.035f64.tan());
-                Camera::new(i, Pose::look_at(Point3::new(x, 0.0, 0.0), target, -Vector3::y()))
+                Camera::new(
+                    i,
+                    Pose::look_at(Point3::new(x, 0.0, 0.0), target, -Vector3::y()),
+                )
             })
             .collect();
         let v = suggest_volume(&cams, 1.0).unwrap();
@@ -194,7 +197,10 @@ mod tests {
         let reach = (cams[0].centre() - meet).norm();
         let hi = v.max_corner();
         for a in 0..3 {
-            assert!(hi[a] - v.origin[a] <= 2.0 * reach + 2.0 * v.voxel_size[a], "{v:?}");
+            assert!(
+                hi[a] - v.origin[a] <= 2.0 * reach + 2.0 * v.voxel_size[a],
+                "{v:?}"
+            );
         }
     }
 

@@ -9,6 +9,7 @@
 //! a slow network never slows tracking. World frame, mm.
 
 mod encode;
+mod origin;
 mod server;
 
 use std::net::{SocketAddr, TcpListener};

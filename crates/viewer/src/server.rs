@@ -12,8 +12,8 @@ use axum::response::{Html, IntoResponse};
 use axum::routing::get;
 use tokio::sync::watch;
 
-use crate::Scene;
 use crate::encode::{Update, frame_json, image_messages};
+use crate::{Scene, origin};
 
 const PAGE: &str = include_str!("../assets/index.html");
 const SCRIPT: &str = include_str!("../assets/viewer.js");
@@ -50,6 +50,16 @@ pub(crate) async fn serve(
         hello: hello.into(),
         encoded,
     };
+    let guard = match listener.local_addr() {
+        Ok(a) => origin::Guard {
+            port: a.port(),
+            loopback: a.ip().is_loopback(),
+        },
+        Err(e) => {
+            tracing::error!("viewer: cannot listen: {e}");
+            return;
+        }
+    };
     let app = Router::new()
         .route("/", get(|| async { Html(PAGE) }))
         .route(
@@ -58,6 +68,7 @@ pub(crate) async fn serve(
         )
         .route("/health", get(|| async { "ok" }))
         .route("/ws", get(socket))
+        .layer(axum::middleware::from_fn_with_state(guard, checked))
         .with_state(state);
     let listener = match tokio::net::TcpListener::from_std(listener) {
         Ok(l) => l,
@@ -68,6 +79,28 @@ pub(crate) async fn serve(
     };
     if let Err(e) = axum::serve(listener, app).await {
         tracing::error!("viewer: server stopped: {e}");
+    }
+}
+
+/// Refuses a request whose `Host` or `Origin` is not the viewer's own (see `origin`).
+async fn checked(
+    State(guard): State<origin::Guard>,
+    request: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> axum::response::Response {
+    let allowed = {
+        let headers = request.headers();
+        let value = |name| headers.get(name).and_then(|v| v.to_str().ok());
+        guard.allows(value(header::HOST), value(header::ORIGIN))
+    };
+    if allowed {
+        next.run(request).await
+    } else {
+        (
+            axum::http::StatusCode::FORBIDDEN,
+            "the viewer serves its own page only (Host or Origin not allowed)",
+        )
+            .into_response()
     }
 }
 
