@@ -33,7 +33,7 @@ pub enum RigError {
     },
     /// The path is not a regular file, or too large to be what it should be.
     #[error(transparent)]
-    File(#[from] crate::files::FileError),
+    File(crate::files::FileError),
     /// A field is missing or has an invalid value.
     #[error("{}: field `{field}`: {problem}", file.display())]
     Field {
@@ -56,6 +56,16 @@ impl RigError {
             file: file.into(),
             field: field.into(),
             problem: problem.into(),
+        }
+    }
+}
+
+impl From<crate::files::FileError> for RigError {
+    /// A file system error stays a [`RigError::Read`] naming the file.
+    fn from(e: crate::files::FileError) -> Self {
+        match e {
+            crate::files::FileError::Io { path, source } => RigError::Read { file: path, source },
+            other => RigError::File(other),
         }
     }
 }

@@ -37,6 +37,14 @@ pub enum FileError {
         /// What the file was read as.
         what: &'static str,
     },
+    /// The file system refused (missing, no permission, …).
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The path.
+        path: std::path::PathBuf,
+        /// The error.
+        source: std::io::Error,
+    },
     /// Read or decode failure.
     #[error("{}: {message}", path.display())]
     Other {
@@ -67,6 +75,7 @@ impl FileError {
         let text = self.to_string();
         let path = match self {
             FileError::NotAFile { path, .. }
+            | FileError::Io { path, .. }
             | FileError::TooLarge { path, .. }
             | FileError::Other { path, .. }
             | FileError::Size { path, .. } => path.display().to_string(),
@@ -78,9 +87,9 @@ impl FileError {
 
 /// Refuses anything but a regular file, without opening it (a FIFO would block).
 pub fn regular_file(path: &Path) -> Result<u64, FileError> {
-    let meta = std::fs::metadata(path).map_err(|e| FileError::Other {
+    let meta = std::fs::metadata(path).map_err(|source| FileError::Io {
         path: path.to_path_buf(),
-        message: e.to_string(),
+        source,
     })?;
     let t = meta.file_type();
     if t.is_file() {
@@ -128,17 +137,13 @@ pub fn read_bytes(path: &Path, limit: u64, what: &'static str) -> Result<Vec<u8>
     if size > limit {
         return Err(too_large(size));
     }
-    let file = std::fs::File::open(path).map_err(|e| FileError::Other {
+    let io = |source| FileError::Io {
         path: path.to_path_buf(),
-        message: e.to_string(),
-    })?;
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
     let mut bytes = Vec::with_capacity(size as usize);
-    file.take(limit + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| FileError::Other {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(io)?;
     if bytes.len() as u64 > limit {
         return Err(too_large(bytes.len() as u64));
     }

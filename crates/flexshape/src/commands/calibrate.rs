@@ -170,7 +170,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         .collect();
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let rig = Rig {
+    let mut rig = Rig {
         cameras: cameras
             .iter()
             .zip(&results)
@@ -184,6 +184,18 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         volume: Volume::default(),
         processing: ProcessingTable::new(),
     };
+    // The default volume sits at the world origin (the reference camera's centre, unless
+    // --world moved it): when some camera sees none of it, the box every camera sees instead.
+    let calibrated: Vec<Camera> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
+    let seen = flexshape_rig::coverage::corners_seen(&calibrated, &rig.volume);
+    if seen.iter().any(|&n| n < calibrated.len())
+        && let Some(v) = flexshape_rig::coverage::suggest_volume(&calibrated, 1.0)
+    {
+        eprintln!(
+            "note: the rig's volume is the box every camera sees (rig.toml; change it with `[volume]` or track --volume)"
+        );
+        rig.volume = v;
+    }
     let rig_path = args.out.join("rig.toml");
     rig.save(&rig_path)
         .with_context(|| format!("cannot write {}", rig_path.display()))?;
