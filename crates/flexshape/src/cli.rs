@@ -441,7 +441,7 @@ pub struct TrackArgs {
     #[arg(long)]
     pub follow: bool,
     /// Frames processed at once (default: the number of cores).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub threads: Option<usize>,
     /// The manipulator model's frame (`flexshape model fit --save-frame` writes it): arc fits
     /// then also give `kappa_x`, `kappa_z` as the model defines them.
@@ -637,7 +637,7 @@ pub struct DemoArgs {
     #[arg(long, value_name = "PARAMS.toml")]
     pub model: Option<PathBuf>,
     /// Frames processed at once (default: the number of cores).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub threads: Option<usize>,
     /// Also write the simulated recording to this folder.
     #[arg(long)]
@@ -711,5 +711,14 @@ fn parse_named_path(s: &str) -> Result<(String, PathBuf), String> {
         _ => Err(format!(
             "`{s}` is not NAME=PATH (a camera name from the rig, then its input)"
         )),
+    }
+}
+
+/// `--threads`: at least one.
+fn parse_threads(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(0) => Err("at least 1 frame must be processed at once".into()),
+        Ok(n) => Ok(n),
+        Err(_) => Err(format!("`{s}` is not a number of threads")),
     }
 }

@@ -183,6 +183,9 @@ fn bad_arguments_are_clear() {
     let o = flexshape(&["demo", "--frames", "1", "--cams", "0"]);
     assert!(!o.status.success());
     assert!(text(&o).contains("cameras"), "{}", text(&o));
+    let o = flexshape(&["track", "/nonexistent", "--threads", "0"]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("at least 1"), "{}", text(&o));
     // A camera name becomes a file name: `../x` would write outside --out.
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("cal");

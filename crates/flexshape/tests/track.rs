@@ -547,6 +547,8 @@ fn outputs_never_replace_inputs_or_existing_files_unasked() {
         .collect();
     assert_eq!(names, ["000000.ply"]);
     common::run(&["track", r, "-o", o, "--overwrite"]);
+    let e = common::fails(&["track", r, "--csv", "-"]);
+    assert!(e.contains("both write to standard output"), "{e}");
     // A file another process holds is refused, even with --overwrite.
     let held = std::fs::File::create(&other).unwrap();
     held.lock().unwrap();

@@ -199,7 +199,12 @@ impl Sinks {
                 );
             }
         }
-        if args.csv.as_ref() == Some(&args.out) && args.out != Path::new("-") {
+        if args.csv.as_ref() == Some(&args.out) {
+            if args.out == Path::new("-") {
+                bail!(
+                    "--csv - and --out - would both write to standard output: give one of them a file"
+                );
+            }
             bail!("--csv and --out are the same file {}", args.out.display());
         }
         let out = Output::open(&args.out, args.overwrite)?;
