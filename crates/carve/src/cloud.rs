@@ -1,6 +1,5 @@
 //! Carving results: occupied voxels and the point cloud of their centres.
 
-use std::io::Write;
 use std::path::Path;
 
 use flexshape_camera::nalgebra::Point3;
@@ -117,13 +116,6 @@ pub struct PointCloud {
 impl PointCloud {
     /// Writes an ASCII PLY file of the points (for MeshLab, CloudCompare, Open3D).
     pub fn write_ply(&self, path: &Path) -> Result<(), CarveError> {
-        let err = |source| CarveError::Write {
-            path: path.display().to_string(),
-            source,
-        };
-        // Written whole beside it, then renamed into place: a cloud is complete or absent.
-        let part = path.with_extension("ply.part");
-        let mut out = std::io::BufWriter::new(std::fs::File::create(&part).map_err(err)?);
         let mut text = format!(
             "ply\nformat ascii 1.0\ncomment flexshape carved voxel centres, world frame, mm; band 0 = no band\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty ushort band\nend_header\n",
             self.points.len()
@@ -133,9 +125,18 @@ impl PointCloud {
             let rgb = if b == 0 { "160 160 160" } else { "220 30 30" };
             text.push_str(&format!("{} {} {} {rgb} {b}\n", p[0], p[1], p[2]));
         }
-        out.write_all(text.as_bytes()).map_err(err)?;
-        out.flush().map_err(err)?;
-        drop(out);
-        std::fs::rename(&part, path).map_err(err)
+        write_whole(path, &text)
     }
+}
+
+/// Writes `text` to `path` whole or not at all: beside it first, then renamed into place (a
+/// reader never sees a partial file, and an interrupted run leaves none).
+pub(crate) fn write_whole(path: &Path, text: &str) -> Result<(), CarveError> {
+    let err = |source| CarveError::Write {
+        path: path.display().to_string(),
+        source,
+    };
+    let part = path.with_extension("ply.part");
+    std::fs::write(&part, text).map_err(err)?;
+    std::fs::rename(&part, path).map_err(err)
 }

@@ -4,7 +4,6 @@
 //! read by MeshLab, CloudCompare, Blender and Open3D as PLY.
 
 use std::collections::HashMap;
-use std::io::Write;
 use std::path::Path;
 
 use crate::{CarveError, Occupancy};
@@ -73,11 +72,6 @@ impl Occupancy {
 impl SurfaceMesh {
     /// Writes an ASCII PLY mesh, whole or not at all (written beside, then renamed).
     pub fn write_ply(&self, path: &Path) -> Result<(), CarveError> {
-        let err = |source| CarveError::Write {
-            path: path.display().to_string(),
-            source,
-        };
-        let part = path.with_extension("ply.part");
         let mut text = format!(
             "ply\nformat ascii 1.0\ncomment flexshape carved hull surface, world frame, mm\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
             self.vertices.len(),
@@ -89,11 +83,7 @@ impl SurfaceMesh {
         for q in &self.quads {
             text.push_str(&format!("4 {} {} {} {}\n", q[0], q[1], q[2], q[3]));
         }
-        let mut out = std::io::BufWriter::new(std::fs::File::create(&part).map_err(err)?);
-        out.write_all(text.as_bytes()).map_err(err)?;
-        out.flush().map_err(err)?;
-        drop(out);
-        std::fs::rename(&part, path).map_err(err)
+        crate::cloud::write_whole(path, &text)
     }
 }
 

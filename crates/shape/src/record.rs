@@ -44,6 +44,18 @@ pub enum Status {
     },
 }
 
+impl Status {
+    /// Whether a shape with this status is right: `ok`, `bands_missing` (the shape is right,
+    /// a band is not seen) or `leaves_volume` (right up to the volume's boundary). A later
+    /// frame may start from it; every other status says the shape must not be trusted.
+    pub fn is_right(&self) -> bool {
+        matches!(
+            self,
+            Status::Ok | Status::BandsMissing { .. } | Status::LeavesVolume
+        )
+    }
+}
+
 /// A marker band located on the curve.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BandOnCurve {

@@ -116,7 +116,7 @@ impl Tracked {
     /// What a later frame may start from, if this frame's shape is right.
     pub fn prior(&self) -> Option<Prior> {
         let fit = self.fit.as_ref()?;
-        (is_right(&self.shape.status) && self.shape.points.len() >= 2).then(|| Prior {
+        (self.shape.status.is_right() && self.shape.points.len() >= 2).then(|| Prior {
             record: self.shape.clone(),
             tube: fit.tube.clone(),
         })
@@ -375,7 +375,7 @@ impl Pipeline {
         let fit_ms = ms(t);
         // Anything but a right shape (one that does not explain the images, or that the
         // cameras do not pin down) is tried again from this frame's own hull.
-        if fit.is_none() || !is_right(&shape.status) {
+        if fit.is_none() || !shape.status.is_right() {
             let mut full = self.process(images)?;
             full.timings.fit += fit_ms + silhouettes_ms;
             return Ok(full);
@@ -521,7 +521,7 @@ impl Pipeline {
                 )?;
                 // Two cameras' hull grows ghosts its centerline may follow: a start from the
                 // two silhouettes themselves may find the shape that explains them.
-                let from_views = if is_right(&shape.status) {
+                let from_views = if shape.status.is_right() {
                     None
                 } else {
                     self.fitter
@@ -558,14 +558,6 @@ impl Pipeline {
 /// The self-check's 90th percentile of outline residuals for frames that are binary masks,
 /// pixels: their boundary lies on pixel edges, up to half a pixel from the true outline.
 pub const MASK_P90_PX: f64 = 0.5;
-
-/// Whether a fitted shape with this status is right: one a later frame may start from.
-fn is_right(status: &Status) -> bool {
-    matches!(
-        status,
-        Status::Ok | Status::BandsMissing { .. } | Status::LeavesVolume
-    )
-}
 
 fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3

@@ -91,7 +91,7 @@ impl TubeFitter {
             .map(|(f, _)| apart(&fit.tube, &f.tube))
             .fold(0.0, f64::max);
         let mut record = self.conclude(estimator, volume, views, &fit, &base);
-        if other > DIFFERENT_MM && is_right(&record.status) {
+        if other > DIFFERENT_MM && record.status.is_right() {
             record.status = Status::Ambiguous {
                 reason: format!(
                     "two shapes up to {other:.0} mm apart both explain the two cameras' images: add a camera that sees the tube from another side"
@@ -155,14 +155,6 @@ fn oriented(
     let mut base = ShapeRecord::empty(status);
     base.enters_volume = open[0];
     (points.len() >= 4).then_some((points, open, base))
-}
-
-/// Whether a status says the shape is right.
-fn is_right(status: &Status) -> bool {
-    matches!(
-        status,
-        Status::Ok | Status::BandsMissing { .. } | Status::LeavesVolume
-    )
 }
 
 /// Mean outline residual over the cameras, pixels.

@@ -7,7 +7,7 @@ use flexshape_carve::{BandRule, HierarchicalCarver, OutsideImage, find_bands};
 use flexshape_curve::Polyline;
 use flexshape_fit::{Fit, FitSettings, TubeFitter, View};
 use flexshape_recording::Truth;
-use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status};
+use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings};
 use flexshape_silhouette::{BackgroundModel, Silhouette, SilhouetteSettings, Silhouetter};
 use flexshape_sim::{SimConfig, SimFrame, Simulator};
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -107,11 +107,7 @@ impl Chain {
     /// The flag says whether the two-view start gave the shape.
     pub fn run_two_views(&self, frame: SimFrame) -> (Both, bool) {
         let mut b = self.run(frame);
-        let right = matches!(
-            b.fitted.status,
-            Status::Ok | Status::BandsMissing { .. } | Status::LeavesVolume
-        );
-        if right {
+        if b.fitted.status.is_right() {
             return (b, false);
         }
         let sil = self.silhouettes(&b.frame);
