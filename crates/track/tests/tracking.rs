@@ -7,7 +7,6 @@ use flexshape_curve::Polyline;
 use flexshape_fit::{FitSettings, Method};
 use flexshape_recording::Truth;
 use flexshape_shape::{ShapeRecord, Status};
-use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, SimRigConfig, Simulator};
 use flexshape_track::{Pipeline, Prior, Start, TrackRecord};
 use image::RgbImage;
@@ -37,6 +36,17 @@ fn following(pipeline: Pipeline) -> Pipeline {
         ..pipeline.fit_settings().clone()
     };
     pipeline.with_fit_settings(settings).unwrap()
+}
+
+/// The simulated two-camera rig and its chain.
+fn two_cameras() -> (Simulator, Pipeline) {
+    common::chain_of(SimConfig {
+        rig: SimRigConfig {
+            cameras: 2,
+            ..SimRigConfig::default()
+        },
+        ..SimConfig::default()
+    })
 }
 
 fn images(frame: &flexshape_sim::SimFrame) -> Vec<&RgbImage> {
@@ -123,20 +133,8 @@ fn a_frame_the_previous_shape_cannot_explain_starts_from_its_hull() {
 
 #[test]
 fn two_cameras_carve_every_frame() {
-    let config = SimConfig {
-        rig: SimRigConfig {
-            cameras: 2,
-            ..SimRigConfig::default()
-        },
-        ..SimConfig::default()
-    };
-    let sim = Simulator::new(config).unwrap();
-    let backgrounds: Vec<_> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
-        .collect();
-    let pipeline = following(Pipeline::new(sim.rig(), &backgrounds, &sim.rig().volume).unwrap());
+    let (sim, pipeline) = two_cameras();
+    let pipeline = following(pipeline);
     assert!(!pipeline.tracks());
     let poses = sim.motion(2, 30.0);
     let (a, b) = (
@@ -153,20 +151,7 @@ fn two_cameras_carve_every_frame() {
 
 #[test]
 fn two_cameras_start_from_the_views_when_the_hull_is_in_pieces() {
-    let config = SimConfig {
-        rig: SimRigConfig {
-            cameras: 2,
-            ..SimRigConfig::default()
-        },
-        ..SimConfig::default()
-    };
-    let sim = Simulator::new(config).unwrap();
-    let backgrounds: Vec<_> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
-        .collect();
-    let pipeline = Pipeline::new(sim.rig(), &backgrounds, &sim.rig().volume).unwrap();
+    let (sim, pipeline) = two_cameras();
     // The sweep's first pose: the two-camera hull falls into pieces (measured: 20 of 53
     // cross-sections), so the start from the hull gives no shape.
     let frame = sim.render(0, &sim.sweep(1)[0]).unwrap();

@@ -71,16 +71,10 @@ pub fn decompose(
         return Err(RigError::field(path, field, "K is singular"));
     };
     let t = k_inv * p4 / s * unit.mm();
-    let intrinsics = Intrinsics::new(
-        width,
-        height,
-        k[(0, 0)],
-        k[(1, 1)],
-        k[(0, 2)],
-        k[(1, 2)],
-        Distortion::NONE,
-    )
-    .map_err(|e| camera_error(path, field, e))?;
+    let mut k_no_skew = k;
+    k_no_skew[(0, 1)] = 0.0;
+    let intrinsics = Intrinsics::from_matrix(width, height, &k_no_skew, Distortion::NONE)
+        .map_err(|e| camera_error(path, field, e))?;
     let pose = Pose::from_matrix(&r, t).map_err(|e| camera_error(path, field, e))?;
     Ok(Camera::new(intrinsics, pose))
 }

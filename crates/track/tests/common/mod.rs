@@ -6,7 +6,12 @@ use flexshape_track::Pipeline;
 
 /// The default simulated rig and the sensing chain set up for it.
 pub fn simulated_chain() -> (Simulator, Pipeline) {
-    let sim = Simulator::new(SimConfig::default()).unwrap();
+    chain_of(SimConfig::default())
+}
+
+/// The simulated rig of `config` and the chain set up for it.
+pub fn chain_of(config: SimConfig) -> (Simulator, Pipeline) {
+    let sim = Simulator::new(config).unwrap();
     let backgrounds: Vec<_> = sim
         .backgrounds()
         .iter()
