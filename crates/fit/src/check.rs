@@ -26,6 +26,13 @@ pub struct CameraCheck {
     /// Their mean, pixels (positive: the fitted outline lies outside the measured one). A mean
     /// far from zero in one camera points at its calibration.
     pub offset_px: f64,
+    /// The image translation that best moves the fitted outline onto the measured one, pixels
+    /// (x right, y down; least squares over the samples' normals, a direction they do not
+    /// decide left at 0). A shift of a pixel or more in one camera while the others show
+    /// none points at that camera's calibration, which the mean residual does not show (a
+    /// shift pushes one side of the tube's outline out and the other in).
+    #[serde(default)]
+    pub shift_px: [f64; 2],
     /// 90th percentile of the residuals' size, pixels: a fit that explains the image keeps
     /// nearly all of its outline within a few tenths of a pixel, whatever a few outliers do to
     /// the RMS.
@@ -58,6 +65,7 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
     let w = found.iter().map(|f| f.1).sum::<f64>().max(1e-12);
     let rms = (found.iter().map(|(r, k)| k * r * r).sum::<f64>() / w).sqrt();
     let mean = found.iter().map(|(r, k)| k * r).sum::<f64>() / w;
+    let shift = shift(measured);
     found.sort_by(|a, b| a.0.abs().total_cmp(&b.0.abs()));
     let mut acc = 0.0;
     let p90 = found
@@ -73,7 +81,26 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
         rms,
         mean,
         p90,
+        shift,
     }
+}
+
+/// The image translation `d` minimising `Σ w (n·d + r)²` over the found samples (outline
+/// normal `n`, residual `r`: the measured boundary lies `r` inside the prediction), pixels;
+/// a small ridge leaves a direction the normals do not span at 0.
+fn shift(measured: &[Measured]) -> [f64; 2] {
+    let mut a = nalgebra::Matrix2::<f64>::zeros();
+    let mut b = nalgebra::Vector2::<f64>::zeros();
+    for m in measured {
+        let Some(r) = m.residual else { continue };
+        let n = m.point.normal;
+        a += n * n.transpose() * m.point.weight;
+        b -= n * (r * m.point.weight);
+    }
+    let ridge = 1e-3 * a.trace().max(1e-12);
+    a[(0, 0)] += ridge;
+    a[(1, 1)] += ridge;
+    a.try_inverse().map_or([0.0; 2], |inv| (inv * b).into())
 }
 
 /// Residual statistics of the outline samples around `tube`'s capped ends: the caps and the
@@ -100,6 +127,8 @@ pub(crate) struct Residuals {
     pub rms: f64,
     pub mean: f64,
     pub p90: f64,
+    /// [`CameraCheck::shift_px`].
+    pub shift: [f64; 2],
 }
 
 /// The tube drawn into masks of the camera's image size: a disc per sphere of the swept

@@ -19,6 +19,7 @@ mod bands;
 mod check;
 mod edges;
 mod outline;
+mod pose;
 mod settings;
 mod solve;
 mod stereo;
@@ -33,6 +34,7 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use thiserror::Error;
 
 pub use check::{CameraCheck, debug_image};
+pub use pose::{EdgeSample, PoseFit, refine_pose};
 pub use settings::{FitSettings, Method};
 pub use tube::Tube;
 
@@ -289,6 +291,7 @@ impl TubeFitter {
                     found: res.found,
                     residual_px: res.rms,
                     offset_px: res.mean,
+                    shift_px: res.shift,
                     p90_px: res.p90,
                     iou,
                     unexplained_px,
@@ -335,6 +338,33 @@ impl TubeFitter {
                         u: m.point.u,
                         cap: matches!(m.point.part, outline::Part::Cap(_)),
                         residual: m.residual,
+                    })
+                    .collect()
+            })
+            .collect())
+    }
+
+    /// Every camera's boundaries found around `tube`'s outline, each with the surface point
+    /// whose image the outline is there: what [`refine_pose`] moves a camera against. Only
+    /// samples with a boundary found are given.
+    pub fn edge_samples(
+        &self,
+        views: &[View<'_>],
+        tube: &Tube,
+    ) -> Result<Vec<Vec<EdgeSample>>, FitError> {
+        let images = self.edge_images(views)?;
+        Ok(measure(&self.cameras, &images, tube, &self.settings)
+            .into_iter()
+            .map(|cam| {
+                cam.into_iter()
+                    .filter_map(|m| {
+                        let (edge, normal) = m.edge?;
+                        Some(EdgeSample {
+                            world: m.point.world,
+                            edge,
+                            normal,
+                            weight: m.point.weight,
+                        })
                     })
                     .collect()
             })

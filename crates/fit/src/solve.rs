@@ -26,7 +26,7 @@ pub(crate) struct Measured {
     /// boundary found).
     pub residual: Option<f64>,
     /// The boundary found: its pixel and the outline normal it was searched along.
-    edge: Option<(Vector2<f64>, Vector2<f64>)>,
+    pub edge: Option<(Vector2<f64>, Vector2<f64>)>,
 }
 
 /// Every camera's outline of `tube`, measured.

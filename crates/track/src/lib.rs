@@ -3,6 +3,7 @@
 
 mod pipeline;
 mod record;
+mod refine;
 mod runner;
 
 use flexshape_carve::CarveError;
@@ -15,6 +16,9 @@ pub use pipeline::{Hull, MASK_P90_PX, Pipeline, Prior, StageTimings, Start, Trac
 pub use record::{
     ModelFrame, StageSummary, SummaryLine, Tally, TrackArcFit, TrackBand, TrackCompression,
     TrackRecord, TrackSummary, quantile, stage_summaries,
+};
+pub use refine::{
+    CameraRefinement, MIN_FRAMES, OutlineResiduals, RefineSettings, Refinement, refine_cameras,
 };
 pub use runner::{Processed, RunEnd, run};
 
@@ -38,6 +42,9 @@ pub enum TrackError {
     /// The image fit.
     #[error(transparent)]
     Fit(#[from] FitError),
+    /// Camera poses cannot be refined from the frames given.
+    #[error("cannot refine the camera poses: {0}")]
+    Refine(String),
     /// One item per camera was expected.
     #[error("{found} {what} for a rig of {expected} cameras")]
     CameraCount {

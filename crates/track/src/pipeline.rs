@@ -16,6 +16,7 @@ use std::time::Instant;
 use flexshape_camera::Camera;
 use flexshape_carve::{Band, BandRule, HierarchicalCarver, Occupancy, OutsideImage, find_bands};
 use flexshape_fit::{Fit, FitSettings, Method, Tube, TubeFitter, View};
+use flexshape_input::FrameImage;
 use flexshape_rig::{Rig, Volume};
 use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status};
 use flexshape_silhouette::{
@@ -246,6 +247,52 @@ impl Pipeline {
             backgrounds: backgrounds.to_vec(),
             fitter,
         })
+    }
+
+    /// The same chain with other poses or lenses for its cameras (rig order, same image sizes):
+    /// carving and fit set up again, silhouettes and settings kept.
+    pub fn with_cameras(&self, cameras: Vec<Camera>) -> Result<Self, TrackError> {
+        if cameras.len() != self.cameras.len() {
+            return Err(TrackError::CameraCount {
+                what: "cameras",
+                found: cameras.len(),
+                expected: self.cameras.len(),
+            });
+        }
+        let carver = HierarchicalCarver::new(&cameras, self.carver.volume())?;
+        let fitter = TubeFitter::new(
+            cameras.clone(),
+            self.names.clone(),
+            self.fitter.settings().clone(),
+        )?;
+        Ok(Pipeline {
+            names: self.names.clone(),
+            cameras,
+            silhouetters: self.silhouetters.clone(),
+            carver,
+            band_rule: self.band_rule.clone(),
+            shape: self.shape.clone(),
+            backgrounds: self.backgrounds.clone(),
+            fitter,
+        })
+    }
+
+    /// A frame set's images decoded (in parallel) and checked against the cameras: one per
+    /// camera, each of its calibrated size; else why not.
+    pub fn load(&self, images: Vec<FrameImage>) -> Result<Vec<RgbImage>, String> {
+        if images.len() != self.names.len() {
+            return Err(format!(
+                "{} images for a rig of {} cameras",
+                images.len(),
+                self.names.len()
+            ));
+        }
+        images
+            .into_par_iter()
+            .zip(self.names.par_iter().zip(self.image_sizes()))
+            .map(|(image, (name, size))| image.load(name, size))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| format!("cannot read the frame: {e}"))
     }
 
     /// Replaces the image fit's settings.

@@ -18,7 +18,6 @@ use std::time::{Duration, Instant, SystemTime};
 use flexshape_input::{CaptureTime, FrameSet, FrameSource, InputError, unix_seconds};
 use flexshape_recording::{Command, Truth};
 use image::RgbImage;
-use rayon::prelude::*;
 
 use crate::{Pipeline, Prior, Tracked};
 
@@ -246,22 +245,7 @@ fn take<S: FrameSource + ?Sized>(
 
 /// Decodes one frame set and runs the chain on it, from `prior` if there is one.
 fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64, prior: Option<&Prior>) -> Processed {
-    let names = pipeline.camera_names();
-    let sizes = pipeline.image_sizes();
-    let images: Result<Vec<RgbImage>, String> = if set.images.len() != names.len() {
-        Err(format!(
-            "{} images for a rig of {} cameras",
-            set.images.len(),
-            names.len()
-        ))
-    } else {
-        set.images
-            .into_par_iter()
-            .zip(names.par_iter().zip(sizes))
-            .map(|(image, (name, size))| image.load(name, size))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| format!("cannot read the frame: {e}"))
-    };
+    let images = pipeline.load(set.images);
     let (images, result) = match images {
         Ok(images) => {
             let refs: Vec<&RgbImage> = images.iter().collect();

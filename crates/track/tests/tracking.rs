@@ -3,31 +3,13 @@
 
 mod common;
 
-use flexshape_curve::Polyline;
+use common::{rms, tip_error};
+
 use flexshape_fit::{FitSettings, Method};
-use flexshape_recording::Truth;
-use flexshape_shape::{ShapeRecord, Status};
+use flexshape_shape::Status;
 use flexshape_sim::{SimConfig, SimRigConfig, Simulator};
 use flexshape_track::{Pipeline, Prior, Start, TrackRecord};
 use image::RgbImage;
-use nalgebra::Point3;
-
-/// RMS distance from the true centerline (inside the volume) to the record's, mm.
-fn rms(truth: &Truth, sim: &Simulator, r: &ShapeRecord) -> f64 {
-    let poly = Polyline::new(r.points.iter().map(|&p| Point3::from(p)).collect()).unwrap();
-    let d2: Vec<f64> = truth
-        .centerline
-        .iter()
-        .map(|&p| Point3::from(p))
-        .filter(|p| sim.rig().volume.contains(p))
-        .map(|p| poly.closest(&p).1.powi(2))
-        .collect();
-    (d2.iter().sum::<f64>() / d2.len() as f64).sqrt()
-}
-
-fn tip_error(truth: &Truth, r: &ShapeRecord) -> f64 {
-    (Point3::from(r.tip) - Point3::from(truth.tip)).norm()
-}
 
 /// The chain with tracking on (it is off by default).
 fn following(pipeline: Pipeline) -> Pipeline {

@@ -63,14 +63,13 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut out = std::fs::File::create(&records)
         .with_context(|| format!("cannot create {}", records.display()))?;
-    let sizes = pipeline.image_sizes();
     let (mut frames_done, mut carved) = (0usize, 0usize);
     while let Some(next) = input.source.next_frame() {
         if stop.requested() {
             break;
         }
         let record = match next {
-            Ok(set) => carve_frame(&pipeline, set, &sizes, &args.out)?,
+            Ok(set) => carve_frame(&pipeline, set, &args.out)?,
             Err(e) if e.ends_input() => bail!("the input broke after {frames_done} frames: {e}"),
             Err(e) => HullRecord::error(frames_done as u64, None, e.to_string()),
         };
@@ -97,23 +96,11 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
 
 /// One frame's hull, its files written; a frame that cannot be read or carved is an `error`
 /// record.
-fn carve_frame(
-    pipeline: &Pipeline,
-    set: FrameSet,
-    sizes: &[(u32, u32)],
-    dir: &Path,
-) -> anyhow::Result<HullRecord> {
+fn carve_frame(pipeline: &Pipeline, set: FrameSet, dir: &Path) -> anyhow::Result<HullRecord> {
     let (frame, name) = (set.frame, set.name.clone());
-    let images: Result<Vec<_>, _> = set
-        .images
-        .into_iter()
-        .zip(pipeline.camera_names())
-        .zip(sizes)
-        .map(|((image, camera), &size)| image.load(camera, size))
-        .collect();
-    let images = match images {
+    let images = match pipeline.load(set.images) {
         Ok(i) => i,
-        Err(e) => return Ok(HullRecord::error(frame, name, e.to_string())),
+        Err(e) => return Ok(HullRecord::error(frame, name, e)),
     };
     let refs: Vec<_> = images.iter().collect();
     let hull = match pipeline.hull(&refs) {

@@ -1,8 +1,13 @@
 //! Shared by the track crate's tests.
+#![allow(dead_code)] // each test binary uses its own part
 
+use flexshape_curve::Polyline;
+use flexshape_recording::Truth;
+use flexshape_shape::ShapeRecord;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, Simulator};
 use flexshape_track::Pipeline;
+use nalgebra::Point3;
 
 /// The default simulated rig and the sensing chain set up for it.
 pub fn simulated_chain() -> (Simulator, Pipeline) {
@@ -20,4 +25,22 @@ pub fn chain_of(config: SimConfig) -> (Simulator, Pipeline) {
     let rig = sim.rig();
     let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume).unwrap();
     (sim, pipeline)
+}
+
+/// RMS distance from the true centerline (inside the volume) to the record's, mm.
+pub fn rms(truth: &Truth, sim: &Simulator, r: &ShapeRecord) -> f64 {
+    let poly = Polyline::new(r.points.iter().map(|&p| Point3::from(p)).collect()).unwrap();
+    let d2: Vec<f64> = truth
+        .centerline
+        .iter()
+        .map(|&p| Point3::from(p))
+        .filter(|p| sim.rig().volume.contains(p))
+        .map(|p| poly.closest(&p).1.powi(2))
+        .collect();
+    (d2.iter().sum::<f64>() / d2.len() as f64).sqrt()
+}
+
+/// Distance between the record's tip and the true one, mm.
+pub fn tip_error(truth: &Truth, r: &ShapeRecord) -> f64 {
+    (Point3::from(r.tip) - Point3::from(truth.tip)).norm()
 }
