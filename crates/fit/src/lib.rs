@@ -16,6 +16,7 @@
 //! World frame, millimetres, radians; image positions in pixels (OpenCV convention).
 
 mod bands;
+mod bundle;
 mod check;
 mod edges;
 mod outline;
@@ -33,8 +34,8 @@ use image::RgbImage;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use thiserror::Error;
 
+pub use bundle::Bundle;
 pub use check::{CameraCheck, debug_image};
-pub use pose::{EdgeSample, PoseFit, refine_pose};
 pub use settings::{FitSettings, Method};
 pub use tube::Tube;
 
@@ -338,33 +339,6 @@ impl TubeFitter {
                         u: m.point.u,
                         cap: matches!(m.point.part, outline::Part::Cap(_)),
                         residual: m.residual,
-                    })
-                    .collect()
-            })
-            .collect())
-    }
-
-    /// Every camera's boundaries found around `tube`'s outline, each with the surface point
-    /// whose image the outline is there: what [`refine_pose`] moves a camera against. Only
-    /// samples with a boundary found are given.
-    pub fn edge_samples(
-        &self,
-        views: &[View<'_>],
-        tube: &Tube,
-    ) -> Result<Vec<Vec<EdgeSample>>, FitError> {
-        let images = self.edge_images(views)?;
-        Ok(measure(&self.cameras, &images, tube, &self.settings)
-            .into_iter()
-            .map(|cam| {
-                cam.into_iter()
-                    .filter_map(|m| {
-                        let (edge, normal) = m.edge?;
-                        Some(EdgeSample {
-                            world: m.point.world,
-                            edge,
-                            normal,
-                            weight: m.point.weight,
-                        })
                     })
                     .collect()
             })

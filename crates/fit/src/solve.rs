@@ -116,43 +116,95 @@ pub(crate) fn normal_equations(
     fit_radius: bool,
 ) -> Normal {
     let n = tube.parameters();
-    let radius_col = n - 1;
     let mut h = DMatrix::<f64>::zeros(n, n);
     let mut g = DVector::<f64>::zeros(n);
     let (mut cost, mut rows) = (0.0, 0usize);
+    for_each_row(tube, measured, settings, fit_radius, |row| {
+        add_row(&mut h, &mut g, row.entries, row.r, row.w);
+        cost += row.w * row.r * row.r;
+        rows += 1;
+    });
+    priors(tube, start, settings, fit_radius, &mut h, &mut g);
+    Normal { h, g, cost, rows }
+}
+
+/// One image row of the normal equations.
+pub(crate) struct Row<'a> {
+    /// The camera (rig order).
+    pub camera: usize,
+    /// The measured outline point.
+    pub measured: &'a Measured,
+    /// The tube parameters the residual depends on, and its derivative by each (px per mm).
+    pub entries: &'a [(usize, f64)],
+    /// The residual, pixels.
+    pub r: f64,
+    /// Its weight (Huber's times the sample's share).
+    pub w: f64,
+}
+
+/// Calls `visit` for every measured outline point with a residual: its Jacobian row in the
+/// tube's parameters (control points, then the radius if `fit_radius`) and its weight.
+pub(crate) fn for_each_row(
+    tube: &Tube,
+    measured: &[Vec<Measured>],
+    settings: &FitSettings,
+    fit_radius: bool,
+    mut visit: impl FnMut(Row<'_>),
+) {
+    let radius_col = tube.parameters() - 1;
     let last = tube.centerline.control().len() - 1;
     let mut entries: Vec<(usize, f64)> = Vec::with_capacity(13);
-    for m in measured.iter().flatten() {
-        let Some(r) = m.residual else { continue };
-        let p = &m.point;
-        let w = huber(r, settings.huber_px) * p.weight;
-        let dir = p.surface * p.gain;
-        entries.clear();
-        match p.part {
-            Part::Side(b) => {
-                for j in 0..4 {
-                    let bj = b.weights[0][j];
-                    if bj != 0.0 {
-                        for c in 0..3 {
-                            entries.push((3 * (b.first + j) + c, bj * dir[c]));
+    for (camera, ms) in measured.iter().enumerate() {
+        for m in ms {
+            let Some(r) = m.residual else { continue };
+            let p = &m.point;
+            let w = huber(r, settings.huber_px) * p.weight;
+            let dir = p.surface * p.gain;
+            entries.clear();
+            match p.part {
+                Part::Side(b) => {
+                    for j in 0..4 {
+                        let bj = b.weights[0][j];
+                        if bj != 0.0 {
+                            for c in 0..3 {
+                                entries.push((3 * (b.first + j) + c, bj * dir[c]));
+                            }
                         }
                     }
                 }
-            }
-            Part::Cap(end) => {
-                let k = if end == 0 { 0 } else { last };
-                for c in 0..3 {
-                    entries.push((3 * k + c, dir[c]));
+                Part::Cap(end) => {
+                    let k = if end == 0 { 0 } else { last };
+                    for c in 0..3 {
+                        entries.push((3 * k + c, dir[c]));
+                    }
                 }
             }
+            if fit_radius {
+                entries.push((radius_col, p.gain));
+            }
+            visit(Row {
+                camera,
+                measured: m,
+                entries: &entries,
+                r,
+                w,
+            });
         }
-        if fit_radius {
-            entries.push((radius_col, p.gain));
-        }
-        add_row(&mut h, &mut g, &entries, r, w);
-        cost += w * r * r;
-        rows += 1;
     }
+}
+
+/// Adds the priors around `start` to `h` and `g`.
+fn priors(
+    tube: &Tube,
+    start: &Tube,
+    settings: &FitSettings,
+    fit_radius: bool,
+    h: &mut DMatrix<f64>,
+    g: &mut DVector<f64>,
+) {
+    let radius_col = tube.parameters() - 1;
+    let last = tube.centerline.control().len() - 1;
+    let mut entries: Vec<(usize, f64)> = Vec::with_capacity(3);
     // Along the tube a control point hardly moves the outline: each is held near where it
     // started along the tube (weakly; an open end, which nothing in the images ends, firmly),
     // in pixels per mm.
@@ -173,7 +225,7 @@ pub(crate) fn normal_equations(
         for c in 0..3 {
             entries.push((3 * k + c, weight * t[c]));
         }
-        add_row(&mut h, &mut g, &entries, weight * t.dot(&dev), 1.0);
+        add_row(h, g, &entries, weight * t.dot(&dev), 1.0);
         for c in 0..3 {
             let col = 3 * k + c;
             h[(col, col)] += RIDGE;
@@ -182,7 +234,6 @@ pub(crate) fn normal_equations(
     if !fit_radius {
         h[(radius_col, radius_col)] += 1.0;
     }
-    Normal { h, g, cost, rows }
 }
 
 /// The ridge's weight, px² per mm² (far below any camera's: a span no camera sees stays put).

@@ -245,6 +245,32 @@ pub enum RigCommand {
     Import(RigImportArgs),
     /// Write a rig's cameras in another tool's format.
     Export(RigExportArgs),
+    /// Refine the camera poses from tracked frames: each camera is moved until the tubes fitted
+    /// in many frames lie on the outlines it sees (a calibration a few pixels off makes frames
+    /// `inconsistent`). Writes a rig with the refined poses to --out and prints each camera's
+    /// outline residuals before and after.
+    Refine(RigRefineArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct RigRefineArgs {
+    /// Where the frames come from (frames of the tube in varied shapes serve best).
+    #[command(flatten)]
+    pub frames: FramesArgs,
+    /// Output folder: rig.toml and calibration/NAME.yml with the refined poses (intrinsics,
+    /// volume and processing settings as the rig's). Existing files are not replaced without
+    /// --overwrite.
+    #[arg(long, short = 'o', value_name = "DIR")]
+    pub out: PathBuf,
+    /// The camera held fixed: the world frame stays attached to it (default: the rig's first).
+    #[arg(long, value_name = "NAME")]
+    pub hold: Option<String>,
+    /// Frames used at most, spread evenly over the input.
+    #[arg(long = "use", value_name = "N", default_value_t = 40, value_parser = clap::value_parser!(u32).range(3..=1000))]
+    pub use_frames: u32,
+    /// Replace existing files in --out.
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 #[derive(Debug, Args)]

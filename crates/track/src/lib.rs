@@ -17,9 +17,7 @@ pub use record::{
     ModelFrame, StageSummary, SummaryLine, Tally, TrackArcFit, TrackBand, TrackCompression,
     TrackRecord, TrackSummary, quantile, stage_summaries,
 };
-pub use refine::{
-    CameraRefinement, MIN_FRAMES, OutlineResiduals, RefineSettings, Refinement, refine_cameras,
-};
+pub use refine::{CameraRefinement, MIN_FRAMES, OutlineResiduals, Refinement, refine_cameras};
 pub use runner::{Processed, RunEnd, run};
 
 /// Why a frame (or the pipeline's setup) failed.

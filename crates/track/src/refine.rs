@@ -2,40 +2,19 @@
 //!
 //! On a real rig a thin tube sits next to a few pixels of calibration error: every fit then
 //! compromises between cameras that disagree, and its self-check calls the frames
-//! `inconsistent`. The tubes fitted in frames of different shapes pin the cameras down
-//! better than one frame can: each camera's pose is moved until its outlines lie on the
-//! boundaries it measured ([`refine_pose`]), the tubes are fitted again with the moved
-//! cameras, and so on until the poses stop moving. One camera is held: the world frame stays
-//! attached to it (nothing in the images fixes the world frame). So is the rig's scale, the
-//! cameras' summed distance from the held one: the images show it only through the tube's
-//! width of a few pixels.
+//! `inconsistent`. The tubes of frames of different shapes pin the cameras down better than
+//! one frame can: every frame is tracked with the rig's poses, and the poses and the tubes of
+//! the frames every camera saw are then fitted together ([`TubeFitter::bundle`]), one camera
+//! and the rig's scale held.
 
 use flexshape_camera::Camera;
-use flexshape_fit::{EdgeSample, Fit, Tube, TubeFitter, refine_pose};
+use flexshape_fit::{Fit, Tube, TubeFitter};
 use flexshape_shape::Status;
 use flexshape_silhouette::Silhouette;
 use image::RgbImage;
 use rayon::prelude::*;
 
 use crate::{Pipeline, TrackError};
-
-/// How the poses are refined.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RefineSettings {
-    /// The camera held fixed (rig order): the world frame stays attached to it.
-    pub hold: usize,
-    /// Rounds (poses against the tubes, then tubes against the poses) at most.
-    pub rounds: usize,
-}
-
-impl Default for RefineSettings {
-    fn default() -> Self {
-        RefineSettings {
-            hold: 0,
-            rounds: 40,
-        }
-    }
-}
 
 /// Outline residuals of one camera over the frames used.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,8 +60,38 @@ pub struct Refinement {
     pub right_before: usize,
     /// And with the refined poses.
     pub right_after: usize,
-    /// Rounds run.
-    pub rounds: usize,
+    /// Gauss–Newton steps of the joint fit.
+    pub steps: usize,
+}
+
+/// The refined poses are worth using when they lower the outline RMS over all cameras by at
+/// least this share: on a simulated rig that is right, refining from 20 frames lowered the RMS
+/// by 2 % (fitting the noise) and moved a camera by 0.3 mm, and the tracked centerlines' error
+/// grew from 0.029 to 0.060 mm (median).
+pub const MIN_GAIN: f64 = 0.1;
+
+impl Refinement {
+    /// RMS of every camera's outline samples together, before and after, pixels.
+    pub fn overall_rms(&self) -> (f64, f64) {
+        let total = |f: fn(&CameraRefinement) -> &OutlineResiduals| {
+            let (sq, n) = self
+                .cameras
+                .iter()
+                .map(f)
+                .fold((0.0, 0usize), |(sq, n), o| {
+                    (sq + o.rms_px.powi(2) * o.found as f64, n + o.found)
+                });
+            (sq / (n as f64).max(1.0)).sqrt()
+        };
+        (total(|c| &c.before), total(|c| &c.after))
+    }
+
+    /// Whether the refined poses explain the images clearly better than the rig's: the
+    /// overall RMS lower by [`MIN_GAIN`] or more, and no fewer frames right.
+    pub fn improves(&self) -> bool {
+        let (before, after) = self.overall_rms();
+        after <= (1.0 - MIN_GAIN) * before && self.right_after >= self.right_before
+    }
 }
 
 /// Fewest frames a refinement needs.
@@ -95,10 +104,6 @@ const MIN_FOUND: f64 = 0.5;
 /// …and the re-rendered tube overlaps every silhouette at least this much.
 const MIN_IOU: f64 = 0.5;
 
-/// Rounds end when no camera's refinement moved its outline samples by more than this, on
-/// average, pixels.
-const SETTLED_PX: f64 = 0.005;
-
 /// One frame kept for the refinement.
 struct Kept<'a> {
     images: Vec<&'a RgbImage>,
@@ -108,18 +113,18 @@ struct Kept<'a> {
 
 /// The poses of `pipeline`'s cameras refined from `frames` (each one image per camera, in the
 /// rig's order): every frame is tracked, those whose tube every camera saw are kept, and the
-/// cameras but `settings.hold` are moved until the tubes' outlines lie on the boundaries in
-/// every camera. Refused with fewer than [`MIN_FRAMES`] usable frames.
+/// poses and those tubes are fitted together, camera `hold` (rig order) held: the world frame
+/// stays attached to it. Refused with fewer than [`MIN_FRAMES`] usable frames.
 pub fn refine_cameras(
     pipeline: &Pipeline,
     frames: &[Vec<RgbImage>],
-    settings: &RefineSettings,
+    hold: usize,
 ) -> Result<Refinement, TrackError> {
     let names = pipeline.camera_names().to_vec();
-    if settings.hold >= names.len() {
+    if hold >= names.len() {
         return Err(TrackError::Refine(format!(
             "the camera to hold is number {} but the rig has {}",
-            settings.hold + 1,
+            hold + 1,
             names.len()
         )));
     }
@@ -161,46 +166,23 @@ pub fn refine_cameras(
     }
     let fit_settings = pipeline.fit_settings().clone();
     let fit_radius = pipeline.shape_settings().radius_mm.is_none() && fit_settings.fit_radius;
-    let mut cameras = pipeline.cameras().to_vec();
-    let fitter_of =
-        |cameras: &[Camera]| TubeFitter::new(cameras.to_vec(), names.clone(), fit_settings.clone());
-    let refit = |fitter: &TubeFitter, kept: &mut [Kept<'_>]| -> Result<Vec<Fit>, TrackError> {
-        kept.par_iter_mut()
-            .map(|k| {
-                let views = pipeline.views(&k.images, &k.silhouettes);
-                let fit = fitter.fit(&views, k.tube.clone(), fit_radius)?;
-                k.tube = fit.tube.clone();
-                Ok(fit)
-            })
-            .collect()
-    };
-    let mut rounds = 0;
-    while rounds < settings.rounds {
-        let fitter = fitter_of(&cameras)?;
-        if rounds > 0 {
-            refit(&fitter, &mut kept)?;
-        }
-        rounds += 1;
-        let samples = edge_samples(pipeline, &fitter, &kept, cameras.len())?;
-        let mut largest = 0.0_f64;
-        for (i, cam) in cameras.iter_mut().enumerate() {
-            if i == settings.hold {
-                continue;
-            }
-            let Some(pose) = refine_pose(cam, &samples[i], fit_settings.huber_px) else {
-                continue;
-            };
-            largest = largest.max(mean_move(cam, &pose.camera, &samples[i]));
-            *cam = pose.camera;
-        }
-        keep_scale(&mut cameras, pipeline.cameras(), settings.hold);
-        if largest < SETTLED_PX {
-            break;
-        }
-    }
-    let fitter = fitter_of(&cameras)?;
+    let views: Vec<_> = kept
+        .iter()
+        .map(|k| pipeline.views(&k.images, &k.silhouettes))
+        .collect();
+    let tubes: Vec<Tube> = kept.iter().map(|k| k.tube.clone()).collect();
+    let bundle = pipeline.fitter().bundle(&views, &tubes, hold, fit_radius)?;
+    let cameras = bundle.cameras;
+    // The residuals with the refined poses: each tube fitted again on its own, as tracking
+    // will.
+    let fitter = TubeFitter::new(cameras.clone(), names.clone(), fit_settings)?;
     let mut after = Tally::new(names.len());
-    for fit in refit(&fitter, &mut kept)? {
+    for fit in views
+        .par_iter()
+        .zip(&bundle.tubes)
+        .map(|(v, tube)| fitter.fit(v, tube.clone(), fit_radius))
+        .collect::<Result<Vec<_>, _>>()?
+    {
         after.add(&fit);
     }
     let refined = pipeline.with_cameras(cameras.clone())?;
@@ -221,7 +203,7 @@ pub fn refine_cameras(
             .enumerate()
             .map(|(i, camera)| CameraRefinement {
                 name: names[i].clone(),
-                held: i == settings.hold,
+                held: i == hold,
                 before: before.summary(i),
                 after: after.summary(i),
                 rotation_rad: (camera.pose.rotation * rig_cameras[i].pose.rotation.inverse())
@@ -234,7 +216,7 @@ pub fn refine_cameras(
         used: kept.len(),
         right_before,
         right_after,
-        rounds,
+        steps: bundle.steps,
     })
 }
 
@@ -247,64 +229,6 @@ fn usable(fit: &Fit, status: &Status) -> bool {
     ) && fit.cameras.iter().all(|c| {
         c.samples > 0 && c.found as f64 >= MIN_FOUND * c.samples as f64 && c.iou >= MIN_IOU
     })
-}
-
-/// Every camera's boundaries around the kept tubes, all frames together.
-fn edge_samples(
-    pipeline: &Pipeline,
-    fitter: &TubeFitter,
-    kept: &[Kept<'_>],
-    cameras: usize,
-) -> Result<Vec<Vec<EdgeSample>>, TrackError> {
-    let per_frame = kept
-        .par_iter()
-        .map(|k| fitter.edge_samples(&pipeline.views(&k.images, &k.silhouettes), &k.tube))
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut all = vec![Vec::new(); cameras];
-    for frame in per_frame {
-        for (c, s) in frame.into_iter().enumerate() {
-            all[c].extend(s);
-        }
-    }
-    Ok(all)
-}
-
-/// Scales the camera centres about the held one's so that their summed distance from it is
-/// the rig's (`rig`): the images hardly show the rig's scale — only through the tube's
-/// radius, a width of a few pixels — while the calibration target fixed it well.
-fn keep_scale(cameras: &mut [Camera], rig: &[Camera], hold: usize) {
-    let centre = rig[hold].centre();
-    let spread = |cams: &[Camera]| -> f64 {
-        cams.iter()
-            .enumerate()
-            .filter(|(i, _)| *i != hold)
-            .map(|(_, c)| (c.centre() - centre).norm())
-            .sum()
-    };
-    let now = spread(cameras);
-    if now <= 0.0 {
-        return;
-    }
-    let s = spread(rig) / now;
-    for (i, cam) in cameras.iter_mut().enumerate() {
-        if i != hold {
-            let c = centre + (cam.centre() - centre) * s;
-            cam.pose.translation = -(cam.pose.rotation * c.coords);
-        }
-    }
-}
-
-/// Mean distance the samples' images moved from camera `a` to camera `b`, pixels.
-fn mean_move(a: &Camera, b: &Camera, samples: &[EdgeSample]) -> f64 {
-    let moves: Vec<f64> = samples
-        .iter()
-        .filter_map(|s| {
-            let pa = a.project(&s.world).ok()?.pixel;
-            let pb = b.project(&s.world).ok()?.pixel;
-            Some((pa - pb).norm())
-        })
-        .collect();
-    moves.iter().sum::<f64>() / moves.len().max(1) as f64
 }
 
 /// Residuals accumulated per camera over frames.

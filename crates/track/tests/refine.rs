@@ -1,10 +1,12 @@
 //! Camera poses refined from tracked frames: a rig whose cameras are a few pixels off (the
-//! frames all `inconsistent`) comes back to the true poses, and its frames to `ok`.
+//! frames all `inconsistent`) comes back to the true poses and its frames to `ok`; a rig that
+//! is right is not worth refining.
 
 mod common;
 
 use flexshape_camera::{Camera, Pose};
-use flexshape_track::{RefineSettings, refine_cameras};
+use flexshape_sim::{SimFrame, Simulator};
+use flexshape_track::{Pipeline, Refinement, refine_cameras};
 use image::RgbImage;
 use nalgebra::{Point3, Rotation3, Vector3};
 
@@ -36,55 +38,45 @@ fn worst_apart(a: &Camera, b: &Camera) -> f64 {
     worst
 }
 
-#[test]
-fn cameras_a_few_pixels_off_come_back() {
-    let (sim, truth) = common::simulated_chain();
+/// Twelve frames of the default sweep, rendered, and their images.
+fn frames(sim: &Simulator) -> (Vec<SimFrame>, Vec<Vec<RgbImage>>) {
     let rendered: Vec<_> = sim
         .sweep(12)
         .iter()
         .enumerate()
         .map(|(n, pose)| sim.render(n as u64, pose).unwrap())
         .collect();
-    let frames: Vec<Vec<RgbImage>> = rendered
+    let images = rendered
         .iter()
         .map(|f| f.views.iter().map(|v| v.image.clone()).collect())
         .collect();
-    let cams = truth.cameras().to_vec();
-    let mut off = vec![
-        cams[0].clone(),
-        disturbed(&cams[1], [0.002, -0.0015, 0.001], [0.6, -0.4, 1.0]),
-        disturbed(&cams[2], [-0.001, 0.001, -0.002], [-0.3, 0.5, -0.8]),
-    ];
-    // A calibration target fixes the rig's scale well, and the refinement keeps it: the
-    // disturbance leaves the cameras' summed distance from the held one as it was (off by
-    // 0.03 % it costs 0.17 mm at the tube, which the images cannot show).
-    let spread = |cams: &[Camera]| -> f64 {
-        cams[1..]
-            .iter()
-            .map(|c| (c.centre() - cams[0].centre()).norm())
-            .sum()
-    };
-    let s = spread(&cams) / spread(&off);
-    for cam in &mut off[1..] {
-        let c = cams[0].centre() + (cam.centre() - cams[0].centre()) * s;
-        cam.pose.translation = -(cam.pose.rotation * c.coords);
-    }
-    let before: Vec<f64> = (1..3).map(|i| worst_apart(&cams[i], &off[i])).collect();
-    let pipeline = truth.with_cameras(off).unwrap();
-    let r = refine_cameras(&pipeline, &frames, &RefineSettings::default()).unwrap();
-    // The frames tracked with the refined rig, against the truth.
-    let refined = truth
-        .with_cameras(r.cameras.iter().map(|c| c.camera.clone()).collect())
-        .unwrap();
-    let mut errors: Vec<f64> = rendered
+    (rendered, images)
+}
+
+/// Each frame tracked with `cameras` against the truth: centerline RMS, mm, sorted.
+fn errors(
+    truth: &Pipeline,
+    cameras: Vec<Camera>,
+    sim: &Simulator,
+    rendered: &[SimFrame],
+    images: &[Vec<RgbImage>],
+) -> Vec<f64> {
+    let pipeline = truth.with_cameras(cameras).unwrap();
+    let mut e: Vec<f64> = rendered
         .iter()
-        .zip(&frames)
+        .zip(images)
         .map(|(f, images)| {
-            let t = refined.process(&images.iter().collect::<Vec<_>>()).unwrap();
-            common::rms(&f.truth, &sim, &t.shape)
+            let t = pipeline
+                .process(&images.iter().collect::<Vec<_>>())
+                .unwrap();
+            common::rms(&f.truth, sim, &t.shape)
         })
         .collect();
-    errors.sort_by(f64::total_cmp);
+    e.sort_by(f64::total_cmp);
+    e
+}
+
+fn print(r: &Refinement) {
     for c in &r.cameras {
         println!(
             "{}: rms {:.3} → {:.3} px, shift {:?} → {:?}, turned {:.4}°, moved {:.2} mm",
@@ -97,32 +89,89 @@ fn cameras_a_few_pixels_off_come_back() {
             c.centre_moved_mm
         );
     }
-    let after: Vec<f64> = (1..3)
-        .map(|i| worst_apart(&cams[i], &r.cameras[i].camera))
-        .collect();
     println!(
-        "frames {} used {} rounds {}; right {} → {}; worst apart from truth {before:?} → {after:?} px; centerline rms median {:.3} worst {:.3} mm",
+        "frames {} used {} steps {}; right {} → {}; overall rms {:?}",
         r.frames,
         r.used,
-        r.rounds,
+        r.steps,
         r.right_before,
         r.right_after,
-        errors[errors.len() / 2],
-        errors[errors.len() - 1]
+        r.overall_rms()
+    );
+}
+
+#[test]
+fn cameras_a_few_pixels_off_come_back() {
+    let (sim, truth) = common::simulated_chain();
+    let (rendered, images) = frames(&sim);
+    let cams = truth.cameras().to_vec();
+    let mut off = vec![
+        cams[0].clone(),
+        disturbed(&cams[1], [0.002, -0.0015, 0.001], [0.6, -0.4, 1.0]),
+        disturbed(&cams[2], [-0.001, 0.001, -0.002], [-0.3, 0.5, -0.8]),
+    ];
+    // A calibration target fixes the rig's scale well, and the refinement keeps it: the
+    // disturbance leaves the cameras' summed distance from the held one as it was (0.08 % off
+    // places the tube 0.5 mm off at 600 mm, which the images cannot show).
+    let spread = |cams: &[Camera]| -> f64 {
+        cams[1..]
+            .iter()
+            .map(|c| (c.centre() - cams[0].centre()).norm())
+            .sum()
+    };
+    let s = spread(&cams) / spread(&off);
+    for cam in &mut off[1..] {
+        let c = cams[0].centre() + (cam.centre() - cams[0].centre()) * s;
+        cam.pose.translation = -(cam.pose.rotation * c.coords);
+    }
+    let before: Vec<f64> = (1..3).map(|i| worst_apart(&cams[i], &off[i])).collect();
+    let pipeline = truth.with_cameras(off.clone()).unwrap();
+    let r = refine_cameras(&pipeline, &images, 0).unwrap();
+    print(&r);
+    let refined: Vec<Camera> = r.cameras.iter().map(|c| c.camera.clone()).collect();
+    let after: Vec<f64> = (1..3).map(|i| worst_apart(&cams[i], &refined[i])).collect();
+    let e_off = errors(&truth, off, &sim, &rendered, &images);
+    let e = errors(&truth, refined, &sim, &rendered, &images);
+    println!(
+        "worst apart from truth {before:?} → {after:?} px; centerline rms median {:.3} → {:.3}, worst {:.3} → {:.3} mm",
+        e_off[6], e[6], e_off[11], e[11]
     );
     assert!(r.cameras[0].held && r.cameras[0].camera == cams[0]);
     for i in 1..3 {
         assert!(before[i - 1] > 1.5, "the disturbance is a few pixels");
         assert!(
-            after[i - 1] < 0.3,
+            after[i - 1] < 0.2,
             "camera {i}: {after:?} px from the truth"
         );
     }
     for c in &r.cameras {
         assert!(c.before.rms_px > 0.3, "{}: {}", c.name, c.before.rms_px);
-        assert!(c.after.rms_px < 0.15, "{}: {}", c.name, c.after.rms_px);
+        assert!(c.after.rms_px < 0.12, "{}: {}", c.name, c.after.rms_px);
     }
-    assert!(errors[errors.len() / 2] < 0.08 && errors[errors.len() - 1] < 0.15);
-    assert!(r.right_before <= 2, "{}", r.right_before);
-    assert!(r.right_after >= 10, "{}", r.right_after);
+    assert!(e[6] < 0.05 && e[11] < 0.08, "{e:?}");
+    assert!(r.used == 12 && r.right_before <= 2 && r.right_after == 12);
+    assert!(r.improves());
+}
+
+#[test]
+fn a_rig_that_is_right_is_not_worth_refining() {
+    let (sim, truth) = common::simulated_chain();
+    let (_, images) = frames(&sim);
+    let r = refine_cameras(&truth, &images, 0).unwrap();
+    print(&r);
+    assert!(!r.improves());
+    assert_eq!(r.right_before, r.right_after);
+    for c in &r.cameras {
+        assert!(c.rotation_rad.to_degrees() < 0.05 && c.centre_moved_mm < 0.5);
+    }
+}
+
+#[test]
+fn too_few_frames_are_refused() {
+    let (sim, truth) = common::simulated_chain();
+    let (_, images) = frames(&sim);
+    let e = refine_cameras(&truth, &images[..2], 0).unwrap_err();
+    assert!(e.to_string().contains("2 of 2 frames"), "{e}");
+    let e = refine_cameras(&truth, &images, 3).unwrap_err();
+    assert!(e.to_string().contains("number 4 but the rig has 3"), "{e}");
 }

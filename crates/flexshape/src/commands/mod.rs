@@ -12,6 +12,7 @@ mod model_fit;
 mod report;
 mod rig_check;
 mod rig_import;
+mod rig_refine;
 mod silhouettes;
 mod simulate;
 mod track;
@@ -51,6 +52,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             RigCommand::Check { path } => rig_check::run(&path),
             RigCommand::Import(args) => rig_import::import(&args),
             RigCommand::Export(args) => rig_import::export(&args),
+            RigCommand::Refine(args) => rig_refine::run(&args),
         },
     }
 }

@@ -91,7 +91,7 @@ pub fn export(args: &RigExportArgs) -> anyhow::Result<()> {
 }
 
 /// Refuses to replace any of `files` unless `overwrite`.
-fn refuse_existing(files: &[PathBuf], overwrite: bool) -> anyhow::Result<()> {
+pub(crate) fn refuse_existing(files: &[PathBuf], overwrite: bool) -> anyhow::Result<()> {
     if overwrite {
         return Ok(());
     }

@@ -1,0 +1,278 @@
+//! Camera poses and tubes fitted together over many frames (`flexshape rig refine`).
+//!
+//! Each frame's tube is fitted as [`TubeFitter::fit`] does; every outline residual also
+//! depends on its camera's pose ([`crate::pose`]). The joint normal equations have one block
+//! per frame's tube, coupled only through the poses, so each Gauss–Newton step eliminates the
+//! tubes (Schur complement: `S = A − Σ Bᵀ D⁻¹ B`), solves for the poses, and back-substitutes
+//! each tube's step. Fitting poses and tubes in turn instead crawls: each tube absorbs part of
+//! a camera's error, and along the directions the images pin down weakly it had not arrived
+//! after 40 rounds.
+//!
+//! Gauge: one camera is held (the world frame stays attached to it), and the rig's scale —
+//! the other cameras' summed distance from it — is kept: the images show it only through the
+//! tube's width of a few pixels, while the calibration target fixed it well.
+
+use flexshape_camera::Camera;
+use nalgebra::{DMatrix, DVector, Point3, Vector6};
+use rayon::prelude::*;
+
+use crate::pose::{moved, pose_row};
+use crate::solve::{Measured, against, for_each_row, measure, normal_equations};
+use crate::{FitError, Tube, TubeFitter, View};
+
+/// Cameras and tubes fitted together.
+#[derive(Debug, Clone)]
+pub struct Bundle {
+    /// The cameras with their refined poses, in the rig's order (intrinsics unchanged; the
+    /// held camera as it was).
+    pub cameras: Vec<Camera>,
+    /// Each frame's tube.
+    pub tubes: Vec<Tube>,
+    /// Gauss–Newton steps run.
+    pub steps: usize,
+    /// Boundary measurements made.
+    pub measurements: usize,
+}
+
+/// Boundary measurements at most.
+const MEASUREMENTS: usize = 8;
+
+/// Gauss–Newton steps on one measurement's boundaries at most.
+const INNER_STEPS: usize = 6;
+
+/// A step moving no camera (at the tube) and no tube by more than this ends the steps on one
+/// measurement's boundaries, mm.
+const CONVERGED_MM: f64 = 0.002;
+
+/// A first step on fresh boundaries below this ends the fit, mm (as in the fit:
+/// the boundaries are read where the outline was predicted, so they move a little each time).
+const SETTLED_MM: f64 = 0.01;
+
+/// Damping of the poses' reduced system, relative to its diagonal.
+const DAMPING: f64 = 1e-4;
+
+/// One frame's share of a joint step.
+struct FrameSystem {
+    /// `D⁻¹ g` and `D⁻¹ B` of its tube's block.
+    dinv_g: DVector<f64>,
+    dinv_b: DMatrix<f64>,
+    /// Its contribution to the reduced system: `A − Bᵀ D⁻¹ B` and `g_p − Bᵀ D⁻¹ g`.
+    s: DMatrix<f64>,
+    rhs: DVector<f64>,
+}
+
+impl TubeFitter {
+    /// Fits the cameras' poses (all but `hold`, rig order) and every frame's tube together:
+    /// `frames` holds each frame's views, `tubes` each frame's tube fitted with the rig's
+    /// poses (the start). The radius is fitted per frame if `fit_radius`.
+    pub fn bundle(
+        &self,
+        frames: &[Vec<View<'_>>],
+        tubes: &[Tube],
+        hold: usize,
+        fit_radius: bool,
+    ) -> Result<Bundle, FitError> {
+        if frames.len() != tubes.len() || hold >= self.cameras.len() {
+            return Err(FitError::Input {
+                camera: hold,
+                problem: format!(
+                    "{} frames with {} tubes, camera {hold} held of {}",
+                    frames.len(),
+                    tubes.len(),
+                    self.cameras.len()
+                ),
+            });
+        }
+        let images = frames
+            .iter()
+            .map(|v| self.edge_images(v))
+            .collect::<Result<Vec<_>, _>>()?;
+        let s = &self.settings;
+        let free: Vec<usize> = (0..self.cameras.len()).filter(|&c| c != hold).collect();
+        let depths: Vec<f64> = self
+            .cameras
+            .iter()
+            .map(|cam| mean_depth(cam, tubes))
+            .collect();
+        let rig = self.cameras.clone();
+        let mut cameras = self.cameras.clone();
+        let mut tubes = tubes.to_vec();
+        let starts = tubes.clone();
+        let (mut steps, mut measurements) = (0, 0);
+        'outer: for _ in 0..MEASUREMENTS {
+            let measured: Vec<Vec<Vec<Measured>>> = tubes
+                .par_iter()
+                .zip(&images)
+                .map(|(tube, img)| measure(&cameras, img, tube, s))
+                .collect();
+            measurements += 1;
+            let mut current = measured.clone();
+            for inner in 0..INNER_STEPS {
+                let systems: Vec<Option<FrameSystem>> = tubes
+                    .par_iter()
+                    .zip(&starts)
+                    .zip(&current)
+                    .map(|((tube, start), m)| {
+                        self.frame_system(&cameras, &free, &depths, tube, start, m, fit_radius)
+                    })
+                    .collect();
+                let np = 6 * free.len();
+                let mut s_total = DMatrix::<f64>::zeros(np, np);
+                let mut rhs = DVector::<f64>::zeros(np);
+                for sys in systems.iter().flatten() {
+                    s_total += &sys.s;
+                    rhs += &sys.rhs;
+                }
+                for k in 0..np {
+                    s_total[(k, k)] += DAMPING * s_total[(k, k)].max(1e-9);
+                }
+                let Some(chol) = s_total.cholesky() else {
+                    break 'outer;
+                };
+                let mut dp = -chol.solve(&rhs);
+                let mut dts: Vec<DVector<f64>> = systems
+                    .iter()
+                    .map(|sys| match sys {
+                        Some(sys) => -(&sys.dinv_g + &sys.dinv_b * &dp),
+                        None => DVector::zeros(0),
+                    })
+                    .collect();
+                // Hold each step within a millimetre, as the fit does: the boundaries were only
+                // searched a few pixels away.
+                let largest = dts.iter().map(|d| d.amax()).fold(dp.amax(), f64::max);
+                if largest > 1.0 {
+                    dp /= largest;
+                    for d in &mut dts {
+                        *d /= largest;
+                    }
+                }
+                for (i, &c) in free.iter().enumerate() {
+                    let step = Vector6::from_iterator(dp.rows(6 * i, 6).iter().copied());
+                    cameras[c].pose = moved(&cameras[c].pose, &step, depths[c]);
+                }
+                keep_scale(&mut cameras, &rig, hold);
+                let mut across = dp.amax();
+                for (tube, dt) in tubes.iter_mut().zip(&dts) {
+                    let n = dt.len();
+                    if n == 0 {
+                        continue;
+                    }
+                    tube.centerline.displace(&dt.rows(0, n - 1).into_owned());
+                    tube.radius = (tube.radius + dt[n - 1]).max(0.05);
+                    across = across.max(crate::across_tube(tube, dt));
+                }
+                steps += 1;
+                if inner == 0 && across < SETTLED_MM {
+                    break 'outer;
+                }
+                if across < CONVERGED_MM {
+                    break;
+                }
+                current = tubes
+                    .par_iter()
+                    .zip(&measured)
+                    .map(|(tube, m)| against(&cameras, tube, m))
+                    .collect();
+            }
+        }
+        Ok(Bundle {
+            cameras,
+            tubes,
+            steps,
+            measurements,
+        })
+    }
+
+    /// One frame's tube block of the joint normal equations, reduced onto the poses of the
+    /// `free` cameras; `None` when its block cannot be solved.
+    #[allow(clippy::too_many_arguments)]
+    fn frame_system(
+        &self,
+        cameras: &[Camera],
+        free: &[usize],
+        depths: &[f64],
+        tube: &Tube,
+        start: &Tube,
+        measured: &[Vec<Measured>],
+        fit_radius: bool,
+    ) -> Option<FrameSystem> {
+        let eq = normal_equations(tube, start, measured, &self.settings, fit_radius);
+        let n = tube.parameters();
+        let np = 6 * free.len();
+        let mut b = DMatrix::<f64>::zeros(n, np);
+        let mut a = DMatrix::<f64>::zeros(np, np);
+        let mut gp = DVector::<f64>::zeros(np);
+        for_each_row(tube, measured, &self.settings, fit_radius, |row| {
+            let Some(slot) = free.iter().position(|&c| c == row.camera) else {
+                return;
+            };
+            let Some((_, normal)) = row.measured.edge else {
+                return;
+            };
+            let world: Point3<f64> = row.measured.point.world;
+            let Some(p) = pose_row(&cameras[row.camera], &world, &normal, depths[row.camera])
+            else {
+                return;
+            };
+            let o = 6 * slot;
+            for i in 0..6 {
+                gp[o + i] += row.w * p[i] * row.r;
+                for j in 0..6 {
+                    a[(o + i, o + j)] += row.w * p[i] * p[j];
+                }
+                for &(col, v) in row.entries {
+                    b[(col, o + i)] += row.w * v * p[i];
+                }
+            }
+        });
+        let chol = eq.h.cholesky()?;
+        let dinv_g = chol.solve(&eq.g);
+        let dinv_b = chol.solve(&b);
+        let bt = b.transpose();
+        Some(FrameSystem {
+            s: a - &bt * &dinv_b,
+            rhs: gp - &bt * &dinv_g,
+            dinv_g,
+            dinv_b,
+        })
+    }
+}
+
+/// Mean depth of the tubes' centerline points in `camera`, mm (600 when it sees none).
+fn mean_depth(camera: &Camera, tubes: &[Tube]) -> f64 {
+    let depths: Vec<f64> = tubes
+        .iter()
+        .flat_map(|t| (0..=8).map(move |i| t.frame(i as f64 / 8.0).0))
+        .map(|p| camera.pose.to_camera(&p).z)
+        .filter(|z| z.is_finite() && *z > 0.0)
+        .collect();
+    if depths.is_empty() {
+        600.0
+    } else {
+        depths.iter().sum::<f64>() / depths.len() as f64
+    }
+}
+
+/// Scales the camera centres about the held one's so that their summed distance from it is
+/// the rig's (`rig`).
+fn keep_scale(cameras: &mut [Camera], rig: &[Camera], hold: usize) {
+    let centre = rig[hold].centre();
+    let spread = |cams: &[Camera]| -> f64 {
+        cams.iter()
+            .enumerate()
+            .filter(|(i, _)| *i != hold)
+            .map(|(_, c)| (c.centre() - centre).norm())
+            .sum()
+    };
+    let now = spread(cameras);
+    if now <= 0.0 {
+        return;
+    }
+    let s = spread(rig) / now;
+    for (i, cam) in cameras.iter_mut().enumerate() {
+        if i != hold {
+            let c = centre + (cam.centre() - centre) * s;
+            cam.pose.translation = -(cam.pose.rotation * c.coords);
+        }
+    }
+}

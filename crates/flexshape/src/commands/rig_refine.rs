@@ -1,0 +1,180 @@
+//! `flexshape rig refine`: the camera poses refined from tracked frames
+//! ([`flexshape_track::refine_cameras`]), written as a new rig.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use flexshape_rig::{Rig, RigCamera};
+use flexshape_track::{OutlineResiduals, Pipeline, Refinement, refine_cameras};
+
+use super::frames;
+use crate::cli::RigRefineArgs;
+use crate::interrupt::Interrupt;
+
+pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
+    let stop = Interrupt::install();
+    let mut input = frames::open_input(&args.frames)?;
+    let volume = frames::volume(&input.rig.volume, &args.frames)?;
+    frames::warn_unseen(&input.rig, &volume);
+    if input.files.iter().any(|f| frames::within(&args.out, f)) {
+        bail!(
+            "{} is or lies inside an input: write the refined rig elsewhere",
+            args.out.display()
+        );
+    }
+    let hold = match &args.hold {
+        None => 0,
+        Some(name) => input
+            .rig
+            .cameras
+            .iter()
+            .position(|c| &c.name == name)
+            .with_context(|| {
+                format!(
+                    "--hold {name}: the rig has no such camera (its cameras: {})",
+                    camera_names(&input.rig)
+                )
+            })?,
+    };
+    let rig_path = args.out.join("rig.toml");
+    let mut planned: Vec<PathBuf> = input
+        .rig
+        .cameras
+        .iter()
+        .map(|c| args.out.join(calibration_file(&c.name)))
+        .collect();
+    planned.push(rig_path.clone());
+    super::rig_import::refuse_existing(&planned, args.overwrite)?;
+    let pipeline = match &input.backgrounds {
+        Some(b) => Pipeline::new(&input.rig, b, &volume),
+        None => Pipeline::for_masks(&input.rig, &volume),
+    }
+    .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
+
+    let wanted = args.use_frames as usize;
+    let stride = input
+        .source
+        .len_hint()
+        .map_or(1, |n| n.div_ceil(wanted).max(1));
+    let mut frames = Vec::new();
+    let mut seen = 0usize;
+    while let Some(next) = input.source.next_frame() {
+        if stop.requested() {
+            bail!("interrupted while reading frames: nothing written");
+        }
+        let index = seen;
+        seen += 1;
+        let set = match next {
+            Ok(set) => set,
+            Err(e) if e.ends_input() => bail!("the input broke after {index} frames: {e}"),
+            Err(e) => {
+                eprintln!("frame {index}: left out: {e}");
+                continue;
+            }
+        };
+        if !index.is_multiple_of(stride) {
+            continue;
+        }
+        let frame = set.frame;
+        match pipeline.load(set.images) {
+            Ok(images) => frames.push(images),
+            Err(e) => eprintln!("frame {frame:06}: left out: {e}"),
+        }
+        if frames.len() >= wanted {
+            break;
+        }
+    }
+    eprintln!(
+        "refining the poses from {} frames (held: {}) …",
+        frames.len(),
+        input.rig.cameras[hold].name
+    );
+    let refinement = refine_cameras(&pipeline, &frames, hold)
+        .with_context(|| format!("rig {}", input.rig_name))?;
+    if stop.requested() {
+        bail!("interrupted: nothing written");
+    }
+    let rig = Rig {
+        cameras: refinement
+            .cameras
+            .iter()
+            .map(|c| RigCamera {
+                name: c.name.clone(),
+                file: calibration_file(&c.name),
+                camera: c.camera.clone(),
+            })
+            .collect(),
+        volume,
+        processing: input.rig.processing.clone(),
+    };
+    rig.save(&rig_path)
+        .with_context(|| format!("cannot write the refined rig to {}", args.out.display()))?;
+    print_refinement(&refinement, pipeline.fit_settings().max_residual_px);
+    let source = args
+        .frames
+        .recording
+        .as_ref()
+        .map_or("…".to_string(), |r| r.display().to_string());
+    let (before, after) = refinement.overall_rms();
+    let gain = 100.0 * (1.0 - after / before.max(1e-12));
+    if refinement.improves() {
+        println!(
+            "the refined poses explain the outlines {gain:.0} % better ({before:.3} → {after:.3} px RMS); wrote {} and its camera files; track with: flexshape track {source} --rig {}",
+            rig_path.display(),
+            rig_path.display()
+        );
+    } else {
+        println!(
+            "the rig's poses already explain the outlines ({before:.3} → {after:.3} px RMS, {gain:.0} % better, {} → {} frames right): the refinement is within its own noise, keep the rig (wrote {} anyway)",
+            refinement.right_before,
+            refinement.right_after,
+            rig_path.display()
+        );
+    }
+    Ok(())
+}
+
+/// Where the refined rig keeps camera `name`'s file, relative to its rig.toml.
+fn calibration_file(name: &str) -> PathBuf {
+    PathBuf::from("calibration").join(format!("{name}.yml"))
+}
+
+fn camera_names(rig: &Rig) -> String {
+    rig.cameras
+        .iter()
+        .map(|c| c.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The before/after table, and a warning for cameras the refined pose still leaves off.
+fn print_refinement(r: &Refinement, limit_px: f64) {
+    println!(
+        "{} of {} frames used ({} steps of the joint fit); frames right (tracked from scratch): {} with the rig's poses, {} with the refined ones",
+        r.used, r.frames, r.steps, r.right_before, r.right_after
+    );
+    println!(
+        "{:<12} {:>5} {:>22} {:>32} {:>9} {:>9}",
+        "camera", "held", "outline RMS px", "image shift px (x, y)", "turned °", "moved mm"
+    );
+    let shift = |o: &OutlineResiduals| format!("({:+.2}, {:+.2})", o.shift_px[0], o.shift_px[1]);
+    for c in &r.cameras {
+        println!(
+            "{:<12} {:>5} {:>22} {:>32} {:>9.3} {:>9.2}",
+            c.name,
+            if c.held { "yes" } else { "" },
+            format!("{:.3} → {:.3}", c.before.rms_px, c.after.rms_px),
+            format!("{} → {}", shift(&c.before), shift(&c.after)),
+            c.rotation_rad.to_degrees(),
+            c.centre_moved_mm
+        );
+    }
+    for c in &r.cameras {
+        if c.after.rms_px > limit_px {
+            eprintln!(
+                "warning: camera {} still leaves its outlines {:.2} px RMS off (the self-check allows {limit_px:.2}): its lens model (intrinsics, distortion) may be off too, which refining the pose cannot mend; calibrate it again",
+                c.name, c.after.rms_px
+            );
+        }
+    }
+}
