@@ -126,6 +126,7 @@ impl TubeFitter {
                 for k in 0..np {
                     s_total[(k, k)] += DAMPING * s_total[(k, k)].max(1e-9);
                 }
+                hold_scale(&mut s_total, &mut rhs, &cameras, &rig, &free, hold);
                 let Some(chol) = s_total.cholesky() else {
                     break 'outer;
                 };
@@ -251,6 +252,40 @@ fn mean_depth(camera: &Camera, tubes: &[Tube]) -> f64 {
     } else {
         depths.iter().sum::<f64>() / depths.len() as f64
     }
+}
+
+/// Adds the rig's scale to the poses' reduced system as a stiff constraint: the free cameras'
+/// summed distance from the held one stays the rig's. Without it each step would move the
+/// cameras along the scale (which the images hardly see), only for [`keep_scale`] to undo it.
+fn hold_scale(
+    s: &mut DMatrix<f64>,
+    rhs: &mut DVector<f64>,
+    cameras: &[Camera],
+    rig: &[Camera],
+    free: &[usize],
+    hold: usize,
+) {
+    let centre = rig[hold].centre();
+    let spread = |cams: &[Camera]| -> f64 {
+        free.iter()
+            .map(|&c| (cams[c].centre() - centre).norm())
+            .sum()
+    };
+    // The centre moves by −R'ᵀτ under a step (the rotation leaves it in place).
+    let mut c = DVector::<f64>::zeros(s.nrows());
+    for (i, &cam) in free.iter().enumerate() {
+        let d = cameras[cam].centre() - centre;
+        let Some(u) = d.try_normalize(1e-9) else {
+            continue;
+        };
+        let row = -(cameras[cam].pose.rotation * u);
+        for k in 0..3 {
+            c[6 * i + 3 + k] = row[k];
+        }
+    }
+    let stiff = 1e3 * s.diagonal().amax().max(1e-9);
+    *s += &c * c.transpose() * stiff;
+    *rhs += &c * (stiff * (spread(cameras) - spread(rig)));
 }
 
 /// Scales the camera centres about the held one's so that their summed distance from it is

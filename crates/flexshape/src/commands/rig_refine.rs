@@ -16,12 +16,6 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
     let mut input = frames::open_input(&args.frames)?;
     let volume = frames::volume(&input.rig.volume, &args.frames)?;
     frames::warn_unseen(&input.rig, &volume);
-    if input.files.iter().any(|f| frames::within(&args.out, f)) {
-        bail!(
-            "{} is or lies inside an input: write the refined rig elsewhere",
-            args.out.display()
-        );
-    }
     let hold = match &args.hold {
         None => 0,
         Some(name) => input
@@ -44,6 +38,16 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
         .map(|c| args.out.join(calibration_file(&c.name)))
         .collect();
     planned.push(rig_path.clone());
+    planned.push(args.out.clone());
+    if let Some(p) = planned
+        .iter()
+        .find(|p| input.files.iter().any(|f| frames::within(p, f)))
+    {
+        bail!(
+            "{} is or lies inside an input: write the refined rig elsewhere",
+            p.display()
+        );
+    }
     super::rig_import::refuse_existing(&planned, args.overwrite)?;
     let pipeline = match &input.backgrounds {
         Some(b) => Pipeline::new(&input.rig, b, &volume),
@@ -85,7 +89,7 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
         }
     }
     eprintln!(
-        "refining the poses from {} frames (held: {}) …",
+        "refining the poses from {} frames: {} held (the world frame stays attached to it), and the rig's scale (the other cameras' summed distance from it) kept as calibrated …",
         frames.len(),
         input.rig.cameras[hold].name
     );
