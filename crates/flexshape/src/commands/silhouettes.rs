@@ -131,8 +131,16 @@ fn fitted(
     };
     for c in &fit.cameras {
         println!(
-            "  {:<8} outline {}/{} found, residual {:.3} px RMS (mean {:+.3}), IoU {:.3}, {} px unexplained",
-            c.camera, c.found, c.samples, c.residual_px, c.offset_px, c.iou, c.unexplained_px
+            "  {:<8} outline {}/{} found, residual {:.3} px RMS (mean {:+.3}, image shift {:+.2}, {:+.2}), IoU {:.3}, {} px unexplained",
+            c.camera,
+            c.found,
+            c.samples,
+            c.residual_px,
+            c.offset_px,
+            c.shift_px[0],
+            c.shift_px[1],
+            c.iou,
+            c.unexplained_px
         );
     }
     let Some(out) = &args.out else {
