@@ -28,9 +28,10 @@ pub struct CameraCheck {
     pub offset_px: f64,
     /// The image translation that best moves the fitted outline onto the measured one, pixels
     /// (x right, y down; least squares over the samples' normals, a direction they do not
-    /// decide left at 0). A shift of a pixel or more in one camera while the others show
-    /// none points at that camera's calibration, which the mean residual does not show (a
-    /// shift pushes one side of the tube's outline out and the other in).
+    /// decide left at 0). Shifts of half a pixel or more mean the cameras disagree about where
+    /// the tube is: the rig's calibration is off (`flexshape rig refine`). They do not tell
+    /// which camera is off (the fitted tube settles between them), and the mean residual does
+    /// not show them at all (a shift pushes one side of the outline out and the other in).
     #[serde(default)]
     pub shift_px: [f64; 2],
     /// 90th percentile of the residuals' size, pixels: a fit that explains the image keeps
