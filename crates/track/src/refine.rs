@@ -8,9 +8,8 @@
 //! and the rig's scale held.
 
 use flexshape_camera::Camera;
-use flexshape_fit::{Fit, Tube, TubeFitter};
+use flexshape_fit::{Fit, Tube};
 use flexshape_shape::Status;
-use flexshape_silhouette::Silhouette;
 use image::RgbImage;
 use rayon::prelude::*;
 
@@ -36,7 +35,7 @@ pub struct CameraRefinement {
     pub held: bool,
     /// Residuals of the tubes fitted with the rig's poses.
     pub before: OutlineResiduals,
-    /// Residuals of the tubes fitted again with the refined poses.
+    /// Residuals of the same frames tracked from scratch with the refined poses.
     pub after: OutlineResiduals,
     /// Angle of the rotation from the rig's pose to the refined one, radians.
     pub rotation_rad: f64,
@@ -66,7 +65,7 @@ pub struct Refinement {
 
 /// The refined poses are worth using when they lower the outline RMS over all cameras by at
 /// least this share: on a simulated rig that is right, refining from 20 frames lowered the RMS
-/// by 2 % (fitting the noise) and moved a camera by 0.3 mm, and the tracked centerlines' error
+/// by 2–4 % (fitting the noise) and moved a camera by 0.3 mm, and the tracked centerlines' error
 /// grew from 0.029 to 0.060 mm (median).
 pub const MIN_GAIN: f64 = 0.1;
 
@@ -94,6 +93,14 @@ impl Refinement {
     }
 }
 
+/// Passes at most: track every frame, fit the poses and the usable frames' tubes together.
+/// A tube fitted with poses a few pixels off may be cut short where the hull broke; the next
+/// pass starts from the frames tracked again with the refined poses.
+const PASSES: usize = 3;
+
+/// A pass that moved no camera by more than this (at 600 mm from it) ends the refinement, mm.
+const SETTLED_MM: f64 = 0.05;
+
 /// Fewest frames a refinement needs.
 pub const MIN_FRAMES: usize = 3;
 
@@ -103,13 +110,6 @@ const MIN_FOUND: f64 = 0.5;
 
 /// …and the re-rendered tube overlaps every silhouette at least this much.
 const MIN_IOU: f64 = 0.5;
-
-/// One frame kept for the refinement.
-struct Kept<'a> {
-    images: Vec<&'a RgbImage>,
-    silhouettes: Vec<Silhouette>,
-    tube: Tube,
-}
 
 /// The poses of `pipeline`'s cameras refined from `frames` (each one image per camera, in the
 /// rig's order): every frame is tracked, those whose tube every camera saw are kept, and the
@@ -133,69 +133,71 @@ pub fn refine_cameras(
             "a rig of one camera has nothing to refine against".into(),
         ));
     }
-    let tracked = frames
-        .par_iter()
-        .map(|f| {
-            let images: Vec<&RgbImage> = f.iter().collect();
-            pipeline.process(&images).map(|t| (images, t))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let right_before = tracked
-        .iter()
-        .filter(|(_, t)| t.shape.status.is_right())
-        .count();
-    let mut before = Tally::new(names.len());
-    let mut kept = Vec::new();
-    for (images, t) in tracked {
-        let Some(fit) = t.fit.as_ref().filter(|f| usable(f, &t.shape.status)) else {
-            continue;
-        };
-        before.add(fit);
-        kept.push(Kept {
-            images,
-            tube: fit.tube.clone(),
-            silhouettes: t.silhouettes,
-        });
-    }
-    if kept.len() < MIN_FRAMES {
-        return Err(TrackError::Refine(format!(
-            "{} of {} frames have a fitted tube that every camera sees along most of its outline; at least {MIN_FRAMES} are needed (track the recording to see why frames fail: a tube that leaves a view, a camera off by more than the fit's search_px)",
-            kept.len(),
-            frames.len()
-        )));
-    }
-    let fit_settings = pipeline.fit_settings().clone();
+    let fit_settings = pipeline.fit_settings();
     let fit_radius = pipeline.shape_settings().radius_mm.is_none() && fit_settings.fit_radius;
-    let views: Vec<_> = kept
-        .iter()
-        .map(|k| pipeline.views(&k.images, &k.silhouettes))
-        .collect();
-    let tubes: Vec<Tube> = kept.iter().map(|k| k.tube.clone()).collect();
-    let bundle = pipeline.fitter().bundle(&views, &tubes, hold, fit_radius)?;
-    let cameras = bundle.cameras;
-    // The residuals with the refined poses: each tube fitted again on its own, as tracking
-    // will.
-    let fitter = TubeFitter::new(cameras.clone(), names.clone(), fit_settings)?;
-    let mut after = Tally::new(names.len());
-    for fit in views
-        .par_iter()
-        .zip(&bundle.tubes)
-        .map(|(v, tube)| fitter.fit(v, tube.clone(), fit_radius))
-        .collect::<Result<Vec<_>, _>>()?
-    {
-        after.add(&fit);
+    let track = |p: &Pipeline| {
+        frames
+            .par_iter()
+            .map(|f| p.process(&f.iter().collect::<Vec<_>>()))
+            .collect::<Result<Vec<_>, _>>()
+    };
+    let mut tracked = track(pipeline)?;
+    let right_before = tracked.iter().filter(|t| t.shape.status.is_right()).count();
+    let mut first: Option<Vec<usize>> = None;
+    let mut before = Tally::new(names.len());
+    let mut current = pipeline.clone();
+    let mut steps = 0;
+    for _ in 0..PASSES {
+        // The usable frames and their fits.
+        let (kept, fits): (Vec<usize>, Vec<&Fit>) = tracked
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| {
+                let fit = t.fit.as_ref().filter(|f| usable(f, &t.shape.status))?;
+                Some((i, fit))
+            })
+            .unzip();
+        if first.is_none() {
+            if kept.len() < MIN_FRAMES {
+                return Err(TrackError::Refine(format!(
+                    "{} of {} frames have a fitted tube that every camera sees along most of its outline; at least {MIN_FRAMES} are needed (track the recording to see why frames fail: a tube that leaves a view, a camera off by more than the fit's search_px)",
+                    kept.len(),
+                    frames.len()
+                )));
+            }
+            for fit in &fits {
+                before.add(fit);
+            }
+            first = Some(kept.clone());
+        }
+        let images: Vec<Vec<&RgbImage>> =
+            kept.iter().map(|&i| frames[i].iter().collect()).collect();
+        let views: Vec<_> = kept
+            .iter()
+            .zip(&images)
+            .map(|(&i, im)| current.views(im, &tracked[i].silhouettes))
+            .collect();
+        let tubes: Vec<Tube> = fits.iter().map(|f| f.tube.clone()).collect();
+        let bundle = current.fitter().bundle(&views, &tubes, hold, fit_radius)?;
+        steps += bundle.steps;
+        let moved = largest_move(current.cameras(), &bundle.cameras);
+        current = current.with_cameras(bundle.cameras)?;
+        // The frames tracked from scratch with the refined poses, as `track` will: whole
+        // tubes where the rig's poses cut them short, the start of the next pass.
+        tracked = track(&current)?;
+        if moved < SETTLED_MM {
+            break;
+        }
     }
-    let refined = pipeline.with_cameras(cameras.clone())?;
-    let right_after = frames
-        .par_iter()
-        .map(|f| {
-            let images: Vec<&RgbImage> = f.iter().collect();
-            refined.process(&images).map(|t| t.shape.status.is_right())
-        })
-        .collect::<Result<Vec<_>, _>>()?
-        .into_iter()
-        .filter(|&r| r)
-        .count();
+    let right_after = tracked.iter().filter(|t| t.shape.status.is_right()).count();
+    // The residuals compared over the same frames as before.
+    let mut after = Tally::new(names.len());
+    for &i in first.iter().flatten() {
+        if let Some(fit) = &tracked[i].fit {
+            after.add(fit);
+        }
+    }
+    let cameras = current.cameras().to_vec();
     let rig_cameras = pipeline.cameras();
     Ok(Refinement {
         cameras: cameras
@@ -213,10 +215,10 @@ pub fn refine_cameras(
             })
             .collect(),
         frames: frames.len(),
-        used: kept.len(),
+        used: first.map_or(0, |k| k.len()),
         right_before,
         right_after,
-        steps: bundle.steps,
+        steps,
     })
 }
 
@@ -229,6 +231,17 @@ fn usable(fit: &Fit, status: &Status) -> bool {
     ) && fit.cameras.iter().all(|c| {
         c.samples > 0 && c.found as f64 >= MIN_FOUND * c.samples as f64 && c.iou >= MIN_IOU
     })
+}
+
+/// The largest move of a camera from `a` to `b`: its centre's, plus its turn at 600 mm, mm.
+fn largest_move(a: &[Camera], b: &[Camera]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| {
+            (a.centre() - b.centre()).norm()
+                + 600.0 * (b.pose.rotation * a.pose.rotation.inverse()).angle()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Residuals accumulated per camera over frames.
