@@ -32,6 +32,11 @@ pub struct Bundle {
     pub steps: usize,
     /// Boundary measurements made.
     pub measurements: usize,
+    /// Per camera (rig order), how well the images pin its pose down: the 1-σ move along the
+    /// least determined combination of its six pose parameters, its turn counted as the move
+    /// it makes at the tube, mm (0 for the held camera). From the joint normal equations and
+    /// the outline residuals' scatter; the scale held.
+    pub sigma_mm: Vec<f64>,
 }
 
 /// Boundary measurements at most.
@@ -59,6 +64,10 @@ struct FrameSystem {
     /// Its contribution to the reduced system: `A − Bᵀ D⁻¹ B` and `g_p − Bᵀ D⁻¹ g`.
     s: DMatrix<f64>,
     rhs: DVector<f64>,
+    /// Weighted squared residuals, rows and tube parameters of its image rows.
+    cost: f64,
+    rows: usize,
+    params: usize,
 }
 
 impl TubeFitter {
@@ -99,6 +108,8 @@ impl TubeFitter {
         let mut tubes = tubes.to_vec();
         let starts = tubes.clone();
         let (mut steps, mut measurements) = (0, 0);
+        // The last reduced system and the residuals' variance, for the poses' uncertainty.
+        let mut last: Option<(DMatrix<f64>, f64)> = None;
         'outer: for _ in 0..MEASUREMENTS {
             let measured: Vec<Vec<Vec<Measured>>> = tubes
                 .par_iter()
@@ -127,6 +138,10 @@ impl TubeFitter {
                     s_total[(k, k)] += DAMPING * s_total[(k, k)].max(1e-9);
                 }
                 hold_scale(&mut s_total, &mut rhs, &cameras, &rig, &free, hold);
+                let (cost, dof) = systems.iter().flatten().fold((0.0, 0.0), |(c, d), sys| {
+                    (c + sys.cost, d + sys.rows as f64 - sys.params as f64)
+                });
+                last = Some((s_total.clone(), cost / (dof - np as f64).max(1.0)));
                 let Some(chol) = s_total.cholesky() else {
                     break 'outer;
                 };
@@ -176,11 +191,20 @@ impl TubeFitter {
                     .collect();
             }
         }
+        let mut sigma_mm = vec![0.0; cameras.len()];
+        if let Some(cov) = last.and_then(|(s, var)| s.try_inverse().map(|i| i * var)) {
+            for (i, &c) in free.iter().enumerate() {
+                let block = cov.view((6 * i, 6 * i), (6, 6)).into_owned();
+                let largest = block.symmetric_eigenvalues().amax();
+                sigma_mm[c] = largest.max(0.0).sqrt();
+            }
+        }
         Ok(Bundle {
             cameras,
             tubes,
             steps,
             measurements,
+            sigma_mm,
         })
     }
 
@@ -231,6 +255,9 @@ impl TubeFitter {
         let dinv_b = chol.solve(&b);
         let bt = b.transpose();
         Some(FrameSystem {
+            cost: eq.cost,
+            rows: eq.rows,
+            params: n,
             s: a - &bt * &dinv_b,
             rhs: gp - &bt * &dinv_g,
             dinv_g,

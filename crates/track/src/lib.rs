@@ -17,7 +17,10 @@ pub use record::{
     ModelFrame, StageSummary, SummaryLine, Tally, TrackArcFit, TrackBand, TrackCompression,
     TrackRecord, TrackSummary, quantile, stage_summaries,
 };
-pub use refine::{CameraRefinement, MIN_FRAMES, OutlineResiduals, Refinement, refine_cameras};
+pub use refine::{
+    CameraRefinement, MAX_SIGMA_MM, MIN_FRAMES, MIN_GAIN, OutlineResiduals, Refinement, Verdict,
+    refine_cameras,
+};
 pub use runner::{Processed, RunEnd, run};
 
 /// Why a frame (or the pipeline's setup) failed.

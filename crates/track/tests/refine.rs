@@ -5,8 +5,9 @@
 mod common;
 
 use flexshape_camera::{Camera, Pose};
+use flexshape_sim::{SimConfig, SimRigConfig};
 use flexshape_sim::{SimFrame, Simulator};
-use flexshape_track::{Pipeline, Refinement, refine_cameras};
+use flexshape_track::{Pipeline, Refinement, Verdict, refine_cameras};
 use image::RgbImage;
 use nalgebra::{Point3, Rotation3, Vector3};
 
@@ -38,10 +39,10 @@ fn worst_apart(a: &Camera, b: &Camera) -> f64 {
     worst
 }
 
-/// Twelve frames of the default sweep, rendered, and their images.
-fn frames(sim: &Simulator) -> (Vec<SimFrame>, Vec<Vec<RgbImage>>) {
+/// `n` frames of the default sweep, rendered, and their images.
+fn frames(sim: &Simulator, n: usize) -> (Vec<SimFrame>, Vec<Vec<RgbImage>>) {
     let rendered: Vec<_> = sim
-        .sweep(12)
+        .sweep(n)
         .iter()
         .enumerate()
         .map(|(n, pose)| sim.render(n as u64, pose).unwrap())
@@ -103,7 +104,7 @@ fn print(r: &Refinement) {
 #[test]
 fn cameras_a_few_pixels_off_come_back() {
     let (sim, truth) = common::simulated_chain();
-    let (rendered, images) = frames(&sim);
+    let (rendered, images) = frames(&sim, 12);
     let cams = truth.cameras().to_vec();
     let mut off = vec![
         cams[0].clone(),
@@ -155,16 +156,17 @@ fn cameras_a_few_pixels_off_come_back() {
     assert!(r.cameras.iter().all(|c| norm(c.after.shift_px) < 0.05));
     assert!(e[6] < 0.05 && e[11] < 0.08, "{e:?}");
     assert!(r.used == 12 && r.right_before <= 2 && r.right_after == 12);
-    assert!(r.improves());
+    assert_eq!(r.verdict(), Verdict::Better);
+    assert!(r.cameras.iter().all(|c| c.sigma_mm < 0.15), "pinned down");
 }
 
 #[test]
 fn a_rig_that_is_right_is_not_worth_refining() {
     let (sim, truth) = common::simulated_chain();
-    let (_, images) = frames(&sim);
+    let (_, images) = frames(&sim, 12);
     let r = refine_cameras(&truth, &images, 0).unwrap();
     print(&r);
-    assert!(!r.improves());
+    assert_eq!(r.verdict(), Verdict::NoBetter);
     assert!(
         r.cameras
             .iter()
@@ -179,9 +181,35 @@ fn a_rig_that_is_right_is_not_worth_refining() {
 #[test]
 fn too_few_frames_are_refused() {
     let (sim, truth) = common::simulated_chain();
-    let (_, images) = frames(&sim);
+    let (_, images) = frames(&sim, 12);
     let e = refine_cameras(&truth, &images[..2], 0).unwrap_err();
     assert!(e.to_string().contains("2 of 2 frames"), "{e}");
     let e = refine_cameras(&truth, &images, 3).unwrap_err();
     assert!(e.to_string().contains("number 4 but the rig has 3"), "{e}");
+}
+
+#[test]
+fn two_cameras_do_not_pin_a_pose_down() {
+    // Two cameras see a tube consistently from a family of relative poses: one refinement of
+    // this kind explained every frame at the noise level and left the shapes 1.5 mm off.
+    let (sim, truth) = common::chain_of(SimConfig {
+        rig: SimRigConfig {
+            cameras: 2,
+            ..SimRigConfig::default()
+        },
+        ..SimConfig::default()
+    });
+    let (_, images) = frames(&sim, 16);
+    let cams = truth.cameras().to_vec();
+    let off = vec![
+        cams[0].clone(),
+        disturbed(&cams[1], [0.002, -0.0015, 0.001], [0.0; 3]),
+    ];
+    let r = refine_cameras(&truth.with_cameras(off).unwrap(), &images, 0).unwrap();
+    print(&r);
+    assert!(
+        matches!(r.verdict(), Verdict::Undetermined { ref camera, sigma_mm } if camera == "cam1" && sigma_mm > 0.25),
+        "{:?}",
+        r.verdict()
+    );
 }

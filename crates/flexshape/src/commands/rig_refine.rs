@@ -5,7 +5,9 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flexshape_rig::{Rig, RigCamera};
-use flexshape_track::{OutlineResiduals, Pipeline, Refinement, refine_cameras};
+use flexshape_track::{
+    MAX_SIGMA_MM, OutlineResiduals, Pipeline, Refinement, Verdict, refine_cameras,
+};
 
 use super::frames;
 use crate::cli::RigRefineArgs;
@@ -98,6 +100,25 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
     if stop.requested() {
         bail!("interrupted: nothing written");
     }
+    print_refinement(&refinement, pipeline.fit_settings().max_residual_px);
+    let (before, after) = refinement.overall_rms();
+    let gain = 100.0 * (1.0 - after / before.max(1e-12));
+    match refinement.verdict() {
+        Verdict::Better => {}
+        Verdict::NoBetter => {
+            println!(
+                "the rig's poses already explain the outlines ({before:.3} → {after:.3} px RMS, {gain:.0} % better, {} → {} frames right): the refinement is within its own noise; keep the rig (nothing written)",
+                refinement.right_before, refinement.right_after
+            );
+            return Ok(());
+        }
+        Verdict::Undetermined { camera, sigma_mm } => {
+            println!(
+                "the frames do not pin camera {camera}'s pose down (±{sigma_mm:.2} mm at the tube, 1 σ; at most {MAX_SIGMA_MM}): the tubes fit a family of poses — with two cameras they always do; with more, record the tube in more varied shapes across the volume. Nothing written: calibrate the rig again instead"
+            );
+            return Ok(());
+        }
+    }
     let rig = Rig {
         cameras: refinement
             .cameras
@@ -113,28 +134,16 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
     };
     rig.save(&rig_path)
         .with_context(|| format!("cannot write the refined rig to {}", args.out.display()))?;
-    print_refinement(&refinement, pipeline.fit_settings().max_residual_px);
     let source = args
         .frames
         .recording
         .as_ref()
         .map_or("…".to_string(), |r| r.display().to_string());
-    let (before, after) = refinement.overall_rms();
-    let gain = 100.0 * (1.0 - after / before.max(1e-12));
-    if refinement.improves() {
-        println!(
-            "the refined poses explain the outlines {gain:.0} % better ({before:.3} → {after:.3} px RMS); wrote {} and its camera files; track with: flexshape track {source} --rig {}",
-            rig_path.display(),
-            rig_path.display()
-        );
-    } else {
-        println!(
-            "the rig's poses already explain the outlines ({before:.3} → {after:.3} px RMS, {gain:.0} % better, {} → {} frames right): the refinement is within its own noise, keep the rig (wrote {} anyway)",
-            refinement.right_before,
-            refinement.right_after,
-            rig_path.display()
-        );
-    }
+    println!(
+        "the refined poses explain the outlines {gain:.0} % better ({before:.3} → {after:.3} px RMS); wrote {} and its camera files; track with: flexshape track {source} --rig {}",
+        rig_path.display(),
+        rig_path.display()
+    );
     Ok(())
 }
 
@@ -158,19 +167,20 @@ fn print_refinement(r: &Refinement, limit_px: f64) {
         r.used, r.frames, r.steps, r.right_before, r.right_after
     );
     println!(
-        "{:<12} {:>5} {:>22} {:>32} {:>9} {:>9}",
-        "camera", "held", "outline RMS px", "image shift px (x, y)", "turned °", "moved mm"
+        "{:<12} {:>5} {:>22} {:>32} {:>9} {:>9} {:>9}",
+        "camera", "held", "outline RMS px", "image shift px (x, y)", "turned °", "moved mm", "± mm"
     );
     let shift = |o: &OutlineResiduals| format!("({:+.2}, {:+.2})", o.shift_px[0], o.shift_px[1]);
     for c in &r.cameras {
         println!(
-            "{:<12} {:>5} {:>22} {:>32} {:>9.3} {:>9.2}",
+            "{:<12} {:>5} {:>22} {:>32} {:>9.3} {:>9.2} {:>9.3}",
             c.name,
             if c.held { "yes" } else { "" },
             format!("{:.3} → {:.3}", c.before.rms_px, c.after.rms_px),
             format!("{} → {}", shift(&c.before), shift(&c.after)),
             c.rotation_rad.to_degrees(),
-            c.centre_moved_mm
+            c.centre_moved_mm,
+            c.sigma_mm
         );
     }
     for c in &r.cameras {
