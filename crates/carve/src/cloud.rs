@@ -113,30 +113,68 @@ pub struct PointCloud {
     pub band: Vec<u16>,
 }
 
-impl PointCloud {
-    /// Writes an ASCII PLY file of the points (for MeshLab, CloudCompare, Open3D).
-    pub fn write_ply(&self, path: &Path) -> Result<(), CarveError> {
-        let mut text = format!(
-            "ply\nformat ascii 1.0\ncomment flexshape carved voxel centres, world frame, mm; band 0 = no band\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty ushort band\nend_header\n",
-            self.points.len()
-        );
-        for (p, &b) in self.points.iter().zip(&self.band) {
-            // Band voxels red, the rest grey, for viewers that colour by vertex.
-            let rgb = if b == 0 { "160 160 160" } else { "220 30 30" };
-            text.push_str(&format!("{} {} {} {rgb} {b}\n", p[0], p[1], p[2]));
+/// How a PLY file stores its elements.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PlyEncoding {
+    /// `binary_little_endian 1.0`: a third of the size, written and read fastest.
+    #[default]
+    Binary,
+    /// `ascii 1.0`: one line per element, for reading by eye or line-based tools.
+    Ascii,
+}
+
+impl PlyEncoding {
+    /// The header's `format` line.
+    pub(crate) fn format_line(self) -> &'static str {
+        match self {
+            PlyEncoding::Binary => "format binary_little_endian 1.0",
+            PlyEncoding::Ascii => "format ascii 1.0",
         }
-        write_whole(path, &text)
     }
 }
 
-/// Writes `text` to `path` whole or not at all: beside it first, then renamed into place (a
+impl PointCloud {
+    /// Writes a PLY file of the points (for MeshLab, CloudCompare, Open3D), whole or not at
+    /// all: per vertex `x y z` (float, world mm), `red green blue` (uchar; band voxels
+    /// 220 30 30, the rest 160 160 160, for viewers that colour by vertex) and `band` (ushort).
+    pub fn write_ply(&self, path: &Path, encoding: PlyEncoding) -> Result<(), CarveError> {
+        let mut out = format!(
+            "ply\n{}\ncomment flexshape carved voxel centres, world frame, mm; band 0 = no band\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty ushort band\nend_header\n",
+            encoding.format_line(),
+            self.points.len()
+        )
+        .into_bytes();
+        for (p, &b) in self.points.iter().zip(&self.band) {
+            let rgb: [u8; 3] = if b == 0 { [160; 3] } else { [220, 30, 30] };
+            match encoding {
+                PlyEncoding::Binary => {
+                    for v in p {
+                        out.extend_from_slice(&v.to_le_bytes());
+                    }
+                    out.extend_from_slice(&rgb);
+                    out.extend_from_slice(&b.to_le_bytes());
+                }
+                PlyEncoding::Ascii => out.extend_from_slice(
+                    format!(
+                        "{} {} {} {} {} {} {b}\n",
+                        p[0], p[1], p[2], rgb[0], rgb[1], rgb[2]
+                    )
+                    .as_bytes(),
+                ),
+            }
+        }
+        write_whole(path, &out)
+    }
+}
+
+/// Writes `bytes` to `path` whole or not at all: beside it first, then renamed into place (a
 /// reader never sees a partial file, and an interrupted run leaves none).
-pub(crate) fn write_whole(path: &Path, text: &str) -> Result<(), CarveError> {
+pub(crate) fn write_whole(path: &Path, bytes: &[u8]) -> Result<(), CarveError> {
     let err = |source| CarveError::Write {
         path: path.display().to_string(),
         source,
     };
     let part = path.with_extension("ply.part");
-    std::fs::write(&part, text).map_err(err)?;
+    std::fs::write(&part, bytes).map_err(err)?;
     std::fs::rename(&part, path).map_err(err)
 }

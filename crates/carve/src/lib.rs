@@ -24,7 +24,7 @@ mod projector;
 mod surface;
 
 pub use bands::{Band, BandRule, find_bands};
-pub use cloud::{Occupancy, PointCloud};
+pub use cloud::{Occupancy, PlyEncoding, PointCloud};
 pub use error::CarveError;
 pub use hierarchical::HierarchicalCarver;
 pub use lookup::{LookupTable, OutsideImage};

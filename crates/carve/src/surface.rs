@@ -6,7 +6,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use crate::{CarveError, Occupancy};
+use crate::{CarveError, Occupancy, PlyEncoding};
 
 /// A quad mesh, world mm.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -70,20 +70,42 @@ impl Occupancy {
 }
 
 impl SurfaceMesh {
-    /// Writes an ASCII PLY mesh, whole or not at all (written beside, then renamed).
-    pub fn write_ply(&self, path: &Path) -> Result<(), CarveError> {
-        let mut text = format!(
-            "ply\nformat ascii 1.0\ncomment flexshape carved hull surface, world frame, mm\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+    /// Writes a PLY mesh, whole or not at all (written beside, then renamed): vertices `x y z`
+    /// (float, world mm), faces as lists of 4 vertex indices (uchar count, int indices).
+    pub fn write_ply(&self, path: &Path, encoding: PlyEncoding) -> Result<(), CarveError> {
+        let mut out = format!(
+            "ply\n{}\ncomment flexshape carved hull surface, world frame, mm\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+            encoding.format_line(),
             self.vertices.len(),
             self.quads.len()
-        );
+        )
+        .into_bytes();
         for p in &self.vertices {
-            text.push_str(&format!("{} {} {}\n", p[0], p[1], p[2]));
+            match encoding {
+                PlyEncoding::Binary => {
+                    for v in p {
+                        out.extend_from_slice(&v.to_le_bytes());
+                    }
+                }
+                PlyEncoding::Ascii => {
+                    out.extend_from_slice(format!("{} {} {}\n", p[0], p[1], p[2]).as_bytes())
+                }
+            }
         }
         for q in &self.quads {
-            text.push_str(&format!("4 {} {} {} {}\n", q[0], q[1], q[2], q[3]));
+            match encoding {
+                PlyEncoding::Binary => {
+                    out.push(4);
+                    for &i in q {
+                        out.extend_from_slice(&(i as i32).to_le_bytes());
+                    }
+                }
+                PlyEncoding::Ascii => out.extend_from_slice(
+                    format!("4 {} {} {} {}\n", q[0], q[1], q[2], q[3]).as_bytes(),
+                ),
+            }
         }
-        crate::cloud::write_whole(path, &text)
+        crate::cloud::write_whole(path, &out)
     }
 }
 
@@ -98,6 +120,48 @@ mod tests {
         Occupancy {
             volume: Volume::from_bounds([0.0; 3], [10.0, 10.0, 10.0], 2.0).unwrap(),
             voxels,
+        }
+    }
+
+    #[test]
+    fn binary_and_text_meshes_hold_the_same_vertices_and_faces() {
+        let mesh = occupancy(vec![0, 1]).surface();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("mesh.ply");
+        mesh.write_ply(&path, PlyEncoding::Ascii).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        mesh.write_ply(&path, PlyEncoding::Binary).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let end = bytes
+            .windows(11)
+            .position(|w| w == b"end_header\n")
+            .unwrap()
+            + 11;
+        let body = &bytes[end..];
+        let (nv, nf) = (mesh.vertices.len(), mesh.quads.len());
+        assert_eq!(body.len(), 12 * nv + 17 * nf);
+        let text_body: Vec<&str> = text
+            .lines()
+            .skip_while(|l| *l != "end_header")
+            .skip(1)
+            .collect();
+        for (k, line) in text_body.iter().enumerate().take(nv) {
+            let from_text: Vec<f32> = line.split(' ').map(|v| v.parse().unwrap()).collect();
+            let f = |i: usize| {
+                f32::from_le_bytes(body[12 * k + 4 * i..12 * k + 4 * i + 4].try_into().unwrap())
+            };
+            assert_eq!(from_text, [f(0), f(1), f(2)]);
+        }
+        for (k, line) in text_body[nv..].iter().enumerate() {
+            let at = 12 * nv + 17 * k;
+            assert_eq!(body[at], 4);
+            let ids: Vec<String> = (0..4)
+                .map(|i| {
+                    let b = &body[at + 1 + 4 * i..at + 5 + 4 * i];
+                    i32::from_le_bytes(b.try_into().unwrap()).to_string()
+                })
+                .collect();
+            assert_eq!(*line, format!("4 {}", ids.join(" ")));
         }
     }
 

@@ -5,7 +5,7 @@ mod common;
 use std::f64::consts::PI;
 
 use flexshape_camera::nalgebra::Point3;
-use flexshape_carve::{CarveError, LookupTable, OutsideImage};
+use flexshape_carve::{CarveError, LookupTable, OutsideImage, PlyEncoding};
 use flexshape_rig::Volume;
 use flexshape_silhouette::BitMask;
 use flexshape_sim::{SimConfig, Simulator};
@@ -161,9 +161,33 @@ fn voxels_outside_some_images_follow_the_rule() {
     // The PLY export lists every point.
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("cloud.ply");
-    all_seen.to_cloud().write_ply(&path).unwrap();
+    let cloud = all_seen.to_cloud();
+    cloud.write_ply(&path, PlyEncoding::Ascii).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains(&format!("element vertex {}", all_seen.len())));
     assert_eq!(text.lines().count(), 12 + all_seen.len());
     assert!(text.lines().nth(13).unwrap().ends_with(" 160 160 160 0"));
+    // Binary: the same header but its format, then 17 bytes per point (3 floats, 3 colour
+    // bytes, a ushort band), little-endian, read back exactly.
+    cloud.write_ply(&path, PlyEncoding::Binary).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
+    let header = std::str::from_utf8(&bytes[..end]).unwrap();
+    assert!(header.contains("format binary_little_endian 1.0\n"));
+    assert_eq!(
+        header.replace("binary_little_endian", "ascii"),
+        text[..end - 15]
+    );
+    assert_eq!(bytes.len() - end, 17 * cloud.points.len());
+    for (k, p) in cloud.points.iter().enumerate() {
+        let at = end + 17 * k;
+        let f =
+            |i: usize| f32::from_le_bytes(bytes[at + 4 * i..at + 4 * i + 4].try_into().unwrap());
+        assert_eq!([f(0), f(1), f(2)], *p);
+        assert_eq!(&bytes[at + 12..at + 17], &[160, 160, 160, 0, 0]);
+    }
 }

@@ -432,10 +432,13 @@ pub struct CarveArgs {
     #[command(flatten)]
     pub frames: FramesArgs,
     /// Output folder: per frame NNNNNN.ply (voxel centres) and NNNNNN.surface.ply (the hull's
-    /// surface as a closed quad mesh), and hull.jsonl (one record per frame: voxels, volume,
-    /// surface area, bounding box).
+    /// surface as a closed quad mesh), binary PLY, and hull.jsonl (one record per frame:
+    /// voxels, volume, surface area, bounding box).
     #[arg(long, short = 'o', value_name = "DIR")]
     pub out: PathBuf,
+    /// Write the PLY files as text (one line per element) instead of binary.
+    #[arg(long)]
+    pub ascii_ply: bool,
     /// Replace what an earlier run wrote in --out.
     #[arg(long)]
     pub overwrite: bool,
@@ -457,6 +460,9 @@ pub struct TrackArgs {
     /// is then carved, whatever `--follow` says).
     #[arg(long, value_name = "DIR")]
     pub ply: Option<PathBuf>,
+    /// Write the PLY clouds as text (one line per point) instead of binary.
+    #[arg(long, requires = "ply")]
+    pub ascii_ply: bool,
     /// Replace existing --out and --csv files and PLY clouds.
     #[arg(long)]
     pub overwrite: bool,

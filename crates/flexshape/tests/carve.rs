@@ -12,7 +12,7 @@ fn carve_writes_the_hull_cloud_surface_and_figures_of_every_frame() {
     common::run(&["simulate", "--out", r, "--frames", "2"]);
     let out = dir.path().join("hull");
     let o = out.to_str().unwrap();
-    common::run(&["carve", r, "-o", o]);
+    common::run(&["carve", r, "-o", o, "--ascii-ply"]);
     let records: Vec<Value> = std::fs::read_to_string(out.join("hull.jsonl"))
         .unwrap()
         .lines()
@@ -52,7 +52,26 @@ fn carve_writes_the_hull_cloud_surface_and_figures_of_every_frame() {
         e.contains("already exists") && e.contains("--overwrite"),
         "{e}"
     );
+    // Binary PLY by default: 12 bytes a vertex, 17 a quad (a count and four indices).
     common::run(&["carve", r, "-o", o, "--overwrite"]);
+    let text = std::fs::read_to_string(out.join("000000.surface.ply")).unwrap_err();
+    assert_eq!(text.kind(), std::io::ErrorKind::InvalidData, "not text");
+    let bytes = std::fs::read(out.join("000000.surface.ply")).unwrap();
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
+    let header = std::str::from_utf8(&bytes[..end]).unwrap();
+    let count = |what: &str| -> usize {
+        let line = header.lines().find(|l| l.starts_with(what)).unwrap();
+        line.rsplit(' ').next().unwrap().parse().unwrap()
+    };
+    assert!(header.contains("format binary_little_endian 1.0"));
+    assert_eq!(
+        bytes.len() - end,
+        12 * count("element vertex") + 17 * count("element face")
+    );
     // A volume away from the object leaves nothing: said per frame.
     let far = dir.path().join("far");
     common::run(&[

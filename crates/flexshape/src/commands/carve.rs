@@ -6,6 +6,7 @@ use std::io::Write;
 use std::path::Path;
 
 use anyhow::{Context, bail};
+use flexshape_carve::PlyEncoding;
 use flexshape_input::FrameSet;
 use flexshape_track::{Hull, Pipeline};
 use serde::Serialize;
@@ -69,7 +70,12 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
             break;
         }
         let record = match next {
-            Ok(set) => carve_frame(&pipeline, set, &args.out)?,
+            Ok(set) => carve_frame(
+                &pipeline,
+                set,
+                &args.out,
+                super::ply_encoding(args.ascii_ply),
+            )?,
             Err(e) if e.ends_input() => bail!("the input broke after {frames_done} frames: {e}"),
             Err(e) => HullRecord::error(frames_done as u64, None, e.to_string()),
         };
@@ -96,7 +102,12 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
 
 /// One frame's hull, its files written; a frame that cannot be read or carved is an `error`
 /// record.
-fn carve_frame(pipeline: &Pipeline, set: FrameSet, dir: &Path) -> anyhow::Result<HullRecord> {
+fn carve_frame(
+    pipeline: &Pipeline,
+    set: FrameSet,
+    dir: &Path,
+    encoding: PlyEncoding,
+) -> anyhow::Result<HullRecord> {
     let (frame, name) = (set.frame, set.name.clone());
     let images = match pipeline.load(set.images) {
         Ok(i) => i,
@@ -112,12 +123,12 @@ fn carve_frame(pipeline: &Pipeline, set: FrameSet, dir: &Path) -> anyhow::Result
         let cloud = dir.join(format!("{frame:06}.ply"));
         hull.occupancy
             .to_cloud()
-            .write_ply(&cloud)
+            .write_ply(&cloud, encoding)
             .with_context(|| format!("cannot write {}", cloud.display()))?;
         let surface = hull.occupancy.surface();
         let mesh = dir.join(format!("{frame:06}.surface.ply"));
         surface
-            .write_ply(&mesh)
+            .write_ply(&mesh, encoding)
             .with_context(|| format!("cannot write {}", mesh.display()))?;
         record.surface_mm2 = surface.area_mm2;
     }

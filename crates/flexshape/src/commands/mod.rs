@@ -57,6 +57,15 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
+/// The PLY encoding `--ascii-ply` asks for.
+pub(crate) fn ply_encoding(ascii: bool) -> flexshape_carve::PlyEncoding {
+    if ascii {
+        flexshape_carve::PlyEncoding::Ascii
+    } else {
+        flexshape_carve::PlyEncoding::Binary
+    }
+}
+
 /// The simulator settings the shared arguments describe.
 fn sim_config(args: &SimArgs) -> SimConfig {
     let defaults = SimConfig::default();

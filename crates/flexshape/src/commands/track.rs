@@ -175,7 +175,7 @@ fn load_model_frame(path: &Path) -> anyhow::Result<ModelFrame> {
 struct Sinks {
     out: Output,
     csv: Option<Output>,
-    ply: Option<PathBuf>,
+    ply: Option<(PathBuf, flexshape_carve::PlyEncoding)>,
 }
 
 const CSV_HEADER: &str = "frame,image,status,tip_x,tip_y,tip_z,tip_dx,tip_dy,tip_dz,arc_length_mm,curvature_per_mm,bands,voxels,latency_ms,silhouettes_ms,carve_ms,bands_ms,shape_ms";
@@ -235,18 +235,21 @@ impl Sinks {
         Ok(Sinks {
             out,
             csv,
-            ply: args.ply.clone(),
+            ply: args
+                .ply
+                .clone()
+                .map(|dir| (dir, super::ply_encoding(args.ascii_ply))),
         })
     }
 
     fn write(&mut self, record: &TrackRecord, p: &Processed) -> anyhow::Result<()> {
         // The cloud first (written whole, then renamed into place), so that a record never
         // names a cloud that is not there.
-        if let (Some(dir), Ok(t)) = (&self.ply, &p.result) {
+        if let (Some((dir, encoding)), Ok(t)) = (&self.ply, &p.result) {
             let path = dir.join(format!("{:06}.ply", record.frame));
             t.occupancy
                 .to_cloud_with_bands(&t.bands)
-                .write_ply(&path)
+                .write_ply(&path, *encoding)
                 .with_context(|| format!("cannot write {}", path.display()))?;
         }
         self.out.write(record)?;
