@@ -2,6 +2,7 @@
 //! `flexshape track` writes ([`TrackRecord`], then one [`SummaryLine`]). World frame, mm.
 
 mod pipeline;
+mod precision;
 mod record;
 mod refine;
 mod runner;

@@ -32,15 +32,19 @@ use crate::TrackError;
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct StageTimings {
     /// All cameras' silhouettes.
+    #[serde(serialize_with = "crate::precision::ms")]
     pub silhouettes: f64,
     /// Carving.
+    #[serde(serialize_with = "crate::precision::ms")]
     pub carve: f64,
     /// Marker bands in the carved volume.
+    #[serde(serialize_with = "crate::precision::ms")]
     pub bands: f64,
     /// Shape estimation from the hull.
+    #[serde(serialize_with = "crate::precision::ms")]
     pub shape: f64,
     /// The tube fitted to the images and its self-check (0 with the hull method).
-    #[serde(default)]
+    #[serde(default, serialize_with = "crate::precision::ms")]
     pub fit: f64,
 }
 

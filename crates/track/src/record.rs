@@ -14,8 +14,10 @@ use crate::runner::{Processed, RunEnd};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrackBand {
     /// Centre, world mm.
+    #[serde(serialize_with = "crate::precision::point")]
     pub position: [f64; 3],
     /// Arc length of the centre from the proximal end, mm.
+    #[serde(serialize_with = "crate::precision::mm")]
     pub arc_length: f64,
 }
 
@@ -23,22 +25,36 @@ pub struct TrackBand {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrackArcFit {
     /// Curvature, 1/mm.
+    #[serde(serialize_with = "crate::precision::per_mm")]
     pub curvature: f64,
     /// Start of the section, world mm.
+    #[serde(serialize_with = "crate::precision::point")]
     pub base: [f64; 3],
     /// Unit tangent at the start.
+    #[serde(serialize_with = "crate::precision::unit")]
     pub base_tangent: [f64; 3],
     /// Unit direction toward which the section bends, perpendicular to the tangent.
+    #[serde(serialize_with = "crate::precision::unit")]
     pub bend_direction: [f64; 3],
     /// Mean distance between the curve and the arc, mm.
+    #[serde(serialize_with = "crate::precision::mm")]
     pub residual_mm: f64,
     /// Section length, mm.
+    #[serde(serialize_with = "crate::precision::mm")]
     pub length: f64,
     /// Curvature about the manipulator model's x axis, 1/mm (with a registered model frame).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "crate::precision::per_mm_opt"
+    )]
     pub kappa_x: Option<f64>,
     /// Curvature about the model's z axis, 1/mm (with a registered model frame).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "crate::precision::per_mm_opt"
+    )]
     pub kappa_z: Option<f64>,
 }
 
@@ -109,12 +125,16 @@ pub struct TrackRecord {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
     /// Points from the proximal end to the tip, ≤ 1 mm apart, world mm.
+    #[serde(serialize_with = "crate::precision::points")]
     pub centerline: Vec<[f64; 3]>,
     /// The centerline's end, world mm.
+    #[serde(serialize_with = "crate::precision::point_opt")]
     pub tip: Option<[f64; 3]>,
     /// Unit tangent at the tip.
+    #[serde(serialize_with = "crate::precision::unit_opt")]
     pub tip_direction: Option<[f64; 3]>,
     /// Centerline length, mm.
+    #[serde(serialize_with = "crate::precision::mm")]
     pub arc_length: f64,
     /// Bands from proximal to distal.
     pub bands: Vec<TrackBand>,
@@ -125,7 +145,7 @@ pub struct TrackRecord {
     /// Milliseconds per stage.
     pub timings_ms: StageTimings,
     /// Curvature at each centerline point, 1/mm (additive).
-    #[serde(default)]
+    #[serde(default, serialize_with = "crate::precision::per_mm_vec")]
     pub curvature: Vec<f64>,
     /// Axial strains of the sections named in `[processing.shape]` (e.g. the bending
     /// section's, between its bands).
@@ -142,7 +162,11 @@ pub struct TrackRecord {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub image: Option<String>,
     /// From capture (live) or reading (offline) to the end of the chain, ms.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "crate::precision::ms_opt"
+    )]
     pub latency_ms: Option<f64>,
     /// When the frame was captured, seconds since the Unix epoch (UTC) — from a recording's
     /// `timestamps.csv`, in that file's own time base — where the input knows it (additive).
@@ -161,11 +185,19 @@ pub struct TrackRecord {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<String>,
     /// Tube radius, mm: fitted to the images, given in the rig, or the hull's estimate.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "crate::precision::mm_opt"
+    )]
     pub radius: Option<f64>,
     /// 1-σ uncertainty of each centerline point across the tube, mm (method `fit`), from the
     /// fit's normal equations: how much a controller may trust each point.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        serialize_with = "crate::precision::mm_vec"
+    )]
     pub centerline_sigma: Vec<f64>,
     /// How well the fitted tube explains each camera's image (method `fit`), in the rig's
     /// order: outline residuals, their systematic offset, overlap with the silhouette.
@@ -174,7 +206,11 @@ pub struct TrackRecord {
     /// Carved hull away from the fitted tube, as a length of tube, mm (method `fit`): where the
     /// images would allow the tube to be instead; beyond the rig's limit the status is
     /// `ambiguous`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "crate::precision::mm_opt"
+    )]
     pub ghost_mm: Option<f64>,
     /// Where the fit started: `hull` (this frame's visual hull, carved) or `previous` (an
     /// earlier frame's shape, tracking: nothing carved, `voxels` is 0 and `ghost_mm` absent).
@@ -188,8 +224,10 @@ pub struct TrackCompression {
     /// The section's name.
     pub name: String,
     /// `1 − length / nominal` (compression positive).
+    #[serde(serialize_with = "crate::precision::fraction")]
     pub strain: f64,
     /// Measured length, mm.
+    #[serde(serialize_with = "crate::precision::mm")]
     pub length: f64,
 }
 
