@@ -236,10 +236,7 @@ pub struct ModelArgs {
 pub enum RigCommand {
     /// Load and validate a rig (a rig TOML or a folder of OpenCV camera files) and show what
     /// every camera sees of the working volume.
-    Check {
-        /// Rig TOML file, or a folder of camera files (*.yml, *.yaml, *.json).
-        path: PathBuf,
-    },
+    Check(RigCheckArgs),
     /// Turn another tool's calibration into a rig: OpenCV camera files (NAME.yml) and
     /// rig.toml in --out, ready for `track --rig`.
     Import(RigImportArgs),
@@ -250,6 +247,18 @@ pub enum RigCommand {
     /// `inconsistent`). Writes a rig with the refined poses to --out and prints each camera's
     /// outline residuals before and after.
     Refine(RigRefineArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct RigCheckArgs {
+    /// Rig TOML file, or a folder of camera files (*.yml, *.yaml, *.json).
+    pub path: PathBuf,
+    /// Check this volume instead of the rig's (world mm, min and max corners).
+    #[arg(long, allow_hyphen_values = true, value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", value_parser = parse_box)]
+    pub volume: Option<[f64; 6]>,
+    /// Voxel size for --volume, mm (default: the rig's).
+    #[arg(long, allow_negative_numbers = true, value_name = "MM")]
+    pub voxel: Option<f64>,
 }
 
 #[derive(Debug, Args)]

@@ -692,3 +692,33 @@ fn a_full_disk_or_closed_pipe_on_stdout_is_no_panic() {
         o.status
     );
 }
+
+#[test]
+fn rig_check_takes_a_volume_rounds_and_summarises_many_cameras() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rec");
+    let o = out.to_str().unwrap();
+    common::run(&["simulate", "--out", o, "--frames", "1", "--cams", "6"]);
+    let rig = format!("{o}/rig.toml");
+    let check = common::run(&[
+        "rig",
+        "check",
+        &rig,
+        "--volume",
+        "-50,-50,-50,50,50,50",
+        "--voxel",
+        "0.3",
+    ]);
+    assert!(
+        check.contains("333×333×333 voxels of 0.3 mm from (-50, -50, -50) to (49.9, 49.9, 49.9)")
+            && check.contains("(--volume / --voxel)"),
+        "{check}"
+    );
+    // Six cameras: 15 pairs in one line, not one line each.
+    assert!(
+        check.contains("angles between camera axes, 15 pairs: narrowest")
+            && !check.contains("angle between"),
+        "{check}"
+    );
+    assert!(!check.contains("0000000"), "float noise: {check}");
+}

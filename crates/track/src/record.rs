@@ -475,6 +475,7 @@ impl Tally {
                 p95_ms: quantile(&mut latencies, 0.95),
             }),
             input_error: end.input_error.as_ref().map(|e| e.to_string()),
+            startup_s: None,
         }
     }
 }
@@ -505,6 +506,10 @@ pub struct TrackSummary {
     /// The input error that ended the stream early, if any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub input_error: Option<String>,
+    /// Seconds from the command's start to its first frame asked for — reading the rig and
+    /// backgrounds, setting up carving and the outputs — not counted in `seconds` (additive).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub startup_s: Option<f64>,
 }
 
 /// The summary as its own line.

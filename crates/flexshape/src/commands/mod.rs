@@ -49,7 +49,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Report(args) => report::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
         Command::Rig { command } => match command {
-            RigCommand::Check { path } => rig_check::run(&path),
+            RigCommand::Check(args) => rig_check::run(&args),
             RigCommand::Import(args) => rig_import::import(&args),
             RigCommand::Export(args) => rig_import::export(&args),
             RigCommand::Refine(args) => rig_refine::run(&args),
@@ -158,6 +158,20 @@ fn suggested_volume(cameras: &[flexshape_camera::Camera], voxel: f64) -> Option<
     let hi = v.max_corner();
     Some(format!(
         "--volume {:.0},{:.0},{:.0},{:.0},{:.0},{:.0} --voxel {}",
-        v.origin[0], v.origin[1], v.origin[2], hi.x, hi.y, hi.z, v.voxel_size[0]
+        v.origin[0],
+        v.origin[1],
+        v.origin[2],
+        hi.x,
+        hi.y,
+        hi.z,
+        short(v.voxel_size[0])
     ))
+}
+
+/// A number for people: at most three decimals, no trailing zeros (`0.30000000000000004` →
+/// `0.3`, `-128` → `-128`).
+pub(crate) fn short(x: f64) -> String {
+    let s = format!("{x:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
 }

@@ -1,31 +1,56 @@
 //! `flexshape rig check`: validate a rig and show what each camera sees of the volume.
 
-use std::path::Path;
-
 use anyhow::Context;
 use flexshape_camera::nalgebra::Point3;
+use flexshape_rig::Volume;
 
-pub fn run(path: &Path) -> anyhow::Result<()> {
-    let rig = super::load_rig(path)?;
+use super::short;
+use crate::cli::RigCheckArgs;
+
+/// Pair angles are listed one by one up to this many cameras, summarised beyond.
+const LISTED_CAMERAS: usize = 4;
+
+/// Camera pairs whose axes are closer than this see the volume from nearly the same side,
+/// degrees: together they pin down little that one of them does not.
+const NARROW_DEG: f64 = 15.0;
+
+pub fn run(args: &RigCheckArgs) -> anyhow::Result<()> {
+    let path = args.path.as_path();
+    let mut rig = super::load_rig(path)?;
     flexshape_track::Pipeline::check_settings(&rig)
         .with_context(|| format!("{}: invalid [processing] settings", path.display()))?;
+    let given = args.volume.is_some() || args.voxel.is_some();
+    if given {
+        let (lo, hi) = match args.volume {
+            Some(b) => ([b[0], b[1], b[2]], [b[3], b[4], b[5]]),
+            None => (rig.volume.origin, rig.volume.max_corner().into()),
+        };
+        let voxel = args.voxel.unwrap_or(rig.volume.voxel_size[0]);
+        rig.volume = Volume::from_bounds(lo, hi, voxel).context("invalid --volume / --voxel")?;
+    }
     let v = &rig.volume;
     let hi = v.max_corner();
+    let size = if v.voxel_size.iter().all(|&s| s == v.voxel_size[0]) {
+        short(v.voxel_size[0])
+    } else {
+        v.voxel_size.map(short).join(" × ")
+    };
     println!(
-        "{}: {} cameras; volume {}×{}×{} voxels of {:?} mm from ({}, {}, {}) to ({}, {}, {}) mm{}",
+        "{}: {} cameras; volume {}×{}×{} voxels of {size} mm from ({}, {}, {}) to ({}, {}, {}) mm{}",
         path.display(),
         rig.cameras.len(),
         v.dims[0],
         v.dims[1],
         v.dims[2],
-        v.voxel_size,
-        v.origin[0],
-        v.origin[1],
-        v.origin[2],
-        hi.x,
-        hi.y,
-        hi.z,
-        if path.is_dir() {
+        short(v.origin[0]),
+        short(v.origin[1]),
+        short(v.origin[2]),
+        short(hi.x),
+        short(hi.y),
+        short(hi.z),
+        if given {
+            " (--volume / --voxel)"
+        } else if path.is_dir() {
             " (default volume: a folder has none)"
         } else {
             ""
@@ -71,6 +96,7 @@ pub fn run(path: &Path) -> anyhow::Result<()> {
             blind.push(c.name.clone());
         }
     }
+    let mut pairs = Vec::new();
     for (i, a) in rig.cameras.iter().enumerate() {
         for b in &rig.cameras[i + 1..] {
             let angle = a
@@ -79,11 +105,24 @@ pub fn run(path: &Path) -> anyhow::Result<()> {
                 .optical_axis()
                 .angle(&b.camera.pose.optical_axis())
                 .to_degrees();
-            println!(
-                "  angle between {} and {} axes: {angle:.1}°",
-                a.name, b.name
-            );
+            pairs.push((angle, &a.name, &b.name));
         }
+    }
+    if rig.cameras.len() <= LISTED_CAMERAS {
+        for (angle, a, b) in &pairs {
+            println!("  angle between {a} and {b} axes: {angle:.1}°");
+        }
+    } else {
+        pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let narrow = pairs.iter().filter(|p| p.0 < NARROW_DEG).count();
+        let name = |p: &(f64, &String, &String)| format!("{} and {} {:.1}°", p.1, p.2, p.0);
+        println!(
+            "  angles between camera axes, {} pairs: narrowest {}, widest {}; {narrow} pair{} under {NARROW_DEG:.0}°",
+            pairs.len(),
+            pairs.first().map(name).unwrap_or_default(),
+            pairs.last().map(name).unwrap_or_default(),
+            if narrow == 1 { "" } else { "s" }
+        );
     }
     if !all_ok {
         println!(

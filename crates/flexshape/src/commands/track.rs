@@ -13,7 +13,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
-use flexshape_track::{ModelFrame, Pipeline, Processed, SummaryLine, Tally, TrackRecord};
+use flexshape_track::{
+    ModelFrame, Pipeline, Processed, SummaryLine, Tally, TrackRecord, TrackSummary,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
@@ -22,6 +24,7 @@ use crate::cli::TrackArgs;
 use crate::interrupt::Interrupt;
 
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
+    let started = std::time::Instant::now();
     let stop = Interrupt::install();
     let mut input = frames::open_input(&args.frames)?;
     let volume = frames::volume(&input.rig.volume, &args.frames)?;
@@ -50,6 +53,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let mut sinks = Sinks::open(args, &input.files)?;
     let mut viewer = super::viewer::start(&args.viewer, &pipeline)?;
     let bar = progress(input.source.as_ref());
+    let startup_s = started.elapsed().as_secs_f64();
     let mut tally = Tally::new();
     let mut failure = None;
     let threads = args.threads.unwrap_or_else(super::cores);
@@ -83,7 +87,10 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         },
     );
     bar.finish_and_clear();
-    let summary = tally.summary(&end);
+    let summary = TrackSummary {
+        startup_s: Some(startup_s),
+        ..tally.summary(&end)
+    };
     sinks.out.write(&SummaryLine {
         summary: summary.clone(),
     })?;
@@ -91,7 +98,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         return Err(e);
     }
     eprintln!(
-        "{} frames ({} ok, {} errors{}{}) in {:.2} s, {:.1} frames/s{}; ms per stage, median/p95: {}",
+        "{} frames ({} ok, {} errors{}{}) in {:.2} s (after {:.2} s of start-up), {:.1} frames/s{}; ms per stage, median/p95: {}",
         summary.frames,
         summary.ok,
         summary.errors,
@@ -102,6 +109,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         },
         if end.stopped { ", stopped early" } else { "" },
         summary.seconds,
+        startup_s,
         summary.fps,
         summary
             .latency_ms
