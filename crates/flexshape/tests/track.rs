@@ -161,6 +161,9 @@ fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
     ]);
     let (from_recording, summary) = read_lines(dir.path().join("rec.jsonl").as_path());
     assert_eq!(summary["ok"], 4);
+    // Start-up (rig, backgrounds, lookup tables) is reported apart from the frames' time.
+    let startup = summary["startup_s"].as_f64().unwrap();
+    assert!(startup > 0.0 && startup < summary["seconds"].as_f64().unwrap() + 60.0);
     // No timestamps file: the capture time is the image file's.
     let written = std::fs::metadata(rec.join("frames/cam0/000001.png"))
         .unwrap()
