@@ -9,6 +9,7 @@
 //! a slow network never slows tracking. World frame, mm.
 
 mod encode;
+mod limits;
 mod origin;
 mod server;
 
@@ -19,6 +20,7 @@ use thiserror::Error;
 use tokio::sync::watch;
 
 pub use encode::{Stats, Update};
+pub use limits::Limits;
 
 /// Why the viewer could not start.
 #[derive(Debug, Error)]
@@ -65,9 +67,20 @@ pub struct Viewer {
 }
 
 impl Viewer {
-    /// Serves the viewer at `addr` (`HOST:PORT`; port 0 picks a free port). A non-loopback
-    /// address is refused unless `allow_remote`, and then logged as a warning.
+    /// Serves the viewer at `addr` (`HOST:PORT`; port 0 picks a free port) with the default
+    /// [`Limits`]. A non-loopback address is refused unless `allow_remote`, and then logged as
+    /// a warning.
     pub fn start(addr: &str, allow_remote: bool, scene: Scene) -> Result<Viewer, ViewerError> {
+        Self::start_with(addr, allow_remote, scene, Limits::default())
+    }
+
+    /// As [`Viewer::start`], with these connection limits.
+    pub fn start_with(
+        addr: &str,
+        allow_remote: bool,
+        scene: Scene,
+        limits: Limits,
+    ) -> Result<Viewer, ViewerError> {
         let addr: SocketAddr = addr
             .parse()
             .map_err(|_| ViewerError::Address(addr.to_string()))?;
@@ -96,7 +109,7 @@ impl Viewer {
             .map_err(ViewerError::Runtime)?;
         std::thread::Builder::new()
             .name("viewer".into())
-            .spawn(move || runtime.block_on(server::serve(listener, scene, updates)))
+            .spawn(move || runtime.block_on(server::serve(listener, scene, updates, limits)))
             .map_err(ViewerError::Runtime)?;
         let host = if bound.ip().is_unspecified() {
             "127.0.0.1".to_string()

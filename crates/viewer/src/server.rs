@@ -13,6 +13,7 @@ use axum::routing::get;
 use tokio::sync::watch;
 
 use crate::encode::{Update, frame_json, image_messages};
+use crate::limits::{Limited, Limits};
 use crate::{Scene, origin};
 
 const PAGE: &str = include_str!("../assets/index.html");
@@ -35,6 +36,8 @@ struct Encoded {
 struct AppState {
     hello: Arc<str>,
     encoded: watch::Receiver<Arc<Encoded>>,
+    /// How often a WebSocket is pinged: well within the idle limit.
+    ping: Duration,
 }
 
 /// Serves until the process ends.
@@ -42,6 +45,7 @@ pub(crate) async fn serve(
     listener: std::net::TcpListener,
     scene: Scene,
     updates: watch::Receiver<Option<Arc<Update>>>,
+    limits: Limits,
 ) {
     let hello = serde_json::json!({"type": "hello", "scene": scene}).to_string();
     let (encoded_tx, encoded) = watch::channel(Arc::new(Encoded::default()));
@@ -49,6 +53,7 @@ pub(crate) async fn serve(
     let state = AppState {
         hello: hello.into(),
         encoded,
+        ping: limits.idle() / 3,
     };
     let guard = match listener.local_addr() {
         Ok(a) => origin::Guard {
@@ -77,7 +82,7 @@ pub(crate) async fn serve(
             return;
         }
     };
-    if let Err(e) = axum::serve(listener, app).await {
+    if let Err(e) = axum::serve(Limited::new(listener, limits), app).await {
         tracing::error!("viewer: server stopped: {e}");
     }
 }
@@ -144,9 +149,15 @@ async fn socket(ws: WebSocketUpgrade, State(state): State<AppState>) -> impl Int
     ws.on_upgrade(move |socket| stream(socket, state))
 }
 
-/// Sends the scene, then the newest frame whenever there is a newer one than the last sent.
+/// Sends the scene, then the newest frame whenever there is a newer one than the last sent;
+/// reads what the browser sends (answering pings, ending on its close) and pings it while
+/// no frames come, so that the connection never idles out.
 async fn stream(mut socket: WebSocket, state: AppState) {
-    let AppState { hello, mut encoded } = state;
+    let AppState {
+        hello,
+        mut encoded,
+        ping,
+    } = state;
     if socket
         .send(Message::Text(hello.as_ref().into()))
         .await
@@ -155,6 +166,8 @@ async fn stream(mut socket: WebSocket, state: AppState) {
         return;
     }
     let mut sent_images = 0;
+    let mut pings = tokio::time::interval(ping);
+    pings.tick().await;
     loop {
         let newest = encoded.borrow_and_update().clone();
         if let Some(frame) = &newest.frame
@@ -179,8 +192,26 @@ async fn stream(mut socket: WebSocket, state: AppState) {
             }
             sent_images = newest.image_seq;
         }
-        if encoded.changed().await.is_err() {
-            return;
+        // Until there is a newer frame: the browser's messages (a ping is answered as it is
+        // read), and our pings.
+        loop {
+            tokio::select! {
+                changed = encoded.changed() => {
+                    if changed.is_err() {
+                        return;
+                    }
+                    break;
+                }
+                message = socket.recv() => match message {
+                    Some(Ok(Message::Close(_))) | Some(Err(_)) | None => return,
+                    Some(Ok(_)) => {}
+                },
+                _ = pings.tick() => {
+                    if socket.send(Message::Ping(Vec::new().into())).await.is_err() {
+                        return;
+                    }
+                }
+            }
         }
     }
 }
