@@ -65,6 +65,10 @@ fn simulated_experiment_recovers_the_stiffnesses() {
     assert_eq!(report["registration_poses"], 4);
     assert_eq!(report["reference_pose"], true);
     assert!(report["skipped"].as_array().unwrap().is_empty());
+    assert!(
+        report["held"].as_array().unwrap().is_empty(),
+        "every stiffness estimated"
+    );
     // Bending stiffnesses within 1 % (measured with the tube fitted to the images: −0.05 %,
     // −0.04 %; from the hull's centerline: −0.8 %, −0.4 %).
     for j in 0..2 {

@@ -65,17 +65,45 @@ pub struct Estimate {
     pub max_tip_error_percent: f64,
     /// Observations used.
     pub observations: usize,
+    /// Every stiffness the data do not determine — held at its nominal value — with why and
+    /// what experiment would determine it.
+    pub held: Vec<Held>,
 }
 
-const NAMES: [&str; 4] = [
-    "Kx (no bending about x)",
-    "Kz (no bending about z)",
-    "Ka0 (no proximal compression)",
-    "Ka1 (no distal compression)",
+/// A stiffness held at its nominal value.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Held {
+    /// `Kx`, `Kz`, `Ka0` or `Ka1`.
+    pub parameter: &'static str,
+    /// Why the data do not determine it.
+    pub reason: String,
+    /// What poses would.
+    pub remedy: &'static str,
+}
+
+const NAMES: [&str; 4] = ["Kx", "Kz", "Ka0", "Ka1"];
+
+/// The configuration component each stiffness acts on.
+const COMPONENTS: [&str; 4] = [
+    "bending about x (κx)",
+    "bending about z (κz)",
+    "proximal compression (ε0)",
+    "distal compression (ε1)",
 ];
 
-/// Least squares for the diagonal of `Km`; `params.stiffness` is the nominal value, used only
-/// for components of `q` that are not measured.
+/// What poses determine each stiffness.
+const REMEDIES: [&str; 4] = [
+    "add poses that bend the section about the model's x axis (pull the tendons on one side of it)",
+    "add poses that bend the section about the model's z axis (pull the tendons on one side of it)",
+    "add a relaxed reference pose and poses with all tendons pulled, with bands that measure the proximal section's length",
+    "add poses with all tendons pulled, with bands that measure the distal section's length",
+];
+
+/// Least squares for the diagonal of `Km`; `params.stiffness` is the nominal value, used for
+/// components of `q` that are not measured. A stiffness the data do not determine (its
+/// component unmeasured, never exercised, or fitted to a non-positive value) is held at its
+/// nominal value and listed in [`Estimate::held`]; the rest are estimated all the same.
+/// Fails only for no data or malformed observations.
 pub fn estimate_stiffness(
     params: &ManipulatorParams,
     data: &[Observation],
@@ -83,7 +111,15 @@ pub fn estimate_stiffness(
     let n = params.tendons.len();
     check(data, n)?;
     let nominal = Model::new(params.clone())?;
-    let estimated: [bool; 4] = std::array::from_fn(|j| data.iter().all(|o| o.measured[j]));
+    let mut estimated: [bool; 4] = std::array::from_fn(|j| data.iter().all(|o| o.measured[j]));
+    let mut held: Vec<Held> = (0..4)
+        .filter(|&j| !estimated[j])
+        .map(|j| Held {
+            parameter: NAMES[j],
+            reason: format!("{} is not measured in every pose", COMPONENTS[j]),
+            remedy: REMEDIES[j],
+        })
+        .collect();
     // Complete each q with the nominal model where it was not measured.
     let mut qs = Vec::with_capacity(data.len());
     for o in data {
@@ -114,21 +150,32 @@ pub fn estimate_stiffness(
         .collect();
     let mut k = params.stiffness.diagonal();
     let mut standard_error = [0.0; 4];
-    for j in (0..4).filter(|&j| estimated[j]) {
+    for j in 0..4 {
+        if !estimated[j] {
+            continue;
+        }
         let qq: f64 = qs.iter().map(|q| q[j] * q[j]).sum();
         let qb: f64 = qs.iter().zip(&bs).map(|(q, b)| q[j] * b[j]).sum();
         let scale = qs.iter().map(|q| q[j].abs()).fold(0.0, f64::max);
         let kj = qb / qq;
-        if data.is_empty()
-            || scale == 0.0
-            || qq <= (1e-12 * scale).powi(2)
-            || kj.is_nan()
-            || kj <= 0.0
-        {
-            return Err(ModelError::Unobservable {
-                what: NAMES[j],
-                observations: data.len(),
+        let why = if scale == 0.0 || qq <= (1e-12 * scale).powi(2) {
+            Some(format!("no pose exercises {}", COMPONENTS[j]))
+        } else if kj.is_nan() || kj <= 0.0 {
+            Some(format!(
+                "the poses give a non-positive value ({kj:.3e}): {} is too small next to the sensing noise",
+                COMPONENTS[j]
+            ))
+        } else {
+            None
+        };
+        if let Some(reason) = why {
+            estimated[j] = false;
+            held.push(Held {
+                parameter: NAMES[j],
+                reason,
+                remedy: REMEDIES[j],
             });
+            continue;
         }
         k[j] = kj;
         if data.len() > 1 {
@@ -167,6 +214,7 @@ pub fn estimate_stiffness(
         tip_error_percent,
         max_tip_error_percent,
         observations: data.len(),
+        held,
     })
 }
 

@@ -194,14 +194,26 @@ fn bad_input_gets_clear_errors() {
             expected: 4
         }
     );
-    // Data that never bends about z cannot give Kz.
+    // Data that never bend about z cannot give Kz: it is held at its nominal value, with why
+    // and what would determine it, and the rest are estimated all the same.
     let y = m.inverse(&Vector4::new(0.01, 0.0, 0.002, 0.0)).unwrap();
     let q = m.forward(&y).unwrap().q;
-    let only_x = vec![Observation::new(Vector4::new(q[0], 0.0, q[2], q[3]), y)];
-    let e = estimate_stiffness(m.params(), &only_x)
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("Kz"), "{e}");
+    let only_x = vec![Observation::new(
+        Vector4::new(q[0], 0.0, q[2], q[3]),
+        y.clone(),
+    )];
+    let e = estimate_stiffness(m.params(), &only_x).unwrap();
+    assert_eq!(e.estimated, [true, false, true, true]);
+    assert_eq!(e.stiffness.kz, m.params().stiffness.kz);
+    assert!((e.stiffness.kx / m.params().stiffness.kx - 1.0).abs() < 1e-6);
+    assert_eq!(e.held.len(), 1);
+    assert_eq!(e.held[0].parameter, "Kz");
+    assert!(
+        e.held[0]
+            .reason
+            .contains("no pose exercises bending about z")
+    );
+    assert!(e.held[0].remedy.contains("z axis"));
     assert!(matches!(
         estimate_stiffness(m.params(), &[]),
         Err(ModelError::Unobservable { .. })

@@ -51,6 +51,19 @@ struct Report {
     /// With `--tendons`: the estimated tendon positions, or why they are not determined.
     #[serde(skip_serializing_if = "Option::is_none")]
     tendons: Option<TendonReport>,
+    /// Stiffnesses the poses do not determine, held at their nominal values.
+    held: Vec<HeldReport>,
+}
+
+/// A stiffness held at its nominal value.
+#[derive(Debug, Serialize)]
+struct HeldReport {
+    /// `Kx`, `Kz`, `Ka0` or `Ka1`.
+    parameter: &'static str,
+    /// Why the poses do not determine it.
+    reason: String,
+    /// What poses would.
+    remedy: &'static str,
 }
 
 /// The tendon-position estimate.
@@ -297,6 +310,15 @@ fn fit(
         tip_error_percent: [nominal_mean, estimate.tip_error_percent],
         max_tip_error_percent: [nominal_max, estimate.max_tip_error_percent],
         observations: estimate.observations,
+        held: estimate
+            .held
+            .iter()
+            .map(|h| HeldReport {
+                parameter: h.parameter,
+                reason: h.reason.clone(),
+                remedy: h.remedy,
+            })
+            .collect(),
         registration_poses: articulated.len(),
         reference_pose: reference.is_some(),
         skipped,
@@ -343,7 +365,7 @@ fn print_table(r: &Report) {
                 r.nominal[j], r.estimated[j], r.standard_error[j], r.sensitivity[j]
             );
         } else {
-            println!("{name:<34} {:>12.1} {:>12}", r.nominal[j], "not measured");
+            println!("{name:<34} {:>12.1} {:>12}", r.nominal[j], "held");
         }
     }
     println!(
@@ -362,6 +384,12 @@ fn print_table(r: &Report) {
         "\nsensitivity: relative stiffness error per relative error of the sensed κ or ε (stiff \
          tendons amplify sensing bias)"
     );
+    for h in &r.held {
+        println!(
+            "{} held at its nominal value: {}; {}",
+            h.parameter, h.reason, h.remedy
+        );
+    }
     if let Some(t) = &r.tendons {
         match &t.refused {
             Some(why) => println!("tendon positions: not estimated: {why}"),
