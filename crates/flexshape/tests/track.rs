@@ -125,6 +125,12 @@ fn track_reports_missing_input_clearly() {
     );
     let o = flexshape(&["track", rec.to_str().unwrap(), "--volume", "1,2,3"]);
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("six numbers"));
+    // A rig.toml that is a folder is refused, naming it, not passed over for the defaults.
+    std::fs::remove_file(rec.join("rig.toml")).unwrap();
+    std::fs::create_dir(rec.join("rig.toml")).unwrap();
+    let o = flexshape(&["track", rec.to_str().unwrap()]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("rig.toml"), "{e}");
 }
 
 /// The JSON Lines of a run: records, then the summary.

@@ -22,7 +22,8 @@ pub struct RecordingReader {
 }
 
 impl RecordingReader {
-    /// Opens the recording at `root`: the rig from `rig.toml` if present, otherwise from the
+    /// Opens the recording at `root`: the rig from `rig.toml` if present (a `rig.toml` that is
+    /// not a regular file — a folder, a device — is an error, not skipped), otherwise from the
     /// camera files in `calibration/` (with the default volume); then lists
     /// `frames/<cam>/NNNNNN.png` for every camera and checks they hold the same frame numbers.
     /// A recording without `frames/` but with `masks/` is one of masks: the same, from
@@ -36,7 +37,9 @@ impl RecordingReader {
                     .into(),
             });
         }
-        let (rig, skipped) = if layout.rig().is_file() {
+        // `exists`, not `is_file`: a rig.toml that is a folder or a device is refused by the
+        // loader, naming it, instead of being passed over for the defaults.
+        let (rig, skipped) = if layout.rig().exists() {
             (Rig::load(&layout.rig())?, Vec::new())
         } else {
             Rig::from_calibration_dir_skipping(&layout.calibration_dir(), Volume::default())?

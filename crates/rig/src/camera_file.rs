@@ -94,7 +94,25 @@ fn validate(raw: RawCameraFile, path: &Path) -> Result<CameraFile, RigError> {
         path,
         None,
     )?
-    .unwrap_or_default();
+    .ok_or_else(|| {
+        field(
+            "distortion_coefficients",
+            "missing; a lens without distortion has five zeros: [0, 0, 0, 0, 0]".into(),
+        )
+    })?;
+    if let Some((i, v)) = dist
+        .iter()
+        .enumerate()
+        .find(|(_, v)| v.abs() > MAX_DISTORTION)
+    {
+        return Err(field(
+            "distortion_coefficients",
+            format!(
+                "coefficient {} is {v:e}: no lens model needs more than {MAX_DISTORTION:e}; check the file's units and order (k1 k2 p1 p2 k3 …)",
+                i + 1
+            ),
+        ));
+    }
     let distortion = Distortion::from_opencv(&dist)
         .map_err(|e| field("distortion_coefficients", camera_problem(&e)))?;
     let k = Matrix3::from_row_slice(&k);
@@ -111,9 +129,40 @@ fn validate(raw: RawCameraFile, path: &Path) -> Result<CameraFile, RigError> {
             ),
         ));
     }
+    let largest_focal = MAX_FOCAL_PER_PIXEL * w.max(h);
+    if intrinsics.fx.max(intrinsics.fy) > largest_focal {
+        return Err(field(
+            "camera_matrix",
+            format!(
+                "focal length {:e} px is not plausible for a {width}×{height} image (at most {largest_focal:e}: a field of view under 0.06°); check the file's units",
+                intrinsics.fx.max(intrinsics.fy)
+            ),
+        ));
+    }
     let pose = read_pose(&raw, path)?;
+    if let Some(p) = &pose
+        && p.translation.amax() > MAX_TRANSLATION_MM
+    {
+        return Err(field(
+            "T",
+            format!(
+                "translation {:e} mm is beyond {MAX_TRANSLATION_MM:e} mm (10 km); check the file's units",
+                p.translation.amax()
+            ),
+        ));
+    }
     Ok(CameraFile { intrinsics, pose })
 }
+
+/// Focal lengths beyond this many times the image's larger side are refused (a field of view
+/// under 0.06°: no real lens, a unit or typing error).
+const MAX_FOCAL_PER_PIXEL: f64 = 1000.0;
+
+/// Distortion coefficients beyond this size are refused.
+const MAX_DISTORTION: f64 = 1e4;
+
+/// Camera translations beyond this are refused, mm.
+const MAX_TRANSLATION_MM: f64 = 1e7;
 
 fn camera_problem(e: &CameraError) -> String {
     format!("{e}")

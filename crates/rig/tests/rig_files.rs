@@ -200,6 +200,23 @@ fn bad_camera_files_name_the_field() {
             "T",
             "without translation",
         ),
+        // Absurd values that parse: refused before anything projects through them.
+        (
+            yaml_with("distortion_coefficients:", "distortion:"),
+            "distortion_coefficients",
+            "missing; a lens without distortion has five zeros",
+        ),
+        (
+            yaml_with("805.25", "1e308"),
+            "camera_matrix",
+            "not plausible",
+        ),
+        (
+            yaml_with("-0.2,", "1e200,"),
+            "distortion_coefficients",
+            "coefficient 1 is 1e200",
+        ),
+        (yaml_with("598.0 ]", "1e308 ]"), "T", "beyond 1e7 mm"),
     ];
     for (text, field, needle) in cases {
         let (f, problem) = field_error(&text);
@@ -214,7 +231,7 @@ fn bad_camera_files_name_the_field() {
     let mut r = *cam.pose.rotation.matrix();
     r[(0, 0)] += 1e-3;
     let bad_r = format!(
-        "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: [[800, 0, 320], [0, 800, 240], [0, 0, 1]]\nR: [{}]\nT: [1, 2, 3]\n",
+        "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: [[800, 0, 320], [0, 800, 240], [0, 0, 1]]\ndistortion_coefficients: [0, 0, 0, 0, 0]\nR: [{}]\nT: [1, 2, 3]\n",
         (0..3)
             .map(|i| format!("[{}, {}, {}]", r[(i, 0)], r[(i, 1)], r[(i, 2)]))
             .collect::<Vec<_>>()
@@ -223,7 +240,7 @@ fn bad_camera_files_name_the_field() {
     let (f, p) = field_error(&bad_r);
     assert_eq!(f, "R");
     assert!(p.contains("RᵀR"), "{p}");
-    let reflect = "%YAML 1.2\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: [[800, 0, 320], [0, 800, 240], [0, 0, 1]]\nR: [[1, 0, 0], [0, 1, 0], [0, 0, -1]]\nT: [1, 2, 3]\n";
+    let reflect = "%YAML 1.2\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: [[800, 0, 320], [0, 800, 240], [0, 0, 1]]\ndistortion_coefficients: [0, 0, 0, 0, 0]\nR: [[1, 0, 0], [0, 1, 0], [0, 0, -1]]\nT: [1, 2, 3]\n";
     let (f, p) = field_error(reflect);
     assert_eq!(f, "R");
     assert!(p.contains("determinant"), "{p}");
