@@ -700,3 +700,29 @@ fn failed_and_terminated_runs_exit_non_zero_with_their_records() {
         }
     }
 }
+
+#[test]
+fn greyscale_frames_against_a_colour_background_are_warned_about_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "3"]);
+    // cam1's frames as a 16-bit greyscale camera would write them.
+    for n in 0..3 {
+        let path = rec.join(format!("frames/cam1/{n:06}.png"));
+        let grey = image::open(&path).unwrap().to_luma16();
+        grey.save(&path).unwrap();
+    }
+    let out = dir.path().join("grey.jsonl");
+    let o = flexshape(&["track", r, "-o", out.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert_eq!(
+        stderr
+            .matches("camera cam1: the frame is greyscale but its background is in colour")
+            .count(),
+        1,
+        "{stderr}"
+    );
+    assert!(!stderr.contains("camera cam0: the frame is greyscale"), "{stderr}");
+}

@@ -21,12 +21,26 @@ pub enum FrameImage {
 impl FrameImage {
     /// The pixels, checking the size against camera `camera`'s calibrated `size`.
     pub fn load(self, camera: &str, size: (u32, u32)) -> Result<RgbImage, InputError> {
+        self.load_with_kind(camera, size).map(|(image, _)| image)
+    }
+
+    /// As [`FrameImage::load`], and whether the file held a greyscale image (converted to RGB
+    /// with equal channels: colour cues such as red marker bands are gone).
+    pub fn load_with_kind(
+        self,
+        camera: &str,
+        size: (u32, u32),
+    ) -> Result<(RgbImage, bool), InputError> {
+        let mut grey = false;
         let (image, what) = match self {
             FrameImage::Decoded(image) => (image, format!("frame of camera `{camera}`")),
             FrameImage::File(path) => {
                 // The size is checked from the header, before any pixel is decoded.
                 let image = match flexshape_rig::files::read_image(&path, Some(size)) {
-                    Ok(image) => image.to_rgb8(),
+                    Ok(image) => {
+                        grey = !image.color().has_color();
+                        image.to_rgb8()
+                    }
                     Err(flexshape_rig::files::FileError::Size { width, height, .. }) => {
                         return Err(InputError::Size {
                             what: path.display().to_string(),
@@ -57,7 +71,7 @@ impl FrameImage {
                 expected_height: size.1,
             });
         }
-        Ok(image)
+        Ok((image, grey))
     }
 }
 

@@ -120,6 +120,19 @@ impl BackgroundModel {
         &self.mean
     }
 
+    /// Whether the background is in colour: some pixel's channels differ by more than 4 grey
+    /// levels (a greyscale camera's are equal). Looks at every pixel: call it once.
+    pub fn in_colour(&self) -> bool {
+        self.mean.iter().any(|m| {
+            let (lo, hi) = m
+                .iter()
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), &v| {
+                    (l.min(v), h.max(v))
+                });
+            hi - lo > 4.0
+        })
+    }
+
     /// Spread of pixel index `i`, grey levels.
     pub fn spread(&self, i: usize) -> f32 {
         self.spread[i]

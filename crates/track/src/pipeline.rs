@@ -138,6 +138,8 @@ pub struct Pipeline {
     band_rule: BandRule,
     shape: ShapeEstimator,
     backgrounds: Vec<BackgroundModel>,
+    /// Per camera: whether its background is in colour ([`BackgroundModel::in_colour`]).
+    colour: Vec<bool>,
     fitter: TubeFitter,
 }
 
@@ -249,6 +251,7 @@ impl Pipeline {
             band_rule: BandRule::default(),
             shape,
             backgrounds: backgrounds.to_vec(),
+            colour: backgrounds.iter().map(BackgroundModel::in_colour).collect(),
             fitter,
         })
     }
@@ -277,13 +280,16 @@ impl Pipeline {
             band_rule: self.band_rule.clone(),
             shape: self.shape.clone(),
             backgrounds: self.backgrounds.clone(),
+            colour: self.colour.clone(),
             fitter,
         })
     }
 
     /// A frame set's images decoded (in parallel) and checked against the cameras: one per
-    /// camera, each of its calibrated size; else why not.
-    pub fn load(&self, images: Vec<FrameImage>) -> Result<Vec<RgbImage>, String> {
+    /// camera, each of its calibrated size; else why not. Also a warning per camera whose
+    /// frame is greyscale while its background model is in colour: colour cues (marker bands,
+    /// colour matting) are lost and the silhouette differs from what the background expects.
+    pub fn load(&self, images: Vec<FrameImage>) -> Result<(Vec<RgbImage>, Vec<String>), String> {
         if images.len() != self.names.len() {
             return Err(format!(
                 "{} images for a rig of {} cameras",
@@ -291,12 +297,24 @@ impl Pipeline {
                 self.names.len()
             ));
         }
-        images
+        let loaded = images
             .into_par_iter()
             .zip(self.names.par_iter().zip(self.image_sizes()))
-            .map(|(image, (name, size))| image.load(name, size))
+            .map(|(image, (name, size))| image.load_with_kind(name, size))
             .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| format!("cannot read the frame: {e}"))
+            .map_err(|e| format!("cannot read the frame: {e}"))?;
+        let warnings = loaded
+            .iter()
+            .zip(&self.names)
+            .zip(&self.colour)
+            .filter(|(((_, grey), _), colour)| *grey && **colour)
+            .map(|((_, name), _)| {
+                format!(
+                    "camera {name}: the frame is greyscale but its background is in colour: marker bands and colour cues are lost and the silhouette may be wrong; give frames as the camera takes them, or make the background from greyscale frames too"
+                )
+            })
+            .collect();
+        Ok((loaded.into_iter().map(|(i, _)| i).collect(), warnings))
     }
 
     /// Replaces the image fit's settings.

@@ -245,9 +245,11 @@ fn take<S: FrameSource + ?Sized>(
 
 /// Decodes one frame set and runs the chain on it, from `prior` if there is one.
 fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64, prior: Option<&Prior>) -> Processed {
+    let mut warnings = set.warnings;
     let images = pipeline.load(set.images);
     let (images, result) = match images {
-        Ok(images) => {
+        Ok((images, notes)) => {
+            warnings.extend(notes);
             let refs: Vec<&RgbImage> = images.iter().collect();
             let result = pipeline
                 .process_after(&refs, prior)
@@ -261,7 +263,7 @@ fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64, prior: Option<&Prio
         name: set.name,
         command: set.command,
         truth: set.truth,
-        warnings: set.warnings,
+        warnings,
         images,
         result,
         captured: set.captured,

@@ -110,7 +110,7 @@ fn carve_frame(
 ) -> anyhow::Result<HullRecord> {
     let (frame, name) = (set.frame, set.name.clone());
     let images = match pipeline.load(set.images) {
-        Ok(i) => i,
+        Ok((i, _)) => i,
         Err(e) => return Ok(HullRecord::error(frame, name, e)),
     };
     let refs: Vec<_> = images.iter().collect();

@@ -83,7 +83,7 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
         }
         let frame = set.frame;
         match pipeline.load(set.images) {
-            Ok(images) => frames.push(images),
+            Ok((images, _)) => frames.push(images),
             Err(e) => eprintln!("frame {frame:06}: left out: {e}"),
         }
         if frames.len() >= wanted {

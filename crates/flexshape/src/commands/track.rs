@@ -55,6 +55,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let bar = progress(input.source.as_ref());
     let startup_s = started.elapsed().as_secs_f64();
     let mut tally = Tally::new();
+    let mut warned = std::collections::HashSet::new();
     let mut failure = None;
     let threads = args.threads.unwrap_or_else(super::cores);
     let end = flexshape_track::run(
@@ -67,8 +68,16 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
             if let Some(f) = &model_frame {
                 record = record.with_model_frame(f);
             }
+            // Each warning once: one that holds for every frame would bury the rest.
             for w in &p.warnings {
-                bar.suspend(|| eprintln!("frame {:06}: {w}", p.frame));
+                if warned.insert(w.clone()) {
+                    bar.suspend(|| {
+                        eprintln!(
+                            "frame {:06}: {w} (said once; later frames may have it too)",
+                            p.frame
+                        )
+                    });
+                }
             }
             if record.status == "error" {
                 let reason = record.reason.as_deref().unwrap_or("");
