@@ -9,6 +9,16 @@ use serde::Serialize;
 
 use crate::CalibError;
 
+/// Two shared views agree when their relative poses differ by at most this rotation, degrees…
+pub const ROTATION_TOLERANCE_DEG: f64 = 2.0;
+
+/// …and this translation, mm, or this share of the baseline, whichever is larger. (The real
+/// 9×6 stereo pair in `../shared/data`: 15 views, spread 0.2° and 2.2 mm.)
+pub const TRANSLATION_TOLERANCE_MM: f64 = 10.0;
+
+/// See [`TRANSLATION_TOLERANCE_MM`].
+pub const TRANSLATION_TOLERANCE_SHARE: f64 = 0.05;
+
 /// A board pose in one camera: `x_cam = R·X_board + t` (mm).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BoardPose {
@@ -34,7 +44,9 @@ pub struct RelativePose {
 }
 
 /// The pose of a camera relative to the reference from the board poses both saw in the same
-/// views (`pairs`: reference's pose, this camera's pose).
+/// views (`pairs`: reference's pose, this camera's pose). Refused when some views disagree
+/// with the largest set of views that agree with one another ([`CalibError::SharedViews`]
+/// names them): with two views that disagree, both.
 pub fn relative_pose(pairs: &[(BoardPose, BoardPose)]) -> Result<RelativePose, CalibError> {
     if pairs.is_empty() {
         return Err(CalibError::Degenerate(
@@ -49,6 +61,33 @@ pub fn relative_pose(pairs: &[(BoardPose, BoardPose)]) -> Result<RelativePose, C
             (r, b.translation - r * a.translation)
         })
         .collect();
+    let agree = |a: &(Rotation3<f64>, Vector3<f64>), b: &(Rotation3<f64>, Vector3<f64>)| {
+        let scale = a.1.norm().max(b.1.norm());
+        a.0.angle_to(&b.0).to_degrees() <= ROTATION_TOLERANCE_DEG
+            && (a.1 - b.1).norm()
+                <= TRANSLATION_TOLERANCE_MM.max(TRANSLATION_TOLERANCE_SHARE * scale)
+    };
+    // The view most others agree with, and those.
+    let best = (0..each.len())
+        .max_by_key(|&i| each.iter().filter(|e| agree(&each[i], e)).count())
+        .unwrap_or(0);
+    let disagreeing: Vec<usize> = (0..each.len())
+        .filter(|&i| !agree(&each[best], &each[i]))
+        .collect();
+    if !disagreeing.is_empty() {
+        // Two views that disagree: nothing says which is right.
+        let disagreeing = if each.len() == 2 {
+            vec![0, 1]
+        } else {
+            disagreeing
+        };
+        let agreeing = each.len() - disagreeing.len();
+        return Err(CalibError::SharedViews {
+            agreeing,
+            views: each.len(),
+            disagreeing,
+        });
+    }
     // Chordal mean: the rotation nearest the sum of the matrices.
     let sum: Matrix3<f64> = each.iter().map(|(r, _)| *r.matrix()).sum();
     let svd = sum.svd(true, true);
@@ -81,4 +120,46 @@ pub fn relative_pose(pairs: &[(BoardPose, BoardPose)]) -> Result<RelativePose, C
         rotation_spread_deg: rot_spread.to_degrees(),
         translation_spread_mm: t_spread,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pair of board poses that puts the second camera at `rvec`, `t` from the first.
+    fn pair(board: f64, rvec: [f64; 3], t: [f64; 3]) -> (BoardPose, BoardPose) {
+        let a = BoardPose {
+            rotation: Rotation3::from_scaled_axis(Vector3::new(0.1 * board, 0.2, -0.1)),
+            translation: Vector3::new(10.0 * board, -5.0, 500.0),
+        };
+        let r = Rotation3::from_scaled_axis(Vector3::from(rvec));
+        let b = BoardPose {
+            rotation: r * a.rotation,
+            translation: r * a.translation + Vector3::from(t),
+        };
+        (a, b)
+    }
+
+    #[test]
+    fn views_that_disagree_are_named() {
+        let good = |k: f64| pair(k, [0.0, 0.5, 0.0], [-300.0, 0.0, 80.0]);
+        let mut pairs: Vec<_> = (0..5).map(|k| good(k as f64)).collect();
+        let rel = relative_pose(&pairs).unwrap();
+        assert!(rel.rotation_spread_deg < 1e-9 && rel.translation_spread_mm < 1e-9);
+        // A view from another instant: 20° and 150 mm off.
+        pairs.push(pair(7.0, [0.0, 0.85, 0.0], [-150.0, 0.0, 80.0]));
+        match relative_pose(&pairs) {
+            Err(CalibError::SharedViews {
+                disagreeing,
+                agreeing,
+                views,
+            }) => assert_eq!((disagreeing, agreeing, views), (vec![5], 5, 6)),
+            other => panic!("{other:?}"),
+        }
+        // Two views that disagree: nothing says which is right.
+        match relative_pose(&pairs[4..]) {
+            Err(CalibError::SharedViews { disagreeing, .. }) => assert_eq!(disagreeing, [0, 1]),
+            other => panic!("{other:?}"),
+        }
+    }
 }

@@ -29,7 +29,10 @@ use thiserror::Error;
 pub use board::Board;
 pub use bundle::{JointIntrinsics, RigAdjustment, RigCamera, adjust_rig};
 pub use detect::{Detection, detect};
-pub use extrinsics::{BoardPose, RelativePose, relative_pose};
+pub use extrinsics::{
+    BoardPose, ROTATION_TOLERANCE_DEG, RelativePose, TRANSLATION_TOLERANCE_MM,
+    TRANSLATION_TOLERANCE_SHARE, relative_pose,
+};
 pub use intrinsics::{Calibration, CalibrationSettings, ViewResult, calibrate};
 
 /// Why a calibration step failed.
@@ -49,6 +52,21 @@ pub enum CalibError {
     /// The closed-form start failed (degenerate views, e.g. all parallel to the image).
     #[error("closed-form initialisation failed: {0}")]
     Degenerate(String),
+    /// Shared views (same instant in two cameras) that disagree about the cameras' relative
+    /// pose: they were not taken at the same instant, or a board was misdetected.
+    #[error(
+        "{} of {views} shared views disagree about where the second camera is ({agreeing} agree with one another, within {ROTATION_TOLERANCE_DEG}° and {TRANSLATION_TOLERANCE_MM} mm or {:.0} % of the baseline)",
+        disagreeing.len(),
+        100.0 * TRANSLATION_TOLERANCE_SHARE
+    )]
+    SharedViews {
+        /// Indices (in the pairs given) of the views that disagree.
+        disagreeing: Vec<usize>,
+        /// Views that agree with one another.
+        agreeing: usize,
+        /// Shared views in all.
+        views: usize,
+    },
     /// Views of different sizes.
     #[error("view {view} is {found_w}×{found_h} but the first is {width}×{height}")]
     ImageSize {

@@ -141,9 +141,11 @@ pub struct CalibrateArgs {
     /// Square size, mm.
     #[arg(long, allow_negative_numbers = true)]
     pub square: f64,
-    /// A camera and its image folder, NAME=DIR; repeat for every camera (the first is the
-    /// reference).
-    #[arg(long = "images", value_name = "NAME=DIR", required = true, value_parser = parse_named_path)]
+    /// A camera and its image folder, NAME=DIR, or its images by a file-name pattern in one,
+    /// NAME=DIR/PATTERN with `*` and `?` (quote it: 'left=imgs/left*.jpg'); repeat for every
+    /// camera (the first is the reference). Images taken together share a file name (folders)
+    /// or what the wildcards match (patterns: left07.jpg and right07.jpg).
+    #[arg(long = "images", value_name = "NAME=DIR|NAME=DIR/PATTERN", required = true, value_parser = parse_named_path)]
     pub images: Vec<(String, PathBuf)>,
     /// Output folder: NAME.yml per camera (OpenCV FileStorage), rig.toml, calibration.json,
     /// residuals.png/svg.

@@ -296,3 +296,59 @@ fn calibration_input_errors_name_the_problem() {
         "{e}"
     );
 }
+
+#[test]
+fn stereo_photographs_by_pattern_and_views_out_of_step() {
+    let Some(data) = stereo_data() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let calibrate = |left: &str, right: &str, out: &str| {
+        common::flexshape(&[
+            "calibrate",
+            "--board",
+            "9x6",
+            "--square",
+            "25",
+            "--images",
+            left,
+            "--images",
+            right,
+            "--out",
+            dir.path().join(out).to_str().unwrap(),
+        ])
+    };
+    // OpenCV's sample layout, both cameras in one folder: patterns pair left07 with right07.
+    let left = format!("left={}", data.join("left*.jpg").display());
+    let right = format!("right={}", data.join("right*.jpg").display());
+    let o = calibrate(&left, &right, "by_pattern");
+    let text = common::text(&o);
+    assert!(o.status.success(), "{text}");
+    assert!(text.contains("from 15 shared views"), "{text}");
+    // The same images for two cameras: refused.
+    let same = format!("other={}", data.join("left*.jpg").display());
+    let e = common::text(&calibrate(&left, &same, "same"));
+    assert!(e.contains("are given the same images"), "{e}");
+    // Two right views swapped (not taken with the left views of their names): refused,
+    // naming them.
+    let right_dir = dir.path().join("right");
+    std::fs::create_dir_all(&right_dir).unwrap();
+    for i in 1..=15 {
+        let j = match i {
+            4 => 9,
+            9 => 4,
+            i => i,
+        };
+        std::fs::copy(
+            data.join(format!("right{j:02}.jpg")),
+            right_dir.join(format!("right{i:02}.jpg")),
+        )
+        .unwrap();
+    }
+    let swapped = format!("right={}", right_dir.join("right*.jpg").display());
+    let o = calibrate(&left, &swapped, "swapped");
+    let e = common::text(&o);
+    assert!(!o.status.success(), "{e}");
+    assert!(
+        e.contains("2 of 15 shared views disagree") && e.contains("right04.jpg, right09.jpg"),
+        "{e}"
+    );
+}

@@ -724,5 +724,8 @@ fn greyscale_frames_against_a_colour_background_are_warned_about_once() {
         1,
         "{stderr}"
     );
-    assert!(!stderr.contains("camera cam0: the frame is greyscale"), "{stderr}");
+    assert!(
+        !stderr.contains("camera cam0: the frame is greyscale"),
+        "{stderr}"
+    );
 }

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flexshape_calib::{
-    Board, BoardPose, Calibration, CalibrationSettings, Detection, JointIntrinsics, RelativePose,
-    adjust_rig, calibrate, detect, relative_pose,
+    Board, BoardPose, CalibError, Calibration, CalibrationSettings, Detection, JointIntrinsics,
+    RelativePose, adjust_rig, calibrate, detect, relative_pose,
 };
 use flexshape_camera::nalgebra::{Matrix3, Rotation3, Vector3};
 use flexshape_camera::{Camera, Pose};
@@ -21,6 +21,52 @@ use crate::cli::CalibrateArgs;
 struct CameraImages {
     name: String,
     files: Vec<PathBuf>,
+    /// The file-name pattern the images were given by (`left*.jpg`), if any.
+    pattern: Option<String>,
+}
+
+impl CameraImages {
+    /// Which instant an image of this camera shows: images of different cameras with the same
+    /// instant were taken together. From a folder, the file name without its extension; from
+    /// a pattern, what its wildcards matched (`left07.jpg` by `left*.jpg`: `07`, the instant of
+    /// `right07.jpg` by `right*.jpg` too).
+    fn instant(&self, image: &str) -> String {
+        match &self.pattern {
+            Some(p) => wildcards(p, image).unwrap_or_else(|| stem(image).to_string()),
+            None => stem(image).to_string(),
+        }
+    }
+}
+
+/// What the wildcards of `pattern` (`*` any run of characters, `?` one) matched in `name`,
+/// joined, or `None` when `name` does not match.
+fn wildcards(pattern: &str, name: &str) -> Option<String> {
+    fn go(p: &[char], n: &[char], out: &mut String) -> bool {
+        match p.first() {
+            None => n.is_empty(),
+            Some('*') => (0..=n.len()).rev().any(|k| {
+                let len = out.len();
+                out.extend(&n[..k]);
+                if go(&p[1..], &n[k..], out) {
+                    return true;
+                }
+                out.truncate(len);
+                false
+            }),
+            Some('?') => {
+                let Some(&c) = n.first() else { return false };
+                out.push(c);
+                go(&p[1..], &n[1..], out) || {
+                    out.pop();
+                    false
+                }
+            }
+            Some(&c) => n.first() == Some(&c) && go(&p[1..], &n[1..], out),
+        }
+    }
+    let (p, n): (Vec<char>, Vec<char>) = (pattern.chars().collect(), name.chars().collect());
+    let mut out = String::new();
+    go(&p, &n, &mut out).then_some(out)
 }
 
 #[derive(Serialize)]
@@ -76,7 +122,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         let kept: Vec<(String, Detection)> = views
             .into_iter()
             .filter(|(name, _)| cal.views.iter().any(|v| &v.name == name))
-            .map(|(name, d)| (stem(&name).to_string(), d))
+            .map(|(name, d)| (cam.instant(&name), d))
             .collect();
         detections.push(kept);
         results.push((cal, rejected));
@@ -87,22 +133,38 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     let mut relative = vec![None];
     let mut poses = vec![Pose::identity()];
     for (k, (cal, _)) in results.iter().enumerate().skip(1) {
-        let pairs: Vec<(BoardPose, BoardPose)> = reference
+        let (names, pairs): (Vec<&str>, Vec<(BoardPose, BoardPose)>) = reference
             .views
             .iter()
             .filter_map(|a| {
                 cal.views
                     .iter()
-                    .find(|b| stem(&b.name) == stem(&a.name))
-                    .map(|b| (a.board_pose(), b.board_pose()))
+                    .find(|b| cameras[k].instant(&b.name) == cameras[0].instant(&a.name))
+                    .map(|b| (b.name.as_str(), (a.board_pose(), b.board_pose())))
             })
-            .collect();
-        let rel = relative_pose(&pairs).with_context(|| {
-            format!(
-                "cameras {} and {}: images with the same file name in both folders are views of the same instant",
-                cameras[0].name, cameras[k].name
-            )
-        })?;
+            .unzip();
+        let rel = match relative_pose(&pairs) {
+            Ok(rel) => rel,
+            Err(e) => {
+                if let CalibError::SharedViews { disagreeing, .. } = &e {
+                    bail!(
+                        "cameras {} and {}: {e}: {} of {}; they were not taken at the same instant as the first camera's views of the same name, or a board was misdetected — remove or rename them",
+                        cameras[0].name,
+                        cameras[k].name,
+                        disagreeing
+                            .iter()
+                            .map(|&i| names[i])
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        cameras[k].name
+                    );
+                }
+                return Err(anyhow::Error::new(e).context(format!(
+                    "cameras {} and {}: images with the same file name in both folders are views of the same instant",
+                    cameras[0].name, cameras[k].name
+                )));
+            }
+        };
         poses.push(pose_of(&rel));
         relative.push(Some(rel));
     }
@@ -112,10 +174,11 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     if cameras.len() > 1 {
         let named: Vec<Calibration> = results
             .iter()
-            .map(|(cal, _)| {
+            .zip(&cameras)
+            .map(|((cal, _), cam)| {
                 let mut c = cal.clone();
                 for v in &mut c.views {
-                    v.name = stem(&v.name).to_string();
+                    v.name = cam.instant(&v.name);
                 }
                 c
             })
@@ -240,15 +303,27 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `NAME=DIR` arguments → cameras and their image files (sorted by name).
+/// `NAME=DIR` (or `NAME=DIR/PATTERN`, e.g. `left=imgs/left*.jpg`) arguments → cameras and
+/// their image files (sorted by name). Two cameras given the same images are refused.
 fn cameras(specs: &[(String, PathBuf)]) -> anyhow::Result<Vec<CameraImages>> {
     let mut seen = BTreeMap::new();
-    let mut out = Vec::new();
-    for (name, dir) in specs {
+    let mut out: Vec<CameraImages> = Vec::new();
+    for (name, given) in specs {
         if seen.insert(name.to_string(), ()).is_some() {
             bail!("--images: camera {name} is given twice");
         }
-        let dir = dir.as_path();
+        let pattern = given
+            .file_name()
+            .and_then(|f| f.to_str())
+            .filter(|f| f.contains(['*', '?']))
+            .map(str::to_string);
+        let dir = match &pattern {
+            Some(_) => match given.parent() {
+                Some(p) if !p.as_os_str().is_empty() => p,
+                _ => Path::new("."),
+            },
+            None => given.as_path(),
+        };
         let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
             .with_context(|| format!("camera {name}: cannot read the folder {}", dir.display()))?
             .filter_map(|e| e.ok().map(|e| e.path()))
@@ -260,17 +335,33 @@ fn cameras(specs: &[(String, PathBuf)]) -> anyhow::Result<Vec<CameraImages>> {
                     )
                 })
             })
+            .filter(|p| {
+                pattern.as_deref().is_none_or(|pat| {
+                    p.file_name()
+                        .and_then(|f| f.to_str())
+                        .is_some_and(|f| wildcards(pat, f).is_some())
+                })
+            })
             .collect();
         files.sort();
         if files.is_empty() {
             bail!(
-                "camera {name}: no images (png, jpg, bmp, tif) in {}",
-                dir.display()
+                "camera {name}: no images (png, jpg, bmp, tif) {} {}",
+                if pattern.is_some() { "match" } else { "in" },
+                given.display()
+            );
+        }
+        if let Some(other) = out.iter().find(|c| c.files == files) {
+            bail!(
+                "--images: cameras {} and {name} are given the same images ({}); each camera needs its own (a folder each, or a pattern each: left=DIR/left*.jpg right=DIR/right*.jpg)",
+                other.name,
+                given.display()
             );
         }
         out.push(CameraImages {
             name: name.to_string(),
             files,
+            pattern,
         });
     }
     Ok(out)
@@ -343,7 +434,7 @@ fn world_frame(
         reference
             .views
             .iter()
-            .find(|v| stem(&v.name) == image)
+            .find(|v| stem(&v.name) == image || cameras[0].instant(&v.name) == image)
             .map(|v| v.board_pose())
             .with_context(|| {
                 format!(
