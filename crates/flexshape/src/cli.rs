@@ -646,9 +646,12 @@ impl From<MethodArg> for flexshape_fit::Method {
 
 #[derive(Debug, Args)]
 pub struct SilhouettesArgs {
-    /// Recording folder.
-    pub recording: PathBuf,
-    /// Frame number.
+    /// Where the frame comes from (a recording, or image/mask folders, videos, cameras with
+    /// --rig and --backgrounds, as for track).
+    #[command(flatten)]
+    pub frames: FramesArgs,
+    /// Frame number (a recording's NNNNNN), or the frame's position in the input counted from
+    /// 0 (folders, videos).
     #[arg(long, default_value_t = 0)]
     pub frame: u64,
     /// Write masks and debug overlays (camK_object.png, camK_markers.png, camK_debug.png, and

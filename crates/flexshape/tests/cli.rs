@@ -237,6 +237,30 @@ fn background_and_silhouettes_commands() {
     let o = flexshape(&["silhouettes", rec.to_str().unwrap(), "--frame", "7"]);
     assert!(!o.status.success());
     assert!(text(&o).contains("no frame 000007"), "{}", text(&o));
+    // The same frame from plain image folders (a rig being set up has no recording yet).
+    let folder = |c: &str| format!("{c}={}", rec.join("frames").join(c).display());
+    let o = flexshape(&[
+        "silhouettes",
+        "--images",
+        &folder("cam0"),
+        "--images",
+        &folder("cam1"),
+        "--images",
+        &folder("cam2"),
+        "--rig",
+        rec.join("rig.toml").to_str().unwrap(),
+        "--backgrounds",
+        rec.join("background").to_str().unwrap(),
+        "--frame",
+        "1",
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("frame 000001 (000001)") && t.contains("shape: ok"),
+        "{t}"
+    );
+    assert_eq!(t.matches("outline ").count(), 3, "{t}");
     // A background model from several frames of the empty scene.
     let frames = dir.path().join("bg");
     std::fs::create_dir(&frames).unwrap();

@@ -1,70 +1,89 @@
-//! `flexshape silhouettes`: one recorded frame's silhouettes, reported and optionally drawn.
+//! `flexshape silhouettes`: one frame's silhouettes and fitted tube, reported and optionally
+//! drawn — from a recording or any input `track` takes.
 
 use std::time::Instant;
 
 use anyhow::{Context, bail};
 use flexshape_fit::debug_image as fit_debug_image;
 use flexshape_recording::RecordingReader;
-use flexshape_silhouette::{
-    BackgroundModel, BitMask, SilhouetteSettings, Silhouetter, debug_image,
-};
-use flexshape_track::{Pipeline, TrackRecord};
+use flexshape_rig::Rig;
+use flexshape_silhouette::{BitMask, debug_image};
+use flexshape_track::{Pipeline, TrackRecord, Tracked};
 
+use super::frames;
 use crate::cli::SilhouettesArgs;
 
 pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
-    let rec = RecordingReader::open(&args.recording)
-        .with_context(|| format!("cannot open the recording {}", args.recording.display()))?;
-    for s in rec.skipped_files() {
-        eprintln!("warning: {s}");
+    let mut input = frames::open_input(&args.frames)?;
+    let volume = frames::volume(&input.rig.volume, &args.frames)?;
+    let pipeline = match &input.backgrounds {
+        Some(b) => Pipeline::new(&input.rig, b, &volume),
+        None => Pipeline::for_masks(&input.rig, &volume),
     }
-    if !rec.frames().contains(&args.frame) {
-        bail!(
-            "{}: no frame {:06} (frames {} to {})",
-            args.recording.display(),
-            args.frame,
-            rec.frames()
-                .first()
-                .map_or("none".into(), |f| format!("{f:06}")),
-            rec.frames()
-                .last()
-                .map_or("none".into(), |f| format!("{f:06}"))
-        );
+    .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
+    // The frame asked for: by number in a recording, by position elsewhere.
+    let numbered = args.frames.recording.is_some();
+    let mut position = 0u64;
+    let set = loop {
+        let Some(next) = input.source.next_frame() else {
+            bail!(
+                "the input has no frame {:06} ({} frames{})",
+                args.frame,
+                position,
+                if numbered { "" } else { ", counted from 0" }
+            );
+        };
+        let set = next.with_context(|| format!("frame {position}"))?;
+        let wanted = if numbered { set.frame } else { position };
+        position += 1;
+        if wanted == args.frame {
+            break set;
+        }
+    };
+    let (frame, name) = (set.frame, set.name.clone());
+    let (images, warnings) = pipeline.load(set.images).map_err(|e| anyhow::anyhow!(e))?;
+    for w in warnings {
+        eprintln!("warning: {w}");
     }
     if let Some(out) = &args.out {
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     }
-    println!("frame {:06} of {}", args.frame, args.recording.display());
-    let mut models = Vec::new();
-    let mut frames = Vec::new();
-    for (i, cam) in rec.rig().cameras.iter().enumerate() {
-        let bg_path = rec.layout().background(&cam.name);
-        let model = BackgroundModel::load(&bg_path).with_context(|| {
-            format!(
-                "camera {}: a silhouette needs its background image {}",
-                cam.name,
-                bg_path.display()
-            )
-        })?;
-        let settings = SilhouetteSettings::from_processing(&rec.rig().processing, &cam.name)
-            .with_context(|| format!("{}: camera {}", rec.layout().rig().display(), cam.name))?;
-        let sil =
-            Silhouetter::new(&model, settings).with_context(|| format!("camera {}", cam.name))?;
-        let frame = rec.read_frame(i, args.frame)?;
-        let t = Instant::now();
-        let s = sil
-            .process(&frame)
-            .with_context(|| format!("camera {} frame {:06}", cam.name, args.frame))?;
-        let ms = t.elapsed().as_secs_f64() * 1e3;
-        let truth = match rec.read_truth_mask(i, args.frame)? {
-            Some(mask) => format!(
+    println!(
+        "frame {frame:06}{}",
+        name.map(|n| format!(" ({n})")).unwrap_or_default()
+    );
+    let truth = args
+        .frames
+        .recording
+        .as_ref()
+        .map(|r| RecordingReader::open(r))
+        .transpose()?;
+    let refs: Vec<&image::RgbImage> = images.iter().collect();
+    let t = Instant::now();
+    let tracked = pipeline
+        .process(&refs)
+        .with_context(|| format!("frame {frame:06}"))?;
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    for (i, (cam, s)) in input
+        .rig
+        .cameras
+        .iter()
+        .zip(&tracked.silhouettes)
+        .enumerate()
+    {
+        let truth = match truth
+            .as_ref()
+            .map(|r| r.read_truth_mask(i, frame))
+            .transpose()?
+        {
+            Some(Some(mask)) => format!(
                 "  IoU vs truth {:.4}",
                 s.object.iou(&BitMask::from_gray(&mask))
             ),
-            None => String::new(),
+            _ => String::new(),
         };
         println!(
-            "  {:<8} {:?}: {} object px in {} component(s), {} marker px, {ms:.2} ms{truth}",
+            "  {:<8} {:?}: {} object px in {} component(s), {} marker px{truth}",
             cam.name,
             s.status,
             s.object.count(),
@@ -87,35 +106,29 @@ pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
             )?;
             save(
                 format!("{}_debug.png", cam.name),
-                debug_image(&frame, &s).into(),
+                debug_image(&images[i], s).into(),
             )?;
         }
-        models.push(model);
-        frames.push(frame);
     }
-    fitted(&rec, &models, &frames, args)?;
+    println!("  (the whole chain: {ms:.1} ms)");
+    fitted(&pipeline, &input.rig, &refs, &tracked, frame, args)?;
     if let Some(out) = &args.out {
         println!("debug images written to {}", out.display());
     }
     Ok(())
 }
 
-/// The whole chain on the frame: the shape's status, how well the fitted tube explains each
-/// camera, and (with `--out`) `camK_fit.png` showing it.
+/// The shape's status, how well the fitted tube explains each camera, and (with `--out`)
+/// `camK_fit.png` showing it.
 fn fitted(
-    rec: &RecordingReader,
-    models: &[BackgroundModel],
-    frames: &[image::RgbImage],
+    pipeline: &Pipeline,
+    rig: &Rig,
+    images: &[&image::RgbImage],
+    t: &Tracked,
+    frame: u64,
     args: &SilhouettesArgs,
 ) -> anyhow::Result<()> {
-    let rig = rec.rig();
-    let pipeline = Pipeline::new(rig, models, &rig.volume)
-        .with_context(|| format!("{}", rec.layout().rig().display()))?;
-    let images: Vec<&image::RgbImage> = frames.iter().collect();
-    let t = pipeline
-        .process(&images)
-        .with_context(|| format!("frame {:06}", args.frame))?;
-    let record = TrackRecord::from_tracked(args.frame, &t);
+    let record = TrackRecord::from_tracked(frame, t);
     println!(
         "shape: {}{} ({} method)",
         record.status,
@@ -146,18 +159,13 @@ fn fitted(
     let Some(out) = &args.out else {
         return Ok(());
     };
-    let views = pipeline.views(&images, &t.silhouettes);
+    let views = pipeline.views(images, &t.silhouettes);
     let outlines = pipeline.fitter().outline_residuals(&views, &fit.tube)?;
     for (i, cam) in rig.cameras.iter().enumerate() {
         let Some(rendered) = pipeline.fitter().render(i, &fit.tube) else {
             continue;
         };
-        let img = fit_debug_image(
-            &frames[i],
-            &outlines[i],
-            &rendered,
-            &t.silhouettes[i].object,
-        );
+        let img = fit_debug_image(images[i], &outlines[i], &rendered, &t.silhouettes[i].object);
         let path = out.join(format!("{}_fit.png", cam.name));
         img.save(&path)
             .with_context(|| format!("cannot write {}", path.display()))?;
