@@ -7,7 +7,10 @@ use anyhow::{Context, bail};
 use flexshape_fit::debug_image as fit_debug_image;
 use flexshape_recording::RecordingReader;
 use flexshape_rig::Rig;
-use flexshape_silhouette::{BitMask, debug_image};
+use flexshape_silhouette::{
+    BackgroundModel, BitMask, Classifier, SilhouetteSettings, SilhouetteStatus, Silhouetter,
+    debug_image,
+};
 use flexshape_track::{Pipeline, TrackRecord, Tracked};
 
 use super::frames;
@@ -111,9 +114,69 @@ pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
         }
     }
     println!("  (the whole chain: {ms:.1} ms)");
+    if let Some(backgrounds) = &input.backgrounds {
+        compare_classifiers(&input.rig, backgrounds, &images, &tracked)?;
+    }
     fitted(&pipeline, &input.rig, &refs, &tracked, frame, args)?;
     if let Some(out) = &args.out {
         println!("debug images written to {}", out.display());
+    }
+    Ok(())
+}
+
+/// Every classifier's silhouette of each camera's frame (object share, components), and a
+/// suggestion where the rig's classifier gives an implausible one and another would not.
+fn compare_classifiers(
+    rig: &Rig,
+    backgrounds: &[BackgroundModel],
+    images: &[image::RgbImage],
+    tracked: &Tracked,
+) -> anyhow::Result<()> {
+    let kinds = [
+        ("colour_shadow", Classifier::colour_shadow()),
+        ("green_matte", Classifier::green_matte()),
+        ("difference", Classifier::Difference(Default::default())),
+    ];
+    println!("classifiers on this frame (object share of the image, components):");
+    for (i, cam) in rig.cameras.iter().enumerate() {
+        let settings = SilhouetteSettings::from_processing(&rig.processing, &cam.name)
+            .with_context(|| format!("camera {}", cam.name))?;
+        let pixels = (images[i].width() * images[i].height()) as f64;
+        let mut row = Vec::new();
+        let mut best: Option<(&str, f64)> = None;
+        for (kind, classifier) in &kinds {
+            let trial = SilhouetteSettings {
+                classifier: classifier.clone(),
+                ..settings.clone()
+            };
+            let s = Silhouetter::new(&backgrounds[i], trial)
+                .and_then(|sil| sil.process(&images[i]))
+                .with_context(|| format!("camera {}", cam.name))?;
+            let share = s.object.count() as f64 / pixels;
+            row.push(format!("{kind} {:.2} % ({})", 100.0 * share, s.components));
+            // Plausible: something, one component, well under the limit.
+            let plausible =
+                s.components == 1 && share > 0.0 && share < settings.max_foreground / 5.0;
+            if plausible && best.is_none_or(|(_, b)| share < b) {
+                best = Some((kind, share));
+            }
+        }
+        println!("  {:<8} {}", cam.name, row.join(", "));
+        let own = &tracked.silhouettes[i];
+        let own_share = own.object.count() as f64 / pixels;
+        let implausible = matches!(
+            own.status,
+            SilhouetteStatus::Implausible { .. } | SilhouetteStatus::NoObject
+        ) || own.components > 1
+            || own_share >= settings.max_foreground / 5.0;
+        if let (true, Some((kind, _))) = (implausible, best) {
+            println!(
+                "  suggestion for {0}: its silhouette looks wrong ({1:.1} % of the image in {2} component(s)); try in the rig file:\n    [processing.silhouette.per_camera.{0}]\n    classifier = {{ kind = \"{kind}\" }}",
+                cam.name,
+                100.0 * own_share,
+                own.components
+            );
+        }
     }
     Ok(())
 }
