@@ -480,7 +480,7 @@ pub struct TrackArgs {
     /// Start each frame's fit from the previous frame's shape when that one was right, and
     /// carve only when it does not explain the images (tracking, `[processing.fit] track`):
     /// faster for slow, smooth motion; such records have `start` = `previous`, `voxels` 0 and
-    /// no `ghost_mm`. Needs three cameras or more.
+    /// no `ghost_mm`. Needs two cameras or more.
     #[arg(long)]
     pub follow: bool,
     /// Frames processed at once (default: the number of cores).

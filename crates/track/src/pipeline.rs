@@ -388,11 +388,12 @@ impl Pipeline {
     }
 
     /// Whether frames may start from an earlier frame's shape: the fit is on, its `track`
-    /// setting too, and at least three cameras see the tube (with two, only the hull shows
-    /// ghosts).
+    /// setting too, and at least two cameras see the tube. (With two, a followed fit starts
+    /// from a right shape and moves a few millimetres at most, so the ghosts the two views
+    /// allow elsewhere — which only the hull shows — never take it.)
     pub fn tracks(&self) -> bool {
         let s = self.fitter.settings();
-        s.method == Method::Fit && s.track && self.cameras.len() >= 3
+        s.method == Method::Fit && s.track && self.cameras.len() >= 2
     }
 
     /// One frame (one image per camera, in the rig's order), started from `prior` when there

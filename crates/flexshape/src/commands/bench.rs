@@ -237,7 +237,7 @@ fn print_table(r: &Report) {
             100.0 * r.tracking[1].followed.unwrap_or(0.0)
         );
     } else {
-        println!("\ntracking: off (the rig needs three cameras or more, and the fit's `track` on)");
+        println!("\ntracking: off (the rig needs two cameras or more, and the fit's `track` on)");
     }
     println!(
         "\nPNG decoding, not included above: {:.2} ms per camera frame",
