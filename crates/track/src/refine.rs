@@ -13,7 +13,7 @@ use flexshape_shape::Status;
 use image::RgbImage;
 use rayon::prelude::*;
 
-use crate::{Pipeline, TrackError};
+use crate::{Pipeline, TrackError, Tracked};
 
 /// Outline residuals of one camera over the frames used.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -185,34 +185,35 @@ pub fn refine_cameras(
     };
     let mut tracked = track(pipeline)?;
     let right_before = tracked.iter().filter(|t| t.shape.status.is_right()).count();
-    let mut first: Option<Vec<usize>> = None;
-    let mut before = Tally::new(names.len());
-    let mut current = pipeline.clone();
-    let mut steps = 0;
-    let mut sigma_mm = vec![0.0; names.len()];
-    for _ in 0..PASSES {
-        // The usable frames and their fits.
-        let (kept, fits): (Vec<usize>, Vec<&Fit>) = tracked
+    // The usable frames and their fits.
+    let usable_frames = |tracked: &[Tracked]| -> (Vec<usize>, Vec<Tube>) {
+        tracked
             .iter()
             .enumerate()
             .filter_map(|(i, t)| {
                 let fit = t.fit.as_ref().filter(|f| usable(f, &t.shape.status))?;
-                Some((i, fit))
+                Some((i, fit.tube.clone()))
             })
-            .unzip();
-        if first.is_none() {
-            if kept.len() < MIN_FRAMES {
-                return Err(TrackError::Refine(format!(
-                    "{} of {} frames have a fitted tube that every camera sees along most of its outline; at least {MIN_FRAMES} are needed (track the recording to see why frames fail: a tube that leaves a view, a camera off by more than the fit's search_px)",
-                    kept.len(),
-                    frames.len()
-                )));
-            }
-            for fit in &fits {
-                before.add(fit);
-            }
-            first = Some(kept.clone());
-        }
+            .unzip()
+    };
+    // The residuals are compared over the frames used at first.
+    let (first, _) = usable_frames(&tracked);
+    if first.len() < MIN_FRAMES {
+        return Err(TrackError::Refine(format!(
+            "{} of {} frames have a fitted tube that every camera sees along most of its outline; at least {MIN_FRAMES} are needed (track the recording to see why frames fail: a tube that leaves a view, a camera off by more than the fit's search_px)",
+            first.len(),
+            frames.len()
+        )));
+    }
+    let mut before = Tally::new(names.len());
+    for fit in first.iter().filter_map(|&i| tracked[i].fit.as_ref()) {
+        before.add(fit);
+    }
+    let mut current = pipeline.clone();
+    let mut steps = 0;
+    let mut sigma_mm = vec![0.0; names.len()];
+    for _ in 0..PASSES {
+        let (kept, tubes) = usable_frames(&tracked);
         let images: Vec<Vec<&RgbImage>> =
             kept.iter().map(|&i| frames[i].iter().collect()).collect();
         let views: Vec<_> = kept
@@ -220,10 +221,9 @@ pub fn refine_cameras(
             .zip(&images)
             .map(|(&i, im)| current.views(im, &tracked[i].silhouettes))
             .collect();
-        let tubes: Vec<Tube> = fits.iter().map(|f| f.tube.clone()).collect();
         let bundle = current.fitter().bundle(&views, &tubes, hold, fit_radius)?;
         steps += bundle.steps;
-        sigma_mm = bundle.sigma_mm.clone();
+        sigma_mm = bundle.sigma_mm;
         let moved = largest_move(current.cameras(), &bundle.cameras);
         current = current.with_cameras(bundle.cameras)?;
         // The frames tracked from scratch with the refined poses, as `track` will: whole
@@ -234,12 +234,9 @@ pub fn refine_cameras(
         }
     }
     let right_after = tracked.iter().filter(|t| t.shape.status.is_right()).count();
-    // The residuals compared over the same frames as before.
     let mut after = Tally::new(names.len());
-    for &i in first.iter().flatten() {
-        if let Some(fit) = &tracked[i].fit {
-            after.add(fit);
-        }
+    for fit in first.iter().filter_map(|&i| tracked[i].fit.as_ref()) {
+        after.add(fit);
     }
     let cameras = current.cameras().to_vec();
     let rig_cameras = pipeline.cameras();
@@ -260,7 +257,7 @@ pub fn refine_cameras(
             })
             .collect(),
         frames: frames.len(),
-        used: first.map_or(0, |k| k.len()),
+        used: first.len(),
         right_before,
         right_after,
         steps,
