@@ -169,12 +169,10 @@ impl TubeFitter {
                 keep_scale(&mut cameras, &rig, hold);
                 let mut across = dp.amax();
                 for (tube, dt) in tubes.iter_mut().zip(&dts) {
-                    let n = dt.len();
-                    if n == 0 {
+                    if dt.is_empty() {
                         continue;
                     }
-                    tube.centerline.displace(&dt.rows(0, n - 1).into_owned());
-                    tube.radius = (tube.radius + dt[n - 1]).max(0.05);
+                    tube.apply(dt);
                     across = across.max(crate::across_tube(tube, dt));
                 }
                 steps += 1;

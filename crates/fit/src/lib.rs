@@ -245,8 +245,7 @@ impl TubeFitter {
                 }
                 let n = step.len();
                 let across = across_tube(&tube, &step).max(step[n - 1].abs());
-                tube.centerline.displace(&step.rows(0, n - 1).into_owned());
-                tube.radius = (tube.radius + step[n - 1]).max(0.05);
+                tube.apply(&step);
                 normal = Some(eq);
                 iterations += 1;
                 if inner == 0 && across < SETTLED_MM {

@@ -67,6 +67,14 @@ impl Tube {
         3 * self.centerline.control().len() + 1
     }
 
+    /// Moves the tube by a parameter step (control points, then the radius, as
+    /// [`Tube::parameters`] counts them; mm); the radius stays above 0.05 mm.
+    pub(crate) fn apply(&mut self, step: &nalgebra::DVector<f64>) {
+        let n = step.len();
+        self.centerline.displace(&step.rows(0, n - 1).into_owned());
+        self.radius = (self.radius + step[n - 1]).max(0.05);
+    }
+
     /// Unit direction of the control polygon at control point `k` (from its neighbour before
     /// to its neighbour after): the direction along the tube in which moving that point
     /// hardly moves the outline.
