@@ -125,60 +125,46 @@ impl FitSettings {
         Ok(settings)
     }
 
-    /// Checks every value's range.
+    /// Checks every value's range: the ranges in `docs/formats.md`, wide enough for any rig,
+    /// narrow enough that no value makes the fit allocate without bound (a 0.001 mm control
+    /// point spacing asked for 432 GB) or run forever.
     pub fn validate(&self) -> Result<(), FitError> {
-        let positive = [
-            ("span_mm", self.span_mm),
-            ("spacing_mm", self.spacing_mm),
-            ("search_px", self.search_px),
-            ("huber_px", self.huber_px),
-            ("max_residual_px", self.max_residual_px),
-            ("max_p90_px", self.max_p90_px),
+        let ranges = [
+            ("span_mm", self.span_mm, 2.0, 1000.0),
+            ("spacing_mm", self.spacing_mm, 0.05, 50.0),
+            ("search_px", self.search_px, 0.5, 12.0),
+            ("huber_px", self.huber_px, 0.01, 100.0),
+            ("max_residual_px", self.max_residual_px, 0.01, 100.0),
+            ("max_p90_px", self.max_p90_px, 0.01, 100.0),
+            ("min_contrast", self.min_contrast, 0.0, 765.0),
+            ("extend_mm", self.extend_mm, 0.0, 1000.0),
+            ("slide_prior", self.slide_prior, 0.0, 1e6),
+            ("end_anchor", self.end_anchor, 0.0, 1e6),
+            ("max_ghost_mm", self.max_ghost_mm, 0.0, 1e5),
+            ("max_sigma_mm", self.max_sigma_mm, 0.0, 1e3),
+            ("track_margin_px", self.track_margin_px, 0.0, 1000.0),
+            ("track_max_move_mm", self.track_max_move_mm, 0.0, 1000.0),
+            ("min_found", self.min_found, 0.0, 1.0),
+            ("min_iou", self.min_iou, 0.0, 1.0),
         ];
-        for (field, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
+        for (field, v, lo, hi) in ranges {
+            if !(v.is_finite() && (lo..=hi).contains(&v)) {
                 return Err(FitError::Setting {
                     field,
-                    problem: format!("{v} must be a positive number"),
+                    problem: format!("{v} is outside {lo}–{hi}"),
                 });
             }
         }
-        let non_negative = [
-            ("min_contrast", self.min_contrast),
-            ("extend_mm", self.extend_mm),
-            ("slide_prior", self.slide_prior),
-            ("end_anchor", self.end_anchor),
-            ("max_ghost_mm", self.max_ghost_mm),
-            ("max_sigma_mm", self.max_sigma_mm),
-            ("track_margin_px", self.track_margin_px),
-            ("track_max_move_mm", self.track_max_move_mm),
-        ];
-        for (field, v) in non_negative {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(FitError::Setting {
-                    field,
-                    problem: format!("{v} must be zero or more"),
-                });
-            }
-        }
-        for (field, v) in [("min_found", self.min_found), ("min_iou", self.min_iou)] {
-            if !(0.0..=1.0).contains(&v) {
-                return Err(FitError::Setting {
-                    field,
-                    problem: format!("{v} must be between 0 and 1"),
-                });
-            }
-        }
-        if self.search_px > 12.0 {
+        if !(1..=1000).contains(&self.max_iterations) {
             return Err(FitError::Setting {
-                field: "search_px",
-                problem: format!("{} is more than 12 pixels", self.search_px),
+                field: "max_iterations",
+                problem: format!("{} is outside 1–1000", self.max_iterations),
             });
         }
-        if self.spacing_mm < 0.05 {
+        if self.max_unexplained_px > 100_000_000 || self.explain_px > 1000 {
             return Err(FitError::Setting {
-                field: "spacing_mm",
-                problem: "must be at least 0.05 mm".into(),
+                field: "max_unexplained_px / explain_px",
+                problem: "at most 10⁸ pixels / 1000 pixels".into(),
             });
         }
         Ok(())

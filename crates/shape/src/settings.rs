@@ -192,10 +192,15 @@ impl ShapeSettings {
                 ),
             );
         }
+        // The fit stands for the tube by spheres every half radius: a radius of a nanometre
+        // asked for 11 TB.
         if let Some(r) = self.radius_mm
-            && !(r.is_finite() && r > 0.0)
+            && !(r.is_finite() && (RADIUS_MM.0..=RADIUS_MM.1).contains(&r))
         {
-            return bad("radius_mm", format!("{r} must be > 0"));
+            return bad(
+                "radius_mm",
+                format!("{r} must be between {} and {} mm", RADIUS_MM.0, RADIUS_MM.1),
+            );
         }
         match self.smoothing {
             Smoothing::Spline { bandwidth_mm }
@@ -206,8 +211,13 @@ impl ShapeSettings {
                     format!("{bandwidth_mm} must be ≥ 0"),
                 );
             }
-            Smoothing::MovingAverage { window } if window == 0 || window % 2 == 0 => {
-                return bad("smoothing.window", format!("{window} must be odd"));
+            Smoothing::MovingAverage { window }
+                if window == 0 || window % 2 == 0 || window > 999 =>
+            {
+                return bad(
+                    "smoothing.window",
+                    format!("{window} must be odd and at most 999"),
+                );
             }
             Smoothing::Polynomial { degree } if !(1..=20).contains(&degree) => {
                 return bad("smoothing.degree", format!("{degree} is outside 1..=20"));
@@ -243,6 +253,9 @@ impl ShapeSettings {
 
 /// The range of slice and sample spacings, mm.
 const SPACING_MM: (f64, f64) = (0.05, 20.0);
+
+/// The tube radius a rig may give, mm.
+const RADIUS_MM: (f64, f64) = (0.05, 100.0);
 
 #[cfg(test)]
 mod tests {

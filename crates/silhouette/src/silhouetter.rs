@@ -85,9 +85,7 @@ impl SilhouetteSettings {
         let settings: SilhouetteSettings = toml::Value::Table(merged)
             .try_into()
             .map_err(|e: toml::de::Error| setting(format!("{} (camera {camera})", e.message())))?;
-        settings.classifier.validate()?;
-        settings.markers.validate()?;
-        settings.validate_share()?;
+        settings.validate()?;
         Ok(settings)
     }
 }
@@ -115,7 +113,17 @@ impl SilhouetteSettings {
         }
     }
 
-    fn validate_share(&self) -> Result<(), SilhouetteError> {
+    /// Checks every value's range, as the rig file's reader and [`Silhouetter::new`] both do
+    /// (so `rig check` refuses what tracking would).
+    pub fn validate(&self) -> Result<(), SilhouetteError> {
+        self.classifier.validate()?;
+        self.markers.validate()?;
+        if self.close_radius > 16 {
+            return Err(SilhouetteError::Setting {
+                field: "close_radius",
+                problem: "must be at most 16 pixels".into(),
+            });
+        }
         if !(self.max_foreground > 0.0 && self.max_foreground <= 1.0) {
             return Err(SilhouetteError::Setting {
                 field: "max_foreground",
@@ -178,15 +186,7 @@ impl Silhouetter {
         background: &BackgroundModel,
         settings: SilhouetteSettings,
     ) -> Result<Self, SilhouetteError> {
-        settings.classifier.validate()?;
-        settings.markers.validate()?;
-        settings.validate_share()?;
-        if settings.close_radius > 16 {
-            return Err(SilhouetteError::Setting {
-                field: "close_radius",
-                problem: "must be at most 16 pixels".into(),
-            });
-        }
+        settings.validate()?;
         Ok(Silhouetter {
             prepared: Prepared::new(background, &settings.classifier),
             settings,
