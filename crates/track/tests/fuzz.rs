@@ -1,6 +1,7 @@
 //! Mutation fuzzing of everything a user hands the tracker as a file: camera files (YAML and
 //! JSON), rig files with every stage's settings (parsed, then checked as `track` and `rig check`
-//! do), frames (PNG decoding with the size check) and a recording's `timestamps.csv`. Valid
+//! do), frames (PNG decoding with the size check), a recording's `timestamps.csv`, and the
+//! records and model frames `model fit` and `track --model-frame` read back. Valid
 //! seeds are mutated (bytes flipped, inserted, deleted, duplicated; tokens such as `1e308`,
 //! `.nan`, `-0`, `[[cameras]]` spliced in) by a seeded generator; every input must give a
 //! value or an error, never a panic.
@@ -14,7 +15,7 @@ use std::path::Path;
 
 use flexshape_recording::RecordingReader;
 use flexshape_rig::{Rig, camera_file, files};
-use flexshape_track::Pipeline;
+use flexshape_track::{ModelFrame, Pipeline, TrackRecord};
 
 /// Tokens spliced into inputs: special numbers, syntax, and keys the readers look for.
 const TOKENS: &[&str] = &[
@@ -276,4 +277,30 @@ fn timestamps_never_panic() {
         std::fs::write(root.join("timestamps.csv"), b).unwrap();
         let _ = reader.read_timestamps();
     });
+}
+
+#[test]
+fn records_and_model_frames_never_panic() {
+    // What `model fit` and `track --model-frame` read back: a record line, a model frame.
+    let record = br#"{"frame":3,"status":"ok","centerline":[[0.0,0.0,-128.0],[0.5,0.0,-20.0]],"tip":[0.5,0.0,-20.0],"tip_direction":[0.0,0.0,1.0],"arc_length":108.0,"bands":[{"position":[0.0,0.0,-60.0],"arc_length":68.0}],"arc_fit":{"curvature":0.012,"base":[0.0,0.0,-60.0],"base_tangent":[0.0,0.0,1.0],"bend_direction":[1.0,0.0,0.0],"residual_mm":0.01,"length":40.0},"voxels":0,"timings_ms":{"silhouettes":1.0,"carve":0.0,"bands":0.0,"shape":0.0},"curvature":[0.0,0.012],"tendon_displacements":[0.1,-0.2,0.3],"role":"pose"}"#;
+    let frame = br#"{"rotation":[[1.0,0.0,0.0],[0.0,1.0,0.0],[0.0,0.0,1.0]],"reference_base":[0.0,0.0,-60.0],"residual_deg":[0.1,0.2]}"#;
+    let good: ModelFrame = serde_json::from_slice(frame).unwrap();
+    let seed: TrackRecord = serde_json::from_slice(record).unwrap();
+    assert!(seed.with_model_frame(&good).arc_fit.unwrap().kappa_x.is_some());
+    fuzz(
+        "record + model frame JSON",
+        &[record.to_vec(), frame.to_vec()],
+        6,
+        |b| {
+            if let Ok(r) = serde_json::from_slice::<TrackRecord>(b) {
+                let _ = r.with_model_frame(&good);
+            }
+            if let Ok(f) = serde_json::from_slice::<ModelFrame>(b)
+                && f.validate().is_ok()
+            {
+                let r: TrackRecord = serde_json::from_slice(record).unwrap();
+                let _ = r.with_model_frame(&f);
+            }
+        },
+    );
 }
