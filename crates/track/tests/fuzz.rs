@@ -144,8 +144,13 @@ fn execs() -> usize {
         .unwrap_or(2_000)
 }
 
+/// One fuzz run at a time: each silences the panic hook while it runs, and two interleaved
+/// would leave it silenced for the rest of the test binary.
+static HOOK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Runs `target` on mutants of `seeds`; fails naming the first input that panics.
 fn fuzz(name: &str, seeds: &[Vec<u8>], seed: u64, target: impl Fn(&[u8])) {
+    let _one_at_a_time = HOOK.lock().unwrap_or_else(|e| e.into_inner());
     let mut rng = Rng(seed);
     let n = execs();
     let start = std::time::Instant::now();
@@ -286,7 +291,13 @@ fn records_and_model_frames_never_panic() {
     let frame = br#"{"rotation":[[1.0,0.0,0.0],[0.0,1.0,0.0],[0.0,0.0,1.0]],"reference_base":[0.0,0.0,-60.0],"residual_deg":[0.1,0.2]}"#;
     let good: ModelFrame = serde_json::from_slice(frame).unwrap();
     let seed: TrackRecord = serde_json::from_slice(record).unwrap();
-    assert!(seed.with_model_frame(&good).arc_fit.unwrap().kappa_x.is_some());
+    assert!(
+        seed.with_model_frame(&good)
+            .arc_fit
+            .unwrap()
+            .kappa_x
+            .is_some()
+    );
     fuzz(
         "record + model frame JSON",
         &[record.to_vec(), frame.to_vec()],
