@@ -6,7 +6,8 @@ use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
-use flexshape_viewer::{Limits, Scene, Viewer};
+use flexshape_track::{Processed, TrackRecord};
+use flexshape_viewer::{Limits, Scene, Stats, Update, Viewer};
 use futures_util::{SinkExt, StreamExt};
 use tokio_tungstenite::tungstenite::Message;
 
@@ -114,4 +115,91 @@ async fn a_websocket_answers_pings_stays_while_quiet_and_ends_on_close() {
     })
     .await;
     assert!(ended.is_ok(), "the viewer ended the socket on our close");
+}
+
+/// A frame of camera noise (it compresses badly: every frame is several hundred kilobytes).
+fn noisy_update(frame: u64) -> Update {
+    let mut state = 0x9E37_79B9_7F4A_7C15u64 ^ frame;
+    let image = image::RgbImage::from_fn(1024, 768, |_, _| {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        image::Rgb([state as u8, (state >> 8) as u8, (state >> 16) as u8])
+    });
+    let processed = Processed {
+        frame,
+        name: None,
+        command: None,
+        truth: None,
+        warnings: Vec::new(),
+        images: vec![image],
+        result: Err("no shape in this test".into()),
+        captured: Instant::now(),
+        latency_ms: 1.0,
+        dropped: 0,
+        capture_time: None,
+        processed_s: None,
+    };
+    Update::new(
+        processed,
+        TrackRecord::error(frame, "test".into()),
+        Stats::default(),
+    )
+}
+
+#[test]
+fn a_browser_that_stops_reading_is_let_go() {
+    let limits = Limits {
+        connections: 1,
+        idle: Duration::from_millis(400),
+    };
+    let viewer = Viewer::start_with("127.0.0.1:0", false, scene(), limits).unwrap();
+    let addr = viewer.addr();
+    // A WebSocket that is opened, then never read: the viewer's sends fill the socket.
+    let mut stalled = TcpStream::connect(addr).unwrap();
+    let handshake = format!(
+        "GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n",
+        addr.port()
+    );
+    stalled.write_all(handshake.as_bytes()).unwrap();
+    let health = || {
+        let mut s = TcpStream::connect(addr).ok()?;
+        s.set_read_timeout(Some(Duration::from_secs(2))).ok()?;
+        let request = format!(
+            "GET /health HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nConnection: close\r\n\r\n",
+            addr.port()
+        );
+        s.write_all(request.as_bytes()).ok()?;
+        let mut reply = String::new();
+        s.read_to_string(&mut reply).ok()?;
+        reply.starts_with("HTTP/1.1 200").then_some(())
+    };
+    // While it holds the only place, others are turned away…
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(
+        health().is_none(),
+        "the stalled socket holds the only place"
+    );
+    // …until its sends stall for the idle time: then it is closed and the place is free.
+    let start = Instant::now();
+    let mut frame = 0;
+    let freed = loop {
+        viewer.publish(noisy_update(frame));
+        frame += 1;
+        std::thread::sleep(Duration::from_millis(50));
+        if start.elapsed() > Duration::from_secs(1) && health().is_some() {
+            break true;
+        }
+        if start.elapsed() > Duration::from_secs(30) {
+            break false;
+        }
+    };
+    assert!(
+        freed,
+        "the stalled browser still holds its place after 30 s"
+    );
+    println!(
+        "let go after {:.1} s and {frame} frames",
+        start.elapsed().as_secs_f64()
+    );
 }
