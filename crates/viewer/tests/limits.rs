@@ -2,22 +2,16 @@
 //! never crowds out the file descriptors tracking needs, and a WebSocket answers pings and
 //! ends on the browser's close.
 
+mod common;
+
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
-use flexshape_track::{Processed, TrackRecord};
-use flexshape_viewer::{Limits, Scene, Stats, Update, Viewer};
+use common::{scene, update};
+use flexshape_viewer::{Limits, Update, Viewer};
 use futures_util::{SinkExt, StreamExt};
 use tokio_tungstenite::tungstenite::Message;
-
-fn scene() -> Scene {
-    Scene {
-        cameras: vec!["cam0".into()],
-        volume: [-128.0, -128.0, -128.0, 128.0, 128.0, 128.0],
-        voxel: 1.0,
-    }
-}
 
 /// Whether the server closes `s` within `within` (reading end of stream or a reset).
 fn closed_within(s: &mut TcpStream, within: Duration) -> bool {
@@ -126,25 +120,7 @@ fn noisy_update(frame: u64) -> Update {
         state ^= state << 17;
         image::Rgb([state as u8, (state >> 8) as u8, (state >> 16) as u8])
     });
-    let processed = Processed {
-        frame,
-        name: None,
-        command: None,
-        truth: None,
-        warnings: Vec::new(),
-        images: vec![image],
-        result: Err("no shape in this test".into()),
-        captured: Instant::now(),
-        latency_ms: 1.0,
-        dropped: 0,
-        capture_time: None,
-        processed_s: None,
-    };
-    Update::new(
-        processed,
-        TrackRecord::error(frame, "test".into()),
-        Stats::default(),
-    )
+    update(frame, image)
 }
 
 #[test]

@@ -1,45 +1,20 @@
 //! Browsers get the newest frame, never a backlog: frames published faster than they are
 //! encoded and sent are skipped, and a browser connecting late starts from the newest.
 
+mod common;
+
 use std::time::{Duration, Instant};
 
-use flexshape_track::{Processed, TrackRecord};
-use flexshape_viewer::{Scene, Stats, Update, Viewer};
+use flexshape_viewer::Viewer;
 use futures_util::StreamExt;
 use tokio_tungstenite::tungstenite::Message;
 
-fn update(frame: u64) -> Update {
-    let processed = Processed {
-        frame,
-        name: None,
-        command: None,
-        truth: None,
-        warnings: Vec::new(),
-        images: vec![image::RgbImage::new(64, 48)],
-        result: Err("no shape in this test".into()),
-        captured: Instant::now(),
-        latency_ms: 1.0,
-        dropped: 0,
-        capture_time: None,
-        processed_s: None,
-    };
-    let stats = Stats {
-        frames: frame as usize + 1,
-        ..Stats::default()
-    };
-    Update::new(processed, TrackRecord::error(frame, "test".into()), stats)
-}
-
 #[tokio::test]
 async fn a_late_browser_starts_from_the_newest_frame_and_skips_the_backlog() {
-    let scene = Scene {
-        cameras: vec!["cam0".into()],
-        volume: [-128.0, -128.0, -128.0, 128.0, 128.0, 128.0],
-        voxel: 1.0,
-    };
+    let scene = common::scene();
     let viewer = Viewer::start("127.0.0.1:0", false, scene).unwrap();
     for frame in 0..500 {
-        viewer.publish(update(frame));
+        viewer.publish(common::update(frame, image::RgbImage::new(64, 48)));
     }
     let url = format!("ws://{}/ws", viewer.addr());
     let (mut socket, _) = tokio_tungstenite::connect_async(url).await.unwrap();

@@ -1,10 +1,12 @@
 //! The viewer shows the cameras: it answers its own page only — a foreign `Host` (DNS
 //! rebinding) or `Origin` (another web page's script) gets 403.
 
+mod common;
+
 use std::io::{Read, Write};
 use std::net::TcpStream;
 
-use flexshape_viewer::{Scene, Viewer};
+use flexshape_viewer::Viewer;
 
 /// The status code of a request with these headers.
 fn status(addr: std::net::SocketAddr, path: &str, headers: &[&str]) -> u16 {
@@ -27,11 +29,7 @@ fn status(addr: std::net::SocketAddr, path: &str, headers: &[&str]) -> u16 {
 
 #[test]
 fn foreign_hosts_and_origins_are_refused() {
-    let scene = Scene {
-        cameras: vec!["cam0".into()],
-        volume: [-128.0, -128.0, -128.0, 128.0, 128.0, 128.0],
-        voxel: 1.0,
-    };
+    let scene = common::scene();
     let viewer = Viewer::start("127.0.0.1:0", false, scene).unwrap();
     let addr = viewer.addr();
     let own = format!("Host: 127.0.0.1:{}", addr.port());

@@ -48,11 +48,9 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
             args.out.display()
         );
     }
-    let pipeline = match &input.backgrounds {
-        Some(b) => Pipeline::new(&input.rig, b, &volume),
-        None => Pipeline::for_masks(&input.rig, &volume),
-    }
-    .with_context(|| format!("cannot set up carving for {}", input.rig_name))?;
+    let pipeline = input
+        .pipeline(&volume)
+        .with_context(|| format!("cannot set up carving for {}", input.rig_name))?;
     let records = args.out.join("hull.jsonl");
     if records.exists() && !args.overwrite {
         bail!(

@@ -8,6 +8,7 @@ use flexshape_input::{FolderSource, FrameSource, LiveSource, RecordingSource, Vi
 use flexshape_recording::RecordingReader;
 use flexshape_rig::{Rig, Volume};
 use flexshape_silhouette::BackgroundModel;
+use flexshape_track::{Pipeline, TrackError};
 
 use crate::cli::FramesArgs;
 
@@ -23,6 +24,17 @@ pub struct Input {
     pub source: Box<dyn FrameSource>,
     /// Files and folders read: no output may replace them.
     pub files: Vec<PathBuf>,
+}
+
+impl Input {
+    /// The sensing chain for this input's rig and backgrounds carving `volume`: from images
+    /// against the background models, or from masks when the frames are masks.
+    pub fn pipeline(&self, volume: &Volume) -> Result<Pipeline, TrackError> {
+        match &self.backgrounds {
+            Some(b) => Pipeline::new(&self.rig, b, volume),
+            None => Pipeline::for_masks(&self.rig, volume),
+        }
+    }
 }
 
 /// Whether output `path` is `input` or lies inside it (compared as canonical paths; an

@@ -5,9 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flexshape_rig::{Rig, RigCamera};
-use flexshape_track::{
-    MAX_SIGMA_MM, OutlineResiduals, Pipeline, Refinement, Verdict, refine_cameras,
-};
+use flexshape_track::{MAX_SIGMA_MM, OutlineResiduals, Refinement, Verdict, refine_cameras};
 
 use super::frames;
 use crate::cli::RigRefineArgs;
@@ -51,11 +49,9 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
         );
     }
     super::rig_import::refuse_existing(&planned, args.overwrite)?;
-    let pipeline = match &input.backgrounds {
-        Some(b) => Pipeline::new(&input.rig, b, &volume),
-        None => Pipeline::for_masks(&input.rig, &volume),
-    }
-    .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
+    let pipeline = input
+        .pipeline(&volume)
+        .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
 
     let wanted = args.use_frames as usize;
     let stride = input

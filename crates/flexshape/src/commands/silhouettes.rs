@@ -19,11 +19,9 @@ use crate::cli::SilhouettesArgs;
 pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
     let mut input = frames::open_input(&args.frames)?;
     let volume = frames::volume(&input.rig.volume, &args.frames)?;
-    let pipeline = match &input.backgrounds {
-        Some(b) => Pipeline::new(&input.rig, b, &volume),
-        None => Pipeline::for_masks(&input.rig, &volume),
-    }
-    .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
+    let pipeline = input
+        .pipeline(&volume)
+        .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
     // The frame asked for: by number in a recording, by position elsewhere.
     let numbered = args.frames.recording.is_some();
     let mut position = 0u64;

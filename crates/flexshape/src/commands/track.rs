@@ -13,9 +13,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
-use flexshape_track::{
-    ModelFrame, Pipeline, Processed, SummaryLine, Tally, TrackRecord, TrackSummary,
-};
+use flexshape_track::{ModelFrame, Processed, SummaryLine, Tally, TrackRecord, TrackSummary};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
@@ -30,11 +28,8 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let volume = frames::volume(&input.rig.volume, &args.frames)?;
     frames::warn_unseen(&input.rig, &volume);
     input.files.extend(args.model_frame.clone());
-    let pipeline = match &input.backgrounds {
-        Some(backgrounds) => Pipeline::new(&input.rig, backgrounds, &volume),
-        None => Pipeline::for_masks(&input.rig, &volume),
-    };
-    let pipeline = pipeline
+    let pipeline = input
+        .pipeline(&volume)
         .and_then(|p| super::with_method(p, args.method))
         .and_then(|p| {
             let track = (args.follow || p.fit_settings().track) && args.ply.is_none();

@@ -1,0 +1,39 @@
+//! Shared by the viewer's tests.
+#![allow(dead_code)] // each test binary uses its own part
+
+use std::time::Instant;
+
+use flexshape_track::{Processed, TrackRecord};
+use flexshape_viewer::{Scene, Stats, Update};
+
+/// One camera, the default volume.
+pub fn scene() -> Scene {
+    Scene {
+        cameras: vec!["cam0".into()],
+        volume: [-128.0, -128.0, -128.0, 128.0, 128.0, 128.0],
+        voxel: 1.0,
+    }
+}
+
+/// Frame `frame` of one camera showing `image`, without a shape, as the runner hands it over.
+pub fn update(frame: u64, image: image::RgbImage) -> Update {
+    let processed = Processed {
+        frame,
+        name: None,
+        command: None,
+        truth: None,
+        warnings: Vec::new(),
+        images: vec![image],
+        result: Err("no shape in this test".into()),
+        captured: Instant::now(),
+        latency_ms: 1.0,
+        dropped: 0,
+        capture_time: None,
+        processed_s: None,
+    };
+    let stats = Stats {
+        frames: frame as usize + 1,
+        ..Stats::default()
+    };
+    Update::new(processed, TrackRecord::error(frame, "test".into()), stats)
+}
