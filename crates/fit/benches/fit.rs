@@ -76,7 +76,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             black_box(
                 fitter
-                    .follow(&estimator, &rig.volume, &next_views, &previous, None)
+                    .follow(&estimator, &rig.volume, &next_views, &previous, None, None)
                     .unwrap(),
             )
         })

@@ -394,10 +394,13 @@ impl TubeFitter {
     }
 
     /// The frame's shape from the images, started from an earlier frame's record (tracking):
-    /// its centerline (cut where it leaves the volume), radius and open ends. The ends stay
-    /// open or capped as they were and the proximal end stays where it was (the tube cannot
+    /// from `start` — that frame's fitted tube, or a prediction from it — when given and its
+    /// control points are still evenly spread along it, else through the record's centerline
+    /// (cut where it leaves the volume) again; its radius and open ends. The ends stay open
+    /// or capped as they were and the proximal end stays where it was (the tube cannot
     /// turn round between frames). No hull is carved, so nothing is said about ghosts
-    /// ([`Fit::ghost_mm`] is `None`); a fit that does not explain the images gets status
+    /// ([`Fit::ghost_mm`] is `None`); a fit that does not explain the images, or whose tip
+    /// moved more than `track_max_move_mm` from where it started, gets status
     /// `inconsistent`, and the caller then starts again from the hull. `radius` is the
     /// tube's, if known.
     pub fn follow(
@@ -406,6 +409,7 @@ impl TubeFitter {
         volume: &Volume,
         views: &[View<'_>],
         previous: &ShapeRecord,
+        start: Option<&Tube>,
         radius: Option<f64>,
     ) -> Result<(ShapeRecord, Option<Fit>), FitError> {
         let s = &self.settings;
@@ -414,15 +418,23 @@ impl TubeFitter {
             previous.enters_volume,
             previous.status == Status::LeavesVolume,
         ];
-        // Through the previous shape again, so that control points stay evenly spread.
-        let Ok(start) = Tube::through(
-            &previous.points,
-            r0,
-            open.map(|o| !o),
-            s.span_mm,
-            s.extend_mm,
-        ) else {
-            return Ok((previous.clone(), None));
+        let capped = open.map(|o| !o);
+        let given = start
+            .filter(|t| t.capped == capped && t.evenly_spread())
+            .cloned()
+            .map(|mut t| {
+                if radius.is_some() {
+                    t.radius = r0;
+                }
+                t
+            });
+        let start = match given {
+            Some(t) => t,
+            // Through the previous shape again, so that control points are evenly spread.
+            None => match Tube::through(&previous.points, r0, capped, s.span_mm, s.extend_mm) {
+                Ok(t) => t,
+                Err(_) => return Ok((previous.clone(), None)),
+            },
         };
         let from = start.frame(1.0).0;
         let fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
@@ -441,7 +453,7 @@ impl TubeFitter {
         if moved > s.track_max_move_mm {
             record.status = Status::Inconsistent {
                 reason: format!(
-                    "the tip moved {moved:.1} mm from the previous frame's (at most {:.1} for a followed fit)",
+                    "the tip moved {moved:.1} mm from where the previous frames put it (at most {:.1} for a followed fit)",
                     s.track_max_move_mm
                 ),
             };

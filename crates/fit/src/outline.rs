@@ -73,7 +73,8 @@ impl Sampled {
         let sides = (0..=n)
             .map(|i| {
                 let u = i as f64 / n as f64;
-                let basis = tube.centerline.basis(u);
+                // The Jacobian needs the values only, the frame the tangent.
+                let basis = tube.centerline.basis_to::<1>(u);
                 let at = tube.centerline.eval_basis(&basis);
                 let t = Vector3::from(at.d1);
                 (u, basis, Point3::from(at.value), t / t.norm().max(1e-300))
@@ -439,12 +440,15 @@ impl Grid {
 
     /// The spheres that may cover pixel `p`.
     fn near(&self, p: Vector2<f64>) -> &[u32] {
-        let x = (p.x / CELL).floor();
-        let y = (p.y / CELL).floor();
-        if x < 0.0 || y < 0.0 || x >= self.columns as f64 || y >= self.rows as f64 {
+        // Truncation is the floor for the positions kept (and no library call).
+        if !(p.x >= 0.0 && p.y >= 0.0) {
             return &[];
         }
-        let c = y as usize * self.columns + x as usize;
+        let (x, y) = ((p.x / CELL) as usize, (p.y / CELL) as usize);
+        if x >= self.columns || y >= self.rows {
+            return &[];
+        }
+        let c = y * self.columns + x;
         &self.members[self.starts[c] as usize..self.starts[c + 1] as usize]
     }
 }
@@ -555,25 +559,23 @@ impl Spheres {
 /// its vanishing point and would follow it for ever).
 pub(crate) const BEYOND_MM: f64 = 300.0;
 
-/// A sphere's centre, pixel and image radius (the largest of two offsets across the ray).
+/// A sphere's centre, pixel and image radius (the larger of two offsets of `r` across the ray,
+/// through the projection's Jacobian at the centre: to first order in `r` over the distance,
+/// a few thousandths of a pixel at the distances a tube is filmed from).
 pub(crate) fn sphere(
     camera: &Camera,
     c: Point3<f64>,
     r: f64,
 ) -> Option<(Point3<f64>, Vector2<f64>, f64)> {
-    let px = camera.project(&c).ok()?.pixel.coords;
+    let (proj, j) = camera.project_with_jacobian(&c).ok()?;
     let ray = (c - camera.centre()).normalize();
     let mut side = ray.cross(&Vector3::x());
     if side.norm() < 0.1 {
         side = ray.cross(&Vector3::y());
     }
     let side = side.normalize();
-    let radius = [side, ray.cross(&side)]
-        .iter()
-        .filter_map(|e| camera.project(&(c + e * r)).ok())
-        .map(|q| (q.pixel.coords - px).norm())
-        .fold(0.0, f64::max);
-    Some((c, px, radius))
+    let radius = (j * side).norm().max((j * ray.cross(&side)).norm()) * r;
+    Some((c, proj.pixel.coords, radius))
 }
 
 #[cfg(test)]

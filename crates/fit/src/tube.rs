@@ -85,11 +85,52 @@ impl Tube {
         t / t.norm().max(1e-12)
     }
 
+    /// Whether the control points are still about evenly spread along the tube: the inner
+    /// sides of the control polygon (the clamped ends' are shorter by design) within a factor
+    /// of 1.5 of each other. A tube moved from frame to frame lets them drift along it; one
+    /// fitted afresh through its centerline spreads them again.
+    pub fn evenly_spread(&self) -> bool {
+        let ctrl = self.centerline.control();
+        let n = ctrl.len();
+        if n < 7 {
+            return true;
+        }
+        let sides: Vec<f64> = (2..n - 3)
+            .map(|k| (Vector3::from(ctrl[k + 1]) - Vector3::from(ctrl[k])).norm())
+            .collect();
+        let lo = sides.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = sides.iter().copied().fold(0.0, f64::max);
+        hi <= 1.5 * lo
+    }
+
+    /// This tube carried on as it moved since `earlier`: each control point moved again by
+    /// `ratio` times its move since then (the next frame of a smooth motion, `ratio` its
+    /// frames ahead over the frames between the two). `None` when the tubes do not pair up
+    /// point for point (another number of control points, other ends) or a point would move
+    /// more than `limit_mm`.
+    pub fn carried_on(&self, earlier: &Tube, ratio: f64, limit_mm: f64) -> Option<Tube> {
+        let (now, then) = (self.centerline.control(), earlier.centerline.control());
+        if now.len() != then.len() || self.capped != earlier.capped || ratio.is_nan() || ratio <= 0.0 {
+            return None;
+        }
+        let mut step = nalgebra::DVector::zeros(3 * now.len());
+        for (k, (a, b)) in now.iter().zip(then).enumerate() {
+            let d = (Vector3::from(*a) - Vector3::from(*b)) * ratio;
+            if d.norm().is_nan() || d.norm() > limit_mm {
+                return None;
+            }
+            step.fixed_rows_mut::<3>(3 * k).copy_from(&d);
+        }
+        let mut tube = self.clone();
+        tube.centerline.displace(&step);
+        Some(tube)
+    }
+
     /// Centre and unit tangent (toward the tip) at `u`.
     pub fn frame(&self, u: f64) -> (Point3<f64>, Vector3<f64>) {
-        let d = self.centerline.eval(u);
-        let t = Vector3::from(d.d1);
-        (Point3::from(d.value), t / t.norm().max(1e-300))
+        let (p, d1) = self.centerline.point_and_d1(u);
+        let t = Vector3::from(d1);
+        (Point3::from(p), t / t.norm().max(1e-300))
     }
 
     /// Where an end is and which way the tube goes on beyond it (unit, pointing out of the
@@ -119,7 +160,7 @@ impl Tube {
     /// Length of the centerline, mm (Simpson's rule over 4 points a span).
     pub fn length(&self) -> f64 {
         let n = 4 * (self.centerline.control().len() - 3);
-        let speed = |u: f64| Vector3::from(self.centerline.eval(u).d1).norm();
+        let speed = |u: f64| Vector3::from(self.centerline.point_and_d1(u).1).norm();
         let h = 1.0 / (2 * n) as f64;
         (0..n)
             .map(|i| {
@@ -127,5 +168,72 @@ impl Tube {
                 h / 3.0 * (speed(a) + 4.0 * speed(a + h) + speed(a + 2.0 * h))
             })
             .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bent() -> Tube {
+        let points: Vec<[f64; 3]> = (0..=120)
+            .map(|i| {
+                let a = i as f64 * 0.01;
+                [100.0 * a.sin(), 0.0, 100.0 * (1.0 - a.cos())]
+            })
+            .collect();
+        Tube::through(&points, 3.0, [false, true], 15.0, 10.0).unwrap()
+    }
+
+    #[test]
+    fn a_tube_carried_on_moves_each_control_point_again_by_its_last_move() {
+        let then = bent();
+        let mut now = then.clone();
+        let shift = nalgebra::DVector::from_fn(3 * now.centerline.control().len(), |i, _| {
+            [0.3, -0.1, 0.2][i % 3] * (1.0 + (i / 3) as f64 * 0.05)
+        });
+        now.centerline.displace(&shift);
+        let next = now.carried_on(&then, 0.5, 3.0).unwrap();
+        for ((a, b), k) in next
+            .centerline
+            .control()
+            .iter()
+            .zip(now.centerline.control())
+            .zip(0..)
+        {
+            for c in 0..3 {
+                assert!((a[c] - b[c] - 0.5 * shift[3 * k + c]).abs() < 1e-12);
+            }
+        }
+        // A jerk beyond the limit, tubes that do not pair up: no prediction.
+        assert!(now.carried_on(&then, 10.0, 3.0).is_none());
+        let mut capped = then.clone();
+        capped.capped = [true, true];
+        assert!(now.carried_on(&capped, 1.0, 3.0).is_none());
+        let longer = Tube::through(
+            &[[0.0; 3], [0.0, 0.0, 300.0]],
+            3.0,
+            [false, true],
+            15.0,
+            10.0,
+        )
+        .unwrap();
+        assert!(now.carried_on(&longer, 1.0, 3.0).is_none());
+    }
+
+    #[test]
+    fn control_points_dragged_along_the_tube_are_no_longer_evenly_spread() {
+        let tube = bent();
+        assert!(tube.evenly_spread());
+        // Slide one inner control point most of the way to its neighbour.
+        let ctrl = tube.centerline.control();
+        let k = ctrl.len() / 2;
+        let mut step = nalgebra::DVector::zeros(3 * ctrl.len());
+        for c in 0..3 {
+            step[3 * k + c] = 0.7 * (ctrl[k + 1][c] - ctrl[k][c]);
+        }
+        let mut dragged = tube.clone();
+        dragged.centerline.displace(&step);
+        assert!(!dragged.evenly_spread());
     }
 }

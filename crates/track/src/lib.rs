@@ -22,7 +22,7 @@ pub use refine::{
     CameraRefinement, MAX_SIGMA_MM, MIN_FRAMES, MIN_GAIN, OutlineResiduals, Refinement, Verdict,
     refine_cameras,
 };
-pub use runner::{Processed, RunEnd, run};
+pub use runner::{Processed, Recent, RunEnd, run};
 
 /// Why a frame (or the pipeline's setup) failed.
 #[derive(Debug, Error)]

@@ -117,6 +117,20 @@ pub struct Prior {
     tube: Tube,
 }
 
+impl Prior {
+    /// This shape carried on as it moved since `earlier` ([`Tube::carried_on`]; `ratio`:
+    /// frames from this shape to the one to start, over frames from `earlier` to this one).
+    /// A start this close to where a smoothly moving tube is saves the fit a round of
+    /// boundary measurements. `None` (start from this shape as it is) when the tubes do not
+    /// pair up or the motion is a jerk.
+    pub fn predicted(&self, earlier: &Prior, ratio: f64, limit_mm: f64) -> Option<Prior> {
+        Some(Prior {
+            record: self.record.clone(),
+            tube: self.tube.carried_on(&earlier.tube, ratio, limit_mm)?,
+        })
+    }
+}
+
 impl Tracked {
     /// What a later frame may start from, if this frame's shape is right.
     pub fn prior(&self) -> Option<Prior> {
@@ -440,6 +454,7 @@ impl Pipeline {
             self.carver.volume(),
             &views,
             &prior.record,
+            Some(&prior.tube),
             radius,
         )?;
         let fit_ms = ms(t);

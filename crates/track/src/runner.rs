@@ -94,27 +94,61 @@ struct Window {
 /// farther than the fit searches.
 pub const MAX_PRIOR_AGE: u64 = 4;
 
-/// The newest frame processed and what later frames may start from.
-#[derive(Default)]
-struct Latest {
+/// The newest frames processed and what later frames may start from when tracking: the
+/// newest right shape, carried on as it moved since the right one before when both are
+/// recent ([`Prior::predicted`]). Frames are counted in input order (`seq`).
+#[derive(Debug, Clone)]
+pub struct Recent {
+    /// The newest frame whose outcome is in.
     seq: Option<u64>,
-    prior: Option<Arc<Prior>>,
+    /// Its right shape, and the right shape before it (each with its frame).
+    newest: Option<(u64, Arc<Prior>)>,
+    before: Option<(u64, Arc<Prior>)>,
+    /// The largest move a prediction may give a point, mm.
+    limit_mm: f64,
 }
 
-impl Latest {
-    /// The prior for frame `seq`, if an earlier frame recent enough left one.
-    fn for_frame(&self, seq: u64) -> Option<Arc<Prior>> {
-        let last = self.seq?;
-        (last < seq && seq - last <= MAX_PRIOR_AGE)
-            .then(|| self.prior.clone())
-            .flatten()
+impl Recent {
+    /// Nothing processed yet; predictions move no point more than the pipeline's fit lets a
+    /// followed tip move (`track_max_move_mm`).
+    pub fn new(pipeline: &Pipeline) -> Self {
+        Recent {
+            seq: None,
+            newest: None,
+            before: None,
+            limit_mm: pipeline.fit_settings().track_max_move_mm,
+        }
     }
 
-    /// Records frame `seq`'s outcome, unless a later frame's is already in.
-    fn update(&mut self, seq: u64, prior: Option<Prior>) {
-        if self.seq.is_none_or(|s| seq > s) {
-            self.seq = Some(seq);
-            self.prior = prior.map(Arc::new);
+    /// What frame `seq` may start from, if a recent enough frame left a right shape.
+    pub fn for_frame(&self, seq: u64) -> Option<Arc<Prior>> {
+        let (s1, p1) = self.newest.as_ref()?;
+        if !(*s1 < seq && seq - s1 <= MAX_PRIOR_AGE) {
+            return None;
+        }
+        let predicted = self
+            .before
+            .as_ref()
+            .filter(|(s0, _)| s1 - s0 <= MAX_PRIOR_AGE)
+            .and_then(|(s0, p0)| {
+                p1.predicted(p0, (seq - s1) as f64 / (s1 - s0) as f64, self.limit_mm)
+            });
+        Some(predicted.map_or_else(|| p1.clone(), Arc::new))
+    }
+
+    /// Records frame `seq`'s outcome (its right shape, if any), unless a later frame's is
+    /// already in.
+    pub fn update(&mut self, seq: u64, prior: Option<Prior>) {
+        if self.seq.is_some_and(|s| seq <= s) {
+            return;
+        }
+        self.seq = Some(seq);
+        match prior {
+            Some(p) => {
+                self.before = self.newest.take();
+                self.newest = Some((seq, Arc::new(p)));
+            }
+            None => (self.newest, self.before) = (None, None),
         }
     }
 }
@@ -150,7 +184,7 @@ pub fn run<S: FrameSource + ?Sized>(
         error: None,
     });
     let (tx, rx) = mpsc::channel::<(u64, Processed)>();
-    let latest = Mutex::new(Latest::default());
+    let latest = Mutex::new(Recent::new(pipeline));
     let mut end = RunEnd::default();
     std::thread::scope(|scope| {
         for _ in 0..workers {

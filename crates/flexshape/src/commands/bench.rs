@@ -14,7 +14,7 @@ use std::time::Instant;
 use anyhow::Context;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::Simulator;
-use flexshape_track::{Pipeline, Prior, StageSummary, Start, quantile, stage_summaries};
+use flexshape_track::{Pipeline, Recent, StageSummary, Start, quantile, stage_summaries};
 use image::RgbImage;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -139,12 +139,13 @@ fn measure(
     let mut totals = Vec::new();
     let mut followed = 0usize;
     for _ in 0..rounds {
-        let mut prior: Option<Prior> = None;
-        for f in &refs {
+        let mut recent = Recent::new(pipeline);
+        for (seq, f) in refs.iter().enumerate() {
             let t = Instant::now();
-            let tracked = pipeline.process_after(f, prior.as_ref())?;
+            let prior = recent.for_frame(seq as u64);
+            let tracked = pipeline.process_after(f, prior.as_deref())?;
             let elapsed = t.elapsed().as_secs_f64() * 1e3;
-            prior = tracked.prior();
+            recent.update(seq as u64, tracked.prior());
             // The first frame of a pass has nothing to start from.
             if tracked.start == Start::Previous {
                 followed += 1;
@@ -159,9 +160,11 @@ fn measure(
         (0..threads)
             .into_par_iter()
             .map(|k| {
-                let mut prior: Option<Prior> = None;
-                for f in refs.iter().skip(k).step_by(threads) {
-                    prior = pipeline.process_after(f, prior.as_ref())?.prior();
+                let mut recent = Recent::new(pipeline);
+                for (seq, f) in refs.iter().enumerate().skip(k).step_by(threads) {
+                    let prior = recent.for_frame(seq as u64);
+                    let tracked = pipeline.process_after(f, prior.as_deref())?;
+                    recent.update(seq as u64, tracked.prior());
                 }
                 Ok(())
             })
