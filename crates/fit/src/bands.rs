@@ -71,6 +71,11 @@ pub(crate) fn locate(
         .collect()
 }
 
+/// Samples between two projected ones: the centerline's image is straight to far below a
+/// pixel over a millimetre, so pixels in between are interpolated, and a sample counts as
+/// hidden when either projected neighbour is (visibility edges move out by at most this).
+const PROJECTED_EVERY: usize = 4;
+
 /// Colour samples of one camera at the centerline points `frames` (centre and unit tangent,
 /// every `STEP` mm from the tube's start; `None` where it does not see the tube's side there).
 fn sample(
@@ -82,21 +87,39 @@ fn sample(
     spheres: &Spheres,
 ) -> Vec<Option<Sample>> {
     let eye = camera.centre();
+    let last = frames.len().saturating_sub(1);
+    // The pixel and visibility of every PROJECTED_EVERY-th sample and the last.
+    let knots: Vec<Option<Vector2<f64>>> = (0..=last.div_ceil(PROJECTED_EVERY))
+        .map(|i| {
+            let (c, t) = frames[(i * PROJECTED_EVERY).min(last)];
+            let to = c - eye;
+            let d = to / to.norm();
+            let sin = d.cross(&t).norm().max(1e-9);
+            let pixel = camera.project(&c).ok()?.pixel.coords;
+            // The near side, where the ray enters the tube.
+            let front: Point3<f64> = c - d * (r / sin);
+            (!spheres.blocks(&eye, &front, pixel)).then_some(pixel)
+        })
+        .collect();
     frames
         .iter()
-        .map(|&(c, t)| {
+        .enumerate()
+        .map(|(k, &(c, t))| {
             let to = c - eye;
             let d = to / to.norm();
             let sin = d.cross(&t).norm();
             if sin < MIN_SIN {
                 return None;
             }
-            let pixel = camera.project(&c).ok()?.pixel.coords;
-            // The near side, where the ray enters the tube.
-            let front: Point3<f64> = c - d * (r / sin);
-            if spheres.blocks(&eye, &front, pixel) {
-                return None;
-            }
+            let i = k / PROJECTED_EVERY;
+            let a = knots[i]?;
+            let pixel = if k % PROJECTED_EVERY == 0 {
+                a
+            } else {
+                let b = knots[i + 1]?;
+                let (from, to) = (i * PROJECTED_EVERY, ((i + 1) * PROJECTED_EVERY).min(last));
+                a + (b - a) * ((k - from) as f64 / (to - from) as f64)
+            };
             Some(Sample {
                 colour: bilinear(image, pixel)?,
                 marked: mask.get(pixel.x.round() as usize, pixel.y.round() as usize),

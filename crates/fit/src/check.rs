@@ -184,9 +184,7 @@ fn disc(mask: &mut BitMask, camera: &Camera, centre: &Point3<f64>, r: f64) {
         if x1 < 0.0 {
             continue;
         }
-        for x in x0..=x1 as usize {
-            mask.set(x, y, true);
-        }
+        mask.set_span(y, x0, x1 as usize);
     }
 }
 

@@ -110,7 +110,11 @@ impl Tube {
     /// more than `limit_mm`.
     pub fn carried_on(&self, earlier: &Tube, ratio: f64, limit_mm: f64) -> Option<Tube> {
         let (now, then) = (self.centerline.control(), earlier.centerline.control());
-        if now.len() != then.len() || self.capped != earlier.capped || ratio.is_nan() || ratio <= 0.0 {
+        if now.len() != then.len()
+            || self.capped != earlier.capped
+            || ratio.is_nan()
+            || ratio <= 0.0
+        {
             return None;
         }
         let mut step = nalgebra::DVector::zeros(3 * now.len());
@@ -138,7 +142,15 @@ impl Tube {
     /// tangent, which the last few millimetres of outline hardly fix. `end` 0 is the proximal
     /// end, 1 the tip.
     pub fn beyond(&self, end: usize) -> (Point3<f64>, Vector3<f64>) {
-        let reach = (20.0 / self.length().max(1e-9)).min(0.25);
+        // The control polygon's length stands in for the curve's (a little longer; this only
+        // chooses how far back the chord reaches, and is far cheaper than integrating).
+        let polygon: f64 = self
+            .centerline
+            .control()
+            .windows(2)
+            .map(|w| (Vector3::from(w[1]) - Vector3::from(w[0])).norm())
+            .sum();
+        let reach = (20.0 / polygon.max(1e-9)).min(0.25);
         let (u, inner) = if end == 0 {
             (0.0, reach)
         } else {

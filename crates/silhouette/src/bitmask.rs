@@ -75,6 +75,27 @@ impl BitMask {
         }
     }
 
+    /// Sets pixels `x0..=x1` of row `y` (clipped to the width), a word at a time.
+    pub fn set_span(&mut self, y: usize, x0: usize, x1: usize) {
+        let x1 = x1.min(self.width.saturating_sub(1));
+        if x0 > x1 || y >= self.height {
+            return;
+        }
+        let row = &mut self.words[y * self.stride..(y + 1) * self.stride];
+        let (w0, w1) = (x0 / 64, x1 / 64);
+        let from = u64::MAX << (x0 % 64);
+        let to = u64::MAX >> (63 - x1 % 64);
+        if w0 == w1 {
+            row[w0] |= from & to;
+            return;
+        }
+        row[w0] |= from;
+        for w in &mut row[w0 + 1..w1] {
+            *w = u64::MAX;
+        }
+        row[w1] |= to;
+    }
+
     /// Number of set pixels.
     pub fn count(&self) -> usize {
         self.words.iter().map(|w| w.count_ones() as usize).sum()
@@ -233,6 +254,32 @@ pub(crate) fn random_mask(w: usize, h: usize, density: u64, seed: u64) -> BitMas
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn spans_set_the_same_pixels_as_one_at_a_time() {
+        for (x0, x1) in [
+            (0, 0),
+            (3, 63),
+            (63, 64),
+            (10, 140),
+            (64, 127),
+            (0, 199),
+            (150, 400),
+        ] {
+            let mut a = BitMask::new(200, 3);
+            a.set_span(1, x0, x1);
+            let mut b = BitMask::new(200, 3);
+            for x in x0..=x1.min(199) {
+                b.set(x, 1, true);
+            }
+            assert_eq!(a, b, "{x0}..={x1}");
+        }
+        let mut empty = BitMask::new(200, 3);
+        empty.set_span(1, 5, 4);
+        empty.set_span(3, 0, 10);
+        assert_eq!(empty.count(), 0);
+    }
+
     use super::*;
     use proptest::prelude::*;
 
