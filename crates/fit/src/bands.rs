@@ -52,14 +52,19 @@ pub(crate) fn locate(
     let table = ArcTable::new(tube);
     let n = (table.length() / STEP).floor() as usize;
     // The centerline every STEP and the visibility spheres, shared by the cameras.
-    let frames: Vec<(Point3<f64>, Vector3<f64>)> = (0..=n)
-        .map(|k| tube.frame(table.u_of(k as f64 * STEP)))
+    let length = table.length();
+    let frames: Vec<(Point3<f64>, Vector3<f64>, f64)> = (0..=n)
+        .map(|k| {
+            let u = table.u_of(k as f64 * STEP);
+            let (c, t) = tube.frame(u);
+            (c, t, tube.radius_at(u, length))
+        })
         .collect();
     let centres = sphere_centres(tube, tube.length());
     let mut seen: Vec<Seen> = Vec::new();
     for ((camera, image), mask) in cameras.iter().zip(images).zip(markers) {
         let spheres = Spheres::from_centres(camera, tube, &centres, 0.0);
-        let samples = sample(camera, image, mask, tube.radius, &frames, &spheres);
+        let samples = sample(camera, image, mask, &frames, &spheres);
         seen.extend(runs(&samples, tube.capped[1]));
     }
     merge(seen, table.length())
@@ -76,14 +81,14 @@ pub(crate) fn locate(
 /// hidden when either projected neighbour is (visibility edges move out by at most this).
 const PROJECTED_EVERY: usize = 4;
 
-/// Colour samples of one camera at the centerline points `frames` (centre and unit tangent,
-/// every `STEP` mm from the tube's start; `None` where it does not see the tube's side there).
+/// Colour samples of one camera at the centerline points `frames` (centre, unit tangent and
+/// the tube's radius there, every `STEP` mm from the tube's start; `None` where it does not see
+/// the tube's side there).
 fn sample(
     camera: &Camera,
     image: &RgbImage,
     mask: &BitMask,
-    r: f64,
-    frames: &[(Point3<f64>, Vector3<f64>)],
+    frames: &[(Point3<f64>, Vector3<f64>, f64)],
     spheres: &Spheres,
 ) -> Vec<Option<Sample>> {
     let eye = camera.centre();
@@ -91,7 +96,7 @@ fn sample(
     // The pixel and visibility of every PROJECTED_EVERY-th sample and the last.
     let knots: Vec<Option<Vector2<f64>>> = (0..=last.div_ceil(PROJECTED_EVERY))
         .map(|i| {
-            let (c, t) = frames[(i * PROJECTED_EVERY).min(last)];
+            let (c, t, r) = frames[(i * PROJECTED_EVERY).min(last)];
             let to = c - eye;
             let d = to / to.norm();
             let sin = d.cross(&t).norm().max(1e-9);
@@ -104,7 +109,7 @@ fn sample(
     frames
         .iter()
         .enumerate()
-        .map(|(k, &(c, t))| {
+        .map(|(k, &(c, t, r))| {
             let to = c - eye;
             let d = to / to.norm();
             let sin = d.cross(&t).norm();

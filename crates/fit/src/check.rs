@@ -136,29 +136,33 @@ pub(crate) struct Residuals {
 /// surface about `centres` (every half radius along the centerline, [`crate::outline::sphere_centres`]), and separately the straight continuation
 /// of each open end until it leaves the image (the tube goes on beyond the volume, how far is
 /// not known: the check neither asks for nor objects to silhouette pixels there).
-pub(crate) fn render(camera: &Camera, tube: &Tube, centres: &[Point3<f64>]) -> (BitMask, BitMask) {
+pub(crate) fn render(
+    camera: &Camera,
+    tube: &Tube,
+    centres: &[(Point3<f64>, f64)],
+) -> (BitMask, BitMask) {
     let (w, h) = (
         camera.intrinsics.width as usize,
         camera.intrinsics.height as usize,
     );
     let mut mask = BitMask::new(w, h);
-    let step = (tube.radius / 2.0).max(0.05);
-    for c in centres {
-        disc(&mut mask, camera, c, tube.radius);
+    for (c, r) in centres {
+        disc(&mut mask, camera, c, *r);
     }
     let mut beyond = BitMask::new(w, h);
     for end in [0, 1] {
         if tube.capped[end] {
             continue;
         }
+        let r = match end {
+            0 => centres.first(),
+            _ => centres.last(),
+        }
+        .map_or(tube.radius, |c| c.1);
+        let step = (r / 2.0).max(0.05);
         let (c, dir) = tube.beyond(end);
         for k in 1..=(crate::outline::BEYOND_MM / step).ceil() as usize {
-            disc(
-                &mut beyond,
-                camera,
-                &(c + dir * (step * k as f64)),
-                tube.radius,
-            );
+            disc(&mut beyond, camera, &(c + dir * (step * k as f64)), r);
         }
     }
     (mask, beyond)

@@ -376,13 +376,14 @@ impl TubeFitter {
             hull.status == Status::LeavesVolume,
         ];
         let capped = open.map(|o| !o);
+        let steps = &estimator.settings().radius_steps;
         let start = match Tube::through(&hull.points, r0, capped, s.span_mm, s.extend_mm) {
-            Ok(t) => t,
+            Ok(t) => t.with_steps(steps),
             Err(_) => return Ok((hull.clone(), None)),
         };
         let mut fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
         let voxel_volume = volume.voxel_size.iter().product::<f64>();
-        let reach = 1.5 * fit.tube.radius + 1.5 * voxel;
+        let reach = 1.5 * fit.tube.largest_radius() + 1.5 * voxel;
         fit.ghost_mm = Some(check::ghost_length(
             &fit.tube,
             hull_voxels,
@@ -419,8 +420,9 @@ impl TubeFitter {
             previous.status == Status::LeavesVolume,
         ];
         let capped = open.map(|o| !o);
+        let steps = &estimator.settings().radius_steps;
         let given = start
-            .filter(|t| t.capped == capped && t.evenly_spread())
+            .filter(|t| t.capped == capped && &t.steps == steps && t.evenly_spread())
             .cloned()
             .map(|mut t| {
                 if radius.is_some() {
@@ -432,7 +434,7 @@ impl TubeFitter {
             Some(t) => t,
             // Through the previous shape again, so that control points are evenly spread.
             None => match Tube::through(&previous.points, r0, capped, s.span_mm, s.extend_mm) {
-                Ok(t) => t,
+                Ok(t) => t.with_steps(steps),
                 Err(_) => return Ok((previous.clone(), None)),
             },
         };
@@ -467,8 +469,8 @@ impl TubeFitter {
     pub fn image_region(&self, camera: usize, tube: &Tube, margin_px: f64) -> Option<Region> {
         let cam = self.cameras.get(camera)?;
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for c in outline::sphere_centres(tube, tube.length()) {
-            let Some((_, px, rp)) = outline::sphere(cam, c, tube.radius) else {
+        for (c, r) in outline::sphere_centres(tube, tube.length()) {
+            let Some((_, px, rp)) = outline::sphere(cam, c, r) else {
                 continue;
             };
             for k in 0..2 {

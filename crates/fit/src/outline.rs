@@ -45,6 +45,9 @@ pub(crate) struct OutlinePoint {
     pub weight: f64,
     /// Where on the tube.
     pub part: Part,
+    /// Which radius section (0: the tip's, whose radius the fit may move; see
+    /// [`Tube::radius_at`]).
+    pub section: usize,
     /// Centerline parameter of the sample.
     pub u: f64,
     /// Which grazing point: the side (±1) for a side sample, the angle around the grazing
@@ -54,16 +57,22 @@ pub(crate) struct OutlinePoint {
     pub world: Point3<f64>,
 }
 
+/// A side sample's place on the centerline: parameter, basis, centre, unit tangent and radius
+/// section.
+type Station = (f64, Basis, Point3<f64>, Vector3<f64>, usize);
+
 /// What every camera's outline of one tube shares, computed once: the centerline at the
 /// outline samples (about every `spacing_mm`) and the centres of the spheres, every half
 /// radius, that stand for the tube in visibility tests.
 pub(crate) struct Sampled {
+    /// The centerline's length, mm.
+    length: f64,
     /// Tube length a side sample stands for, mm.
     stride: f64,
-    /// Per side sample: parameter, basis, centre, unit tangent.
-    sides: Vec<(f64, Basis, Point3<f64>, Vector3<f64>)>,
-    /// Sphere centres along the centerline, world mm.
-    centres: Vec<Point3<f64>>,
+    /// Per side sample (samples at a radius step's shoulder are left out).
+    sides: Vec<Station>,
+    /// Sphere centres along the centerline and their radii, world mm.
+    centres: Vec<(Point3<f64>, f64)>,
 }
 
 impl Sampled {
@@ -71,16 +80,25 @@ impl Sampled {
         let length = tube.length();
         let n = (length / spacing_mm).ceil().max(4.0) as usize;
         let sides = (0..=n)
-            .map(|i| {
-                let u = i as f64 / n as f64;
+            .map(|i| i as f64 / n as f64)
+            .filter(|&u| !tube.at_shoulder(u, length))
+            .map(|u| {
                 // The Jacobian needs the values only, the frame the tangent.
                 let basis = tube.centerline.basis_to::<1>(u);
                 let at = tube.centerline.eval_basis(&basis);
                 let t = Vector3::from(at.d1);
-                (u, basis, Point3::from(at.value), t / t.norm().max(1e-300))
+                let section = tube.section_at(u, length);
+                (
+                    u,
+                    basis,
+                    Point3::from(at.value),
+                    t / t.norm().max(1e-300),
+                    section,
+                )
             })
             .collect();
         Sampled {
+            length,
             stride: length / n as f64,
             sides,
             centres: sphere_centres(tube, length),
@@ -88,10 +106,21 @@ impl Sampled {
     }
 }
 
-/// Centres of spheres every half radius along the centerline, world mm.
-pub(crate) fn sphere_centres(tube: &Tube, length: f64) -> Vec<Point3<f64>> {
-    let n = (length / (tube.radius / 2.0)).ceil().max(4.0) as usize;
-    (0..=n).map(|i| tube.frame(i as f64 / n as f64).0).collect()
+/// Centres of spheres every half (smallest) radius along the centerline and their radii,
+/// world mm.
+pub(crate) fn sphere_centres(tube: &Tube, length: f64) -> Vec<(Point3<f64>, f64)> {
+    let smallest = tube
+        .steps
+        .iter()
+        .map(|s| s.radius_mm)
+        .fold(tube.radius, f64::min);
+    let n = (length / (smallest / 2.0)).ceil().max(4.0) as usize;
+    (0..=n)
+        .map(|i| {
+            let u = i as f64 / n as f64;
+            (tube.frame(u).0, tube.radius_at(u, length))
+        })
+        .collect()
 }
 
 /// The outline of `tube` in `camera` at the samples of `sampled` (both sides) and over the
@@ -106,7 +135,7 @@ pub(crate) fn outline(
 ) -> Vec<OutlinePoint> {
     let mut out = Vec::with_capacity(2 * sampled.sides.len() + 40);
     let eye = camera.centre();
-    for (u, basis, c, t) in &sampled.sides {
+    for (u, basis, c, t, section) in &sampled.sides {
         let Ok(centre) = camera.project(c) else {
             continue;
         };
@@ -116,12 +145,13 @@ pub(crate) fn outline(
             point: c,
             pixel: centre.pixel.coords,
             tangent: t,
+            section: *section,
         };
         for side in [-1.0, 1.0] {
             out.extend(side_at(
                 camera,
                 &eye,
-                tube.radius,
+                tube.section_radius(*section),
                 &at,
                 side,
                 sampled.stride,
@@ -129,12 +159,12 @@ pub(crate) fn outline(
         }
     }
     for end in [0, 1] {
-        if let Some(cap) = CapView::new(camera, tube, end) {
-            let count = ((2.0 * cap.phi_max * tube.radius / spacing_mm).ceil() as usize).max(3);
+        if let Some(cap) = CapView::new(camera, tube, end, sampled.length) {
+            let count = ((2.0 * cap.phi_max * cap.r / spacing_mm).ceil() as usize).max(3);
             for k in 0..count {
                 // Strictly inside the half, whose ends are the sides' last points.
                 let phi = cap.phi_max * (2.0 * (k as f64 + 0.5) / count as f64 - 1.0);
-                out.extend(cap.point(camera, tube.radius, phi));
+                out.extend(cap.point(camera, phi));
             }
         }
     }
@@ -164,17 +194,20 @@ pub(crate) fn again(
                 point: &c,
                 pixel: camera.project(&c).ok()?.pixel.coords,
                 tangent: &t,
+                section: p.section,
             };
             side_at(
                 camera,
                 &camera.centre(),
-                tube.radius,
+                tube.section_radius(p.section),
                 &centre,
                 p.which,
                 stride,
             )
         }
-        Part::Cap(end) => CapView::new(camera, tube, end)?.point(camera, tube.radius, p.which),
+        Part::Cap(end) => {
+            CapView::with_section(camera, tube, end, p.section)?.point(camera, p.which)
+        }
     }
 }
 
@@ -187,6 +220,8 @@ struct Centre<'a> {
     pixel: Vector2<f64>,
     /// Unit tangent.
     tangent: &'a Vector3<f64>,
+    /// Radius section.
+    section: usize,
 }
 
 /// The side outline point on side `side` (±1) at the centerline point `at`, seen from `eye`;
@@ -213,6 +248,7 @@ fn side_at(
     let normal = e1 * a + e2 * (side * b);
     let sample = Sample {
         part: Part::Side(at.basis),
+        section: at.section,
         u: at.u,
         which: side,
         stride: Some((*t, stride)),
@@ -224,6 +260,9 @@ fn side_at(
 /// it beyond the end.
 struct CapView {
     end: usize,
+    /// The cap's radius and radius section.
+    r: f64,
+    section: usize,
     u: f64,
     centre: Point3<f64>,
     centre_px: Vector2<f64>,
@@ -239,12 +278,23 @@ struct CapView {
 }
 
 impl CapView {
-    /// `None` for an open end, or one the camera sees end-on (no cap outline of its own).
-    fn new(camera: &Camera, tube: &Tube, end: usize) -> Option<Self> {
+    /// `None` for an open end, or one the camera sees end-on (no cap outline of its own);
+    /// `length` the tube's, mm (it places the proximal end's radius section).
+    fn new(camera: &Camera, tube: &Tube, end: usize, length: f64) -> Option<Self> {
+        let section = if end == 0 {
+            tube.section_at(0.0, length)
+        } else {
+            0
+        };
+        Self::with_section(camera, tube, end, section)
+    }
+
+    /// As [`CapView::new`], the end's radius section given.
+    fn with_section(camera: &Camera, tube: &Tube, end: usize, section: usize) -> Option<Self> {
         if !tube.capped[end] {
             return None;
         }
-        let r = tube.radius;
+        let r = tube.section_radius(section);
         let u = end as f64;
         let (c, t) = tube.frame(u);
         // The cap's axis points away from the tube.
@@ -267,6 +317,8 @@ impl CapView {
         let cos_min = (ratio * vh.dot(&axis) / (s * tp)).clamp(-1.0, 1.0);
         Some(CapView {
             end,
+            r,
+            section,
             u,
             centre: c,
             centre_px: camera.project(&c).ok()?.pixel.coords,
@@ -280,10 +332,11 @@ impl CapView {
     }
 
     /// The cap's outline point at angle `phi` around the grazing circle.
-    fn point(&self, camera: &Camera, r: f64, phi: f64) -> Option<OutlinePoint> {
+    fn point(&self, camera: &Camera, phi: f64) -> Option<OutlinePoint> {
         let normal = -self.vh * self.ratio + (self.f1 * phi.cos() + self.f2 * phi.sin()) * self.s;
         let sample = Sample {
             part: Part::Cap(self.end),
+            section: self.section,
             u: self.u,
             which: phi,
             stride: None,
@@ -295,7 +348,7 @@ impl CapView {
             &self.centre,
             &eye,
             normal,
-            r,
+            self.r,
             sample,
         )
     }
@@ -304,6 +357,7 @@ impl CapView {
 /// Where a sample is on the tube.
 struct Sample {
     part: Part,
+    section: usize,
     u: f64,
     which: f64,
     /// For a side sample: the centerline's unit tangent and the tube length it stands for, mm.
@@ -361,6 +415,7 @@ fn grazing(
         half_width: (pixel - centre_px).dot(&m).max(0.0),
         weight,
         part: sample.part,
+        section: sample.section,
         u: sample.u,
         which: sample.which,
         world: x,
@@ -376,10 +431,11 @@ fn grazing(
 pub(crate) struct Spheres {
     /// Centre (world), its pixel, and the sphere's image radius in pixels.
     items: Vec<(Point3<f64>, Vector2<f64>, f64)>,
+    /// Each sphere's radius, mm.
+    radii: Vec<f64>,
     /// Per sphere, squared: its image radius less a quarter pixel (a pixel it surely covers)
     /// and plus a pixel (beyond, it surely does not), pixels².
     reach2: Vec<(f64, f64)>,
-    radius: f64,
     /// How far outside an outline point the image must show background, pixels.
     clearance: f64,
     /// The spheres whose image (plus a pixel) meets each cell of a grid over the image.
@@ -459,14 +515,13 @@ impl Spheres {
     pub(crate) fn from_centres(
         camera: &Camera,
         tube: &Tube,
-        centres: &[Point3<f64>],
+        centres: &[(Point3<f64>, f64)],
         clearance: f64,
     ) -> Self {
-        let r = tube.radius;
-        let mut items: Vec<_> = centres
+        let (mut items, mut radii): (Vec<_>, Vec<f64>) = centres
             .iter()
-            .filter_map(|c| sphere(camera, *c, r))
-            .collect();
+            .filter_map(|&(c, r)| Some((sphere(camera, c, r)?, r)))
+            .unzip();
         let (w, h) = (
             camera.intrinsics.width as f64,
             camera.intrinsics.height as f64,
@@ -476,6 +531,11 @@ impl Spheres {
                 continue;
             }
             let (c, dir) = tube.beyond(end);
+            let r = match (end, centres.first(), centres.last()) {
+                (0, Some(first), _) => first.1,
+                (_, _, Some(last)) => last.1,
+                _ => tube.radius,
+            };
             for k in 1..=(BEYOND_MM / (r / 2.0)).ceil() as usize {
                 let Some(s) = sphere(camera, c + dir * (k as f64 * r / 2.0), r) else {
                     break;
@@ -485,6 +545,7 @@ impl Spheres {
                     break;
                 }
                 items.push(s);
+                radii.push(r);
             }
         }
         Spheres {
@@ -497,7 +558,7 @@ impl Spheres {
                 })
                 .collect(),
             items,
-            radius: r,
+            radii,
             clearance,
         }
     }
@@ -513,16 +574,16 @@ impl Spheres {
         let to = target - eye;
         let depth = to.norm();
         let d = to / depth;
-        let limit = self.radius * 0.98;
         self.grid.near(pixel).iter().any(|&i| {
             let (c, px, _) = &self.items[i as usize];
             if (px - pixel).norm_squared() > self.reach2[i as usize].1 {
                 return false;
             }
+            let r = self.radii[i as usize];
             let v = c - eye;
             let along = v.dot(&d);
             let miss = (v - d * along).norm();
-            miss < limit && along - (self.radius.powi(2) - miss * miss).sqrt() < depth - 0.1
+            miss < 0.98 * r && along - (r * r - miss * miss).sqrt() < depth - 0.1
         })
     }
 
@@ -530,7 +591,6 @@ impl Spheres {
         let to = p.world - eye;
         let depth = to.norm();
         let d = to / depth;
-        let limit = self.radius * 0.98;
         // Just outside the outline and on out to the clearance, no other part of the tube may
         // show (a part behind that reaches a pixel past this one moves the boundary there).
         let covers_outside = [0.75, 1.5, self.clearance].iter().any(|&step| {
@@ -546,10 +606,11 @@ impl Spheres {
                 if (px - p.pixel).norm_squared() > self.reach2[i as usize].1 {
                     return false;
                 }
+                let r = self.radii[i as usize];
                 let v = c - eye;
                 let along = v.dot(&d);
                 let miss = (v - d * along).norm();
-                miss < limit && along - (self.radius.powi(2) - miss * miss).sqrt() < depth - 0.01
+                miss < 0.98 * r && along - (r * r - miss * miss).sqrt() < depth - 0.01
             })
     }
 }
@@ -615,6 +676,7 @@ mod tests {
         Tube {
             centerline: BSpline3::new(control).unwrap(),
             radius: 3.0,
+            steps: Vec::new(),
             capped: [false, true],
         }
     }

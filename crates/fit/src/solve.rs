@@ -179,7 +179,8 @@ pub(crate) fn for_each_row(
                     }
                 }
             }
-            if fit_radius {
+            // Only the tip section's radius is a parameter; the steps' are known.
+            if fit_radius && p.section == 0 {
                 entries.push((radius_col, p.gain));
             }
             visit(Row {

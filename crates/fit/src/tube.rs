@@ -1,9 +1,9 @@
 //! The tube the fit moves: a smooth centerline (clamped cubic B-spline from the proximal end,
-//! `u = 0`, to the tip, `u = 1`), a constant radius and, at each end, whether the tube ends
-//! there in a hemispherical cap (a free end) or runs on out of the volume (an open end).
-//! World frame, mm.
+//! `u = 0`, to the tip, `u = 1`), a radius (constant, or stepping up at given distances from
+//! the tip) and, at each end, whether the tube ends there in a hemispherical cap (a free end)
+//! or runs on out of the volume (an open end). World frame, mm.
 
-use flexshape_curve::{BSpline3, CurveError, Polyline};
+use flexshape_curve::{BSpline3, CurveError, Polyline, RadiusStep, radius_at, section_at};
 use nalgebra::{Point3, Vector3};
 
 /// A swept sphere along a B-spline centerline.
@@ -11,8 +11,11 @@ use nalgebra::{Point3, Vector3};
 pub struct Tube {
     /// Centerline, world mm, proximal end at `u = 0`.
     pub centerline: BSpline3,
-    /// Radius, mm.
+    /// Radius, mm: the tip section's when the tube steps in diameter (`steps`). The fit may
+    /// move it; the steps' radii are known and stay.
     pub radius: f64,
+    /// Where the radius steps, by arc length from the tip (empty: constant).
+    pub steps: Vec<RadiusStep>,
     /// Whether the proximal end (`[0]`) and the tip (`[1]`) end in hemispherical caps; an
     /// end without one runs on out of the working volume.
     pub capped: [bool; 2],
@@ -58,7 +61,55 @@ impl Tube {
         Ok(Tube {
             centerline: BSpline3::fit(&arcs, &data, spans + 3)?,
             radius,
+            steps: Vec::new(),
             capped,
+        })
+    }
+
+    /// The same tube stepping in radius at `steps` (by arc length from the tip).
+    pub fn with_steps(mut self, steps: &[RadiusStep]) -> Self {
+        self.steps = steps.to_vec();
+        self
+    }
+
+    /// The radius at `u` of a tube `length` mm long (the parameter taken as proportional to
+    /// arc length, as [`Tube::through`] makes it and the fit keeps it to well within the
+    /// margin left around each step), mm.
+    pub fn radius_at(&self, u: f64, length: f64) -> f64 {
+        radius_at(self.radius, &self.steps, (1.0 - u) * length)
+    }
+
+    /// Which radius section `u` lies in (0: the tip's; see [`Tube::radius_at`]).
+    pub(crate) fn section_at(&self, u: f64, length: f64) -> usize {
+        section_at(&self.steps, (1.0 - u) * length)
+    }
+
+    /// The radius of section `k` (0: the tip's, [`Tube::radius`]; `k`: proximal of step
+    /// `k − 1`), mm.
+    pub(crate) fn section_radius(&self, k: usize) -> f64 {
+        match k {
+            0 => self.radius,
+            k => self.steps[(k - 1).min(self.steps.len() - 1)].radius_mm,
+        }
+    }
+
+    /// The largest radius along the tube, mm.
+    pub fn largest_radius(&self) -> f64 {
+        self.steps
+            .iter()
+            .map(|s| s.radius_mm)
+            .fold(self.radius, f64::max)
+    }
+
+    /// Whether `u` lies at a step's shoulder: within the larger radius plus a millimetre of
+    /// it, where the outline turns from one radius to the other in a way the model leaves out.
+    pub(crate) fn at_shoulder(&self, u: f64, length: f64) -> bool {
+        let from_tip = (1.0 - u) * length;
+        let mut before = self.radius;
+        self.steps.iter().any(|s| {
+            let reach = before.max(s.radius_mm) + 1.0;
+            before = s.radius_mm;
+            (from_tip - s.from_tip_mm).abs() < reach
         })
     }
 

@@ -109,15 +109,26 @@ impl Centerline {
             TipEnd::Rounded => radius,
             TipEnd::Flat => 0.0,
         };
+        // A tube that steps in radius: each end is judged against its own section's
+        // cross-section (the median over all slices is the thickest section's), and the
+        // proximal end's cap is that section's radius.
+        let steps = &settings.radius_steps;
+        let extent = slices.s_range[1] - slices.s_range[0];
+        let tip_window = steps.first().map(|s| s.from_tip_mm);
+        let base_window = steps.last().map(|s| extent - s.from_tip_mm);
+        let base_cap = match (settings.tip_end, steps.last()) {
+            (TipEnd::Rounded, Some(s)) => s.radius_mm,
+            _ => cap,
+        };
         let start = if slices.enters_volume {
             crossing(&spline, volume, knots[0], -1.0)
         } else {
-            -end_param(&mirrored(slices), voxel, cap)
+            -end_param(&mirrored(slices), voxel, base_cap, base_window)
         };
         let end = if slices.leaves_volume {
             crossing(&spline, volume, knots[knots.len() - 1], 1.0)
         } else {
-            end_param(slices, voxel, cap)
+            end_param(slices, voxel, cap, tip_window)
         }
         .max(start + voxel);
         Self::over(spline, start, end, TABLE_STEP)
@@ -258,10 +269,26 @@ fn crossing(spline: &Smooth, volume: &Volume, from: f64, outward: f64) -> f64 {
 /// beyond it (a hemisphere: the radius; a flat face: 0). The mean of two estimates (see the
 /// module docs): the apex (outermost voxel centre plus half a voxel) less the cap, and the
 /// point where the cross-section falls to half the median slice's, less the cap's offset there
-/// (`cap/√2`: a hemisphere of radius r has half its section at r/√2).
-fn end_param(slices: &Slices, voxel: f64, cap: f64) -> f64 {
+/// (`cap/√2`: a hemisphere of radius r has half its section at r/√2). With `window`, the median
+/// is taken over the slices within that many mm of the end only (the end's own section of a
+/// tube that steps in radius).
+fn end_param(slices: &Slices, voxel: f64, cap: f64, window: Option<f64>) -> f64 {
     let apex = slices.s_range[1] + voxel / 2.0;
-    let mut sorted = slices.count.clone();
+    let near: Vec<f64> = match window {
+        Some(w) => slices
+            .s
+            .iter()
+            .zip(&slices.count)
+            .filter(|(s, _)| **s >= apex - w)
+            .map(|(_, c)| *c)
+            .collect(),
+        None => Vec::new(),
+    };
+    let mut sorted = if near.len() >= 3 {
+        near
+    } else {
+        slices.count.clone()
+    };
     sorted.sort_by(f64::total_cmp);
     let half = sorted[sorted.len() / 2] / 2.0;
     let n = slices.count.len();

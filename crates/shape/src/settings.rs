@@ -1,5 +1,6 @@
 //! Settings of the shape stage (`[processing.shape]` in the rig file). Lengths in mm.
 
+use flexshape_curve::{RadiusStep, check_steps};
 use serde::{Deserialize, Serialize};
 
 use crate::ShapeError;
@@ -105,8 +106,13 @@ pub struct ShapeSettings {
     pub smoothing: Smoothing,
     /// Spacing of the output samples, mm.
     pub sample_mm: f64,
-    /// Tube radius, mm, if known (else estimated from the cloud's cross-sections).
+    /// Tube radius, mm, if known (else estimated from the cloud's cross-sections); with
+    /// `radius_steps`, the tip section's.
     pub radius_mm: Option<f64>,
+    /// Where the tube steps up in diameter going back from the tip (concentric tubes, a
+    /// sheath), by arc length from the tip; needs `radius_mm`. The image fit draws each
+    /// section at its own radius and leaves the outline around each step (the shoulder) out.
+    pub radius_steps: Vec<RadiusStep>,
     /// The distal end's form.
     pub tip_end: TipEnd,
     /// A world point near where the tube enters the volume, for rigs where neither end touches
@@ -133,6 +139,7 @@ impl Default for ShapeSettings {
             smoothing: Smoothing::default(),
             sample_mm: 1.0,
             radius_mm: None,
+            radius_steps: Vec::new(),
             tip_end: TipEnd::default(),
             proximal_hint: None,
             tip_band: false,
@@ -201,6 +208,17 @@ impl ShapeSettings {
                 "radius_mm",
                 format!("{r} must be between {} and {} mm", RADIUS_MM.0, RADIUS_MM.1),
             );
+        }
+        if !self.radius_steps.is_empty() {
+            if self.radius_mm.is_none() {
+                return bad(
+                    "radius_steps",
+                    "a tube that steps in diameter needs its tip section's radius_mm too".into(),
+                );
+            }
+            if let Err(e) = check_steps(&self.radius_steps, RADIUS_MM) {
+                return bad("radius_steps", e.0);
+            }
         }
         match self.smoothing {
             Smoothing::Spline { bandwidth_mm }

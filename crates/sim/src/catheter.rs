@@ -3,7 +3,7 @@
 //! proximal end of the bending section and at the tip.
 
 use flexshape_camera::nalgebra::{Matrix3, Point3, Rotation3, Vector3};
-use flexshape_curve::{Frame, Section, SectionChain};
+use flexshape_curve::{Frame, RadiusStep, Section, SectionChain, check_steps};
 use flexshape_recording::{BendBase, Truth, TruthBand, TruthSection};
 use serde::{Deserialize, Serialize};
 
@@ -31,6 +31,10 @@ pub struct Catheter {
     pub band_width: f64,
     /// Centres of additional bands, mm of material from the bending section's base.
     pub extra_bands: Vec<f64>,
+    /// Where the tube steps up in radius going back from the tip, by arc length from the tip
+    /// (concentric tubes; empty: constant radius). `radius` is then the tip section's.
+    #[serde(default)]
+    pub radius_steps: Vec<RadiusStep>,
 }
 
 impl Default for Catheter {
@@ -48,6 +52,7 @@ impl Default for Catheter {
             bend_length: 160.0,
             band_width: 5.0,
             extra_bands: Vec::new(),
+            radius_steps: Vec::new(),
         }
     }
 }
@@ -155,6 +160,8 @@ impl Catheter {
         positive("proximal_length", self.proximal_length)?;
         positive("bend_length", self.bend_length)?;
         positive("band_width", self.band_width)?;
+        check_steps(&self.radius_steps, (1e-3, 1e3))
+            .map_err(|e| config_error("radius_steps", e.0))?;
         let total: f64 = pose.bend.iter().map(|s| s.length).sum();
         if pose.bend.is_empty() || (total - self.bend_length).abs() > 1e-6 * self.bend_length {
             return Err(config_error(
@@ -216,6 +223,21 @@ impl Catheter {
             "sections".into(),
             toml::Value::Array(vec![toml::Value::Table(section)]),
         );
+        // A stepped tube's radii are part of the instrument's description.
+        if !self.radius_steps.is_empty() {
+            shape.insert("radius_mm".into(), self.radius.into());
+            let steps = self
+                .radius_steps
+                .iter()
+                .map(|s| {
+                    let mut t = toml::Table::new();
+                    t.insert("from_tip_mm".into(), s.from_tip_mm.into());
+                    t.insert("radius_mm".into(), s.radius_mm.into());
+                    toml::Value::Table(t)
+                })
+                .collect();
+            shape.insert("radius_steps".into(), toml::Value::Array(steps));
+        }
         shape
     }
 
@@ -258,6 +280,7 @@ impl Catheter {
         Ok(Tube {
             centerline: state.chain.polyline(RENDER_STEP)?,
             radius: self.radius,
+            steps: self.radius_steps.clone(),
             bands: state.bands.clone(),
             albedo: BODY_ALBEDO,
             band_albedo: BAND_ALBEDO,

@@ -2,7 +2,7 @@
 //! spherical occluders, in world coordinates (mm).
 
 use flexshape_camera::nalgebra::Point3;
-use flexshape_curve::Polyline;
+use flexshape_curve::{Polyline, RadiusStep, radius_at};
 
 /// Linear RGB reflectance in `[0, 1]`.
 pub type Albedo = [f64; 3];
@@ -15,14 +15,17 @@ pub const BAND_ALBEDO: Albedo = [0.78, 0.09, 0.08];
 /// Default occluder: neutral grey.
 pub const OCCLUDER_ALBEDO: Albedo = [0.45, 0.43, 0.41];
 
-/// A tube of constant radius around a centerline, ending in hemispherical caps.
+/// A tube around a centerline, ending in hemispherical caps: of constant radius, or stepping
+/// up in radius going back from the tip (each thicker section ends in a rounded shoulder).
 #[derive(Debug, Clone)]
 pub struct Tube {
     /// Centerline (world mm). It is drawn as a chain of capsules through its vertices, so
     /// vertices about 1 mm apart keep the chord error below 0.01 mm for bend radii ≥ 15 mm.
     pub centerline: Polyline,
-    /// Radius, mm.
+    /// Radius, mm (the tip section's when it steps).
     pub radius: f64,
+    /// Where the radius steps, by arc length from the tip (empty: constant).
+    pub steps: Vec<RadiusStep>,
     /// Marker bands as arc-length intervals `[start, end]` (mm along the centerline).
     pub bands: Vec<[f64; 2]>,
     /// Body colour.
@@ -32,6 +35,15 @@ pub struct Tube {
 }
 
 impl Tube {
+    /// The radius of the capsule between arc lengths `a` and `b` (mm from the proximal end).
+    pub fn radius_between(&self, a: f64, b: f64) -> f64 {
+        radius_at(
+            self.radius,
+            &self.steps,
+            self.centerline.length() - (a + b) / 2.0,
+        )
+    }
+
     /// True when the surface point whose nearest centerline point is at arc length `s` lies on
     /// a band. A band reaching the tube's end also colours its end cap (a marked tip).
     pub fn is_band(&self, s: f64) -> bool {

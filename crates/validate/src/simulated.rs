@@ -180,6 +180,7 @@ pub fn accuracy_experiment(e: &Experiments) -> Result<AccuracyRun, ValidateError
             tubes: vec![Tube {
                 centerline: line,
                 radius: 3.0,
+                steps: Vec::new(),
                 bands: Vec::new(),
                 albedo: BODY_ALBEDO,
                 band_albedo: BAND_ALBEDO,
@@ -244,6 +245,7 @@ fn object(base: Frame) -> (Catheter, CatheterPose) {
         bend_length: 140.0,
         band_width: 5.0,
         extra_bands: vec![70.0],
+        radius_steps: Vec::new(),
     };
     let k = 1.0 / 60.0;
     let pose = CatheterPose::two_section(&catheter, [k, 0.0], [-k, 0.0], 70.0, [0.0, 0.0], 0.0);

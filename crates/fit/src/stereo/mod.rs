@@ -72,6 +72,7 @@ impl TubeFitter {
                 continue;
             };
             let Ok(start) = Tube::through(&points, r0, open.map(|o| !o), s.span_mm, s.extend_mm)
+                .map(|t| t.with_steps(&estimator.settings().radius_steps))
             else {
                 continue;
             };

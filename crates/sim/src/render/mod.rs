@@ -188,7 +188,7 @@ impl Renderer {
                 capsules.push(Capsule {
                     a: to_cam(&pts[i]),
                     b: to_cam(&pts[i + 1]),
-                    radius: tube.radius,
+                    radius: tube.radius_between(arcs[i], arcs[i + 1]),
                     s_a: arcs[i],
                     s_b: arcs[i + 1],
                     tube: t,
