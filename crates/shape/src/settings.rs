@@ -342,6 +342,33 @@ mod tests {
     }
 
     #[test]
+    fn radius_steps_need_the_tip_radius_and_increasing_places() {
+        let read = |text: &str| {
+            let table: toml::Table = toml::from_str(text).unwrap();
+            ShapeSettings::from_processing(&table)
+        };
+        let s = read(
+            "[shape]\nradius_mm = 0.6\nradius_steps = [{ from_tip_mm = 40, radius_mm = 0.9 }, { from_tip_mm = 95, radius_mm = 1.4 }]\n",
+        )
+        .unwrap();
+        assert_eq!(s.radius_steps.len(), 2);
+        assert_eq!(s.radius_steps[1].radius_mm, 1.4);
+        for bad in [
+            "[shape]\nradius_steps = [{ from_tip_mm = 40, radius_mm = 0.9 }]\n",
+            "[shape]\nradius_mm = 0.6\nradius_steps = [{ from_tip_mm = 95, radius_mm = 0.9 }, { from_tip_mm = 40, radius_mm = 1.4 }]\n",
+            "[shape]\nradius_mm = 0.6\nradius_steps = [{ from_tip_mm = 40, radius_mm = 1e9 }]\n",
+            "[shape]\nradius_mm = 0.6\nradius_steps = [{ from_tip_mm = 40, radius = 0.9 }]\n",
+        ] {
+            let e = read(bad).unwrap_err().to_string();
+            // The step's own keys are named by the reader ("unknown field `radius`").
+            assert!(
+                e.contains("radius_steps") || e.contains("unknown field `radius`"),
+                "{bad}: {e}"
+            );
+        }
+    }
+
+    #[test]
     fn the_documented_example_is_valid() {
         let doc = include_str!("../../../docs/formats.md");
         let start = doc
