@@ -18,6 +18,10 @@ pub enum Command {
     Demo(DemoArgs),
     /// Write a simulated recording (calibration, backgrounds, frames, ground truth).
     Simulate(SimulateArgs),
+    /// Capture frame sets from live cameras into one folder per camera (OUT/NAME/000000.png …,
+    /// the images of one instant sharing a file name, and OUT/timestamps.csv): chessboard
+    /// views for `calibrate`, the empty scene for `background`, frames to `track` later.
+    Capture(CaptureArgs),
     /// Build a background model (per-pixel mean and spread) from frames of the empty scene.
     Background(BackgroundArgs),
     /// Compute one recorded frame's silhouettes with the rig's settings, report them (against
@@ -616,6 +620,29 @@ pub struct ChessboardsArgs {
 }
 
 #[derive(Debug, Args)]
+pub struct CaptureArgs {
+    /// Live camera, NAME=INPUT (repeat per camera): a V4L2 device (/dev/video0), a stream URL,
+    /// or a video file played in real time; read by ffmpeg.
+    #[arg(long, value_name = "NAME=INPUT", value_parser = parse_named_path, required = true)]
+    pub camera: Vec<(String, PathBuf)>,
+    /// Output folder (NAME/ per camera and timestamps.csv are created in it; existing camera
+    /// folders are never overwritten).
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Frame sets to capture.
+    #[arg(long, default_value_t = 20)]
+    pub sets: u64,
+    /// Least time between two sets, seconds (e.g. 2 to move a chessboard between views; 0
+    /// takes every set the cameras deliver).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = parse_interval)]
+    pub interval: f64,
+    /// Image size of V4L2 devices, WxH (default: what the device gives; files and streams are
+    /// probed).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+}
+
+#[derive(Debug, Args)]
 pub struct BackgroundArgs {
     /// Folder of background frames of one camera (PNG or JPEG, all the same size).
     #[arg(long)]
@@ -757,6 +784,14 @@ fn parse_named_path(s: &str) -> Result<(String, PathBuf), String> {
         _ => Err(format!(
             "`{s}` is not NAME=PATH (a camera name from the rig, then its input)"
         )),
+    }
+}
+
+/// `--interval`: seconds, finite and not negative.
+fn parse_interval(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..=86_400.0).contains(&v) => Ok(v),
+        _ => Err(format!("`{s}` is not a time between 0 and 86400 seconds")),
     }
 }
 

@@ -156,7 +156,7 @@ impl Drop for Decoder {
 }
 
 /// The width and height of the first video stream of `input` (a file or URL).
-pub(crate) fn probe_size(camera: &str, input: &str) -> Result<(u32, u32), InputError> {
+pub fn probe_size(camera: &str, input: &str) -> Result<(u32, u32), InputError> {
     let out = Command::new("ffprobe")
         .args(["-v", "error", "-select_streams", "v:0"])
         .args(["-show_entries", "stream=width,height", "-of", "csv=p=0"])

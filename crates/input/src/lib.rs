@@ -4,7 +4,10 @@
 //! ([`LiveSource`]); the last two run the `ffmpeg` program. [`NewestSource`] wraps any producer
 //! thread (the simulated rig of the live demo). Offline sources hand out every
 //! frame; a live source always hands out the newest and counts the frames it had to drop.
+//! [`capture`] writes a source's frame sets into per-camera folders (chessboards, backgrounds,
+//! frames to track later).
 
+mod capture;
 mod error;
 mod ffmpeg;
 mod folders;
@@ -14,8 +17,9 @@ mod newest;
 mod recording;
 mod video;
 
+pub use capture::{CaptureOptions, CaptureReport, capture, capture_path};
 pub use error::InputError;
-pub use ffmpeg::{FFMPEG_PACKAGE_HINT, ffmpeg_available};
+pub use ffmpeg::{FFMPEG_PACKAGE_HINT, ffmpeg_available, probe_size};
 pub use folders::{FolderSource, natural_order};
 pub use frame::{CaptureSource, CaptureTime, FrameImage, FrameSet, unix_seconds};
 

@@ -3,6 +3,7 @@
 mod background;
 mod bench;
 mod calibrate;
+mod capture;
 mod carve;
 mod demo;
 mod figures;
@@ -30,6 +31,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo(args) => demo::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Background(args) => background::run(&args),
+        Command::Capture(args) => capture::run(&args),
         Command::Silhouettes(args) => silhouettes::run(&args),
         Command::Track(args) => track::run(&args),
         Command::Carve(args) => carve::run(&args),
