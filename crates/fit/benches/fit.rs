@@ -50,33 +50,60 @@ fn bench(c: &mut Criterion) {
         b.iter(|| black_box(fitter.fit(&frame_views, start.clone(), true).unwrap()))
     });
     // Tracking: the next frame of a smooth motion filmed at 120 Hz, fitted from this one's
-    // shape (silhouettes of the whole image here; the pipeline classifies only a box).
-    let poses = sim.motion(2, 120.0);
-    let first = sim.render(0, &poses[0]).unwrap();
-    let next = sim.render(1, &poses[1]).unwrap();
-    let sil0 = silhouettes(&models, &first);
-    let objects: Vec<_> = sil0.iter().map(|s| &s.object).collect();
-    let markers: Vec<_> = sil0.iter().map(|s| &s.markers).collect();
+    // shape (silhouettes of the whole image here; the pipeline classifies only a box); and the
+    // frame after, from the tube carried on as it moved between the two (what `track --follow`
+    // does once two frames are in).
+    let poses = sim.motion(3, 120.0);
+    let rendered: Vec<SimFrame> = (0..3)
+        .map(|i| sim.render(i, &poses[i as usize]).unwrap())
+        .collect();
+    let sils: Vec<Vec<Silhouette>> = rendered.iter().map(|f| silhouettes(&models, f)).collect();
+    let objects: Vec<_> = sils[0].iter().map(|s| &s.object).collect();
+    let markers: Vec<_> = sils[0].iter().map(|s| &s.markers).collect();
     let occ = carver.carve(&objects, OutsideImage::Carve).unwrap();
     let bands = find_bands(&occ, &cameras, &markers, &BandRule::default()).unwrap();
     let hull = estimator.estimate(&occ, &bands);
-    let (previous, _) = fitter
+    let (first, fit0) = fitter
         .refine(
             &estimator,
             &rig.volume,
-            &views(&first, &models, &sil0),
+            &views(&rendered[0], &models, &sils[0]),
             &hull,
             &occ.centres(),
             None,
         )
         .unwrap();
-    let sil1 = silhouettes(&models, &next);
-    let next_views = views(&next, &models, &sil1);
+    let views1 = views(&rendered[1], &models, &sils[1]);
     group.bench_function("follow_120hz_3cam", |b| {
         b.iter(|| {
             black_box(
                 fitter
-                    .follow(&estimator, &rig.volume, &next_views, &previous, None, None)
+                    .follow(&estimator, &rig.volume, &views1, &first, None, None)
+                    .unwrap(),
+            )
+        })
+    });
+    let (second, fit1) = fitter
+        .follow(&estimator, &rig.volume, &views1, &first, None, None)
+        .unwrap();
+    let predicted = fit1
+        .unwrap()
+        .tube
+        .carried_on(&fit0.unwrap().tube, 1.0, 3.0)
+        .unwrap();
+    let views2 = views(&rendered[2], &models, &sils[2]);
+    group.bench_function("follow_predicted_120hz_3cam", |b| {
+        b.iter(|| {
+            black_box(
+                fitter
+                    .follow(
+                        &estimator,
+                        &rig.volume,
+                        &views2,
+                        &second,
+                        Some(&predicted),
+                        None,
+                    )
                     .unwrap(),
             )
         })
