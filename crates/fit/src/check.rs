@@ -146,8 +146,11 @@ pub(crate) fn render(
         camera.intrinsics.height as usize,
     );
     let mut mask = BitMask::new(w, h);
-    for (c, r) in centres {
-        disc(&mut mask, camera, c, *r);
+    for s in crate::outline::spheres_along(camera, centres)
+        .into_iter()
+        .flatten()
+    {
+        disc(&mut mask, s);
     }
     let mut beyond = BitMask::new(w, h);
     for end in [0, 1] {
@@ -161,18 +164,22 @@ pub(crate) fn render(
         .map_or(tube.radius, |c| c.1);
         let step = (r / 2.0).max(0.05);
         let (c, dir) = tube.beyond(end);
-        for k in 1..=(crate::outline::BEYOND_MM / step).ceil() as usize {
-            disc(&mut beyond, camera, &(c + dir * (step * k as f64)), r);
+        let line: Vec<(Point3<f64>, f64)> = (1..=(crate::outline::BEYOND_MM / step).ceil()
+            as usize)
+            .map(|k| (c + dir * (step * k as f64), r))
+            .collect();
+        for s in crate::outline::spheres_along(camera, &line)
+            .into_iter()
+            .flatten()
+        {
+            disc(&mut beyond, s);
         }
     }
     (mask, beyond)
 }
 
-/// Draws the image of a sphere (as a disc), clipped to the mask.
-fn disc(mask: &mut BitMask, camera: &Camera, centre: &Point3<f64>, r: f64) {
-    let Some((_, c, radius)) = crate::outline::sphere(camera, *centre, r) else {
-        return;
-    };
+/// Draws the image of a sphere (centre, pixel, image radius; as a disc), clipped to the mask.
+fn disc(mask: &mut BitMask, (_, c, radius): (Point3<f64>, nalgebra::Vector2<f64>, f64)) {
     let (w, h) = (mask.width() as f64, mask.height() as f64);
     let (cx, cy) = (c.x, c.y);
     if cx + radius < 0.0 || cy + radius < 0.0 || cx - radius > w - 1.0 || cy - radius > h - 1.0 {

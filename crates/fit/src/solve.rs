@@ -125,6 +125,7 @@ pub(crate) fn normal_equations(
         rows += 1;
     });
     priors(tube, start, settings, fit_radius, &mut h, &mut g);
+    mirror_upper(&mut h);
     Normal { h, g, cost, rows }
 }
 
@@ -245,6 +246,8 @@ pub(crate) fn huber(r: f64, k: f64) -> f64 {
     if r.abs() <= k { 1.0 } else { k / r.abs() }
 }
 
+/// Adds one weighted row to the normal equations: `g` in full, `h` in its upper triangle only
+/// (half the work; [`mirror_upper`] completes it).
 fn add_row(h: &mut DMatrix<f64>, g: &mut DVector<f64>, entries: &[(usize, f64)], r: f64, w: f64) {
     let n = h.nrows();
     let hs = h.as_mut_slice();
@@ -253,7 +256,19 @@ fn add_row(h: &mut DMatrix<f64>, g: &mut DVector<f64>, entries: &[(usize, f64)],
         g[i] += wa * r;
         // Column-major: (i, j) at j·n + i.
         for &(j, b) in entries {
-            hs[j * n + i] += wa * b;
+            if j >= i {
+                hs[j * n + i] += wa * b;
+            }
+        }
+    }
+}
+
+/// Copies the upper triangle of `h` onto its lower one.
+fn mirror_upper(h: &mut DMatrix<f64>) {
+    let n = h.nrows();
+    for j in 0..n {
+        for i in j + 1..n {
+            h[(i, j)] = h[(j, i)];
         }
     }
 }
