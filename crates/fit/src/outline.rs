@@ -622,6 +622,9 @@ impl Spheres {
 /// its vanishing point and would follow it for ever).
 pub(crate) const BEYOND_MM: f64 = 300.0;
 
+/// A sphere as a camera sees it: centre (world), its pixel and its image radius in pixels.
+pub(crate) type Projected = (Point3<f64>, Vector2<f64>, f64);
+
 /// Spheres projected exactly at every this many along a row of centres, in between by
 /// interpolation: over a few millimetres of centerline its image is straight to hundredths of
 /// a pixel.
@@ -633,12 +636,12 @@ const PROJECTED_EVERY: usize = 4;
 pub(crate) fn spheres_along(
     camera: &Camera,
     centres: &[(Point3<f64>, f64)],
-) -> Vec<Option<(Point3<f64>, Vector2<f64>, f64)>> {
+) -> Vec<Option<Projected>> {
     let n = centres.len();
-    let mut out: Vec<Option<(Point3<f64>, Vector2<f64>, f64)>> = vec![None; n];
+    let mut out: Vec<Option<Projected>> = vec![None; n];
     let knots: Vec<usize> = (0..n)
         .step_by(PROJECTED_EVERY)
-        .chain((n > 0 && (n - 1) % PROJECTED_EVERY != 0).then_some(n - 1))
+        .chain((n > 0 && !(n - 1).is_multiple_of(PROJECTED_EVERY)).then_some(n - 1))
         .collect();
     for &k in &knots {
         out[k] = sphere(camera, centres[k].0, centres[k].1);
