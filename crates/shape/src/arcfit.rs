@@ -34,7 +34,7 @@ pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> 
     let kappa0 = chord_curvature(&frame, data[data.len() - 1].1, length);
     let one = Problem::new(&data, frame, vec![length], settings.free_base, &kappa0);
     // The residuals report the fit's quality whatever the termination reason.
-    let (one, _) = LevenbergMarquardt::new().minimize(one);
+    let (one, _) = solver().minimize(one);
     let base = one.base();
     let kappa = [one.params[0], one.params[1]];
     let (mean, max) = one.residual_stats();
@@ -48,7 +48,7 @@ pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> 
         settings.free_base,
         &init,
     );
-    let (two, _) = LevenbergMarquardt::new().minimize(two);
+    let (two, _) = solver().minimize(two);
     let (mean2, max2) = two.residual_stats();
     let curvature = kappa[0].hypot(kappa[1]);
     let axes = base.rotation.matrix();
@@ -73,6 +73,13 @@ pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> 
             residual_max: max2,
         }),
     })
+}
+
+/// The solver: converged once a step changes the cost or the parameters by less than 1e-10
+/// of themselves (the library's default asks for machine precision, which costs a third more
+/// steps for changes far below a micrometre).
+fn solver() -> LevenbergMarquardt<f64> {
+    LevenbergMarquardt::new().with_ftol(1e-10).with_xtol(1e-10)
 }
 
 /// The section frame at a curve point: y along the tangent, x the reference direction made
