@@ -14,6 +14,11 @@ fn data(set: &str) -> Option<PathBuf> {
     if dir.is_dir() {
         Some(dir)
     } else {
+        assert!(
+            std::env::var("FLEXSHAPE_REQUIRE_SHARED").as_deref() != Ok("1"),
+            "FLEXSHAPE_REQUIRE_SHARED=1 but {} is missing",
+            dir.display()
+        );
         println!("SKIPPED: {} not found", dir.display());
         None
     }

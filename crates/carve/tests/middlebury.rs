@@ -21,6 +21,11 @@ fn data_dir() -> Option<PathBuf> {
     if dir.is_dir() {
         Some(dir)
     } else {
+        assert!(
+            std::env::var("FLEXSHAPE_REQUIRE_SHARED").as_deref() != Ok("1"),
+            "FLEXSHAPE_REQUIRE_SHARED=1 but {} is missing",
+            dir.display()
+        );
         eprintln!(
             "SKIPPED: {} not found (the shared data sits beside the repository)",
             dir.display()

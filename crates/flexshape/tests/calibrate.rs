@@ -14,6 +14,11 @@ fn stereo_data() -> Option<std::path::PathBuf> {
     if data.is_dir() {
         Some(data)
     } else {
+        assert!(
+            std::env::var("FLEXSHAPE_REQUIRE_SHARED").as_deref() != Ok("1"),
+            "FLEXSHAPE_REQUIRE_SHARED=1 but {} is missing",
+            data.display()
+        );
         println!("SKIPPED: {} not found", data.display());
         None
     }
