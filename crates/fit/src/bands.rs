@@ -282,13 +282,15 @@ fn median(v: &[Option<f64>]) -> f64 {
 
 /// RGB at a sub-pixel position, bilinear.
 fn bilinear(image: &RgbImage, p: Vector2<f64>) -> Option<[f32; 3]> {
-    let (x0, y0) = (p.x.floor(), p.y.floor());
-    if x0 < 0.0 || y0 < 0.0 || x0 + 1.0 >= image.width() as f64 || y0 + 1.0 >= image.height() as f64
-    {
+    // Truncation is the floor once negative positions are refused (and no library call).
+    if !(p.x >= 0.0 && p.y >= 0.0) {
         return None;
     }
-    let (fx, fy) = ((p.x - x0) as f32, (p.y - y0) as f32);
-    let (x, y) = (x0 as u32, y0 as u32);
+    let (x, y) = (p.x as u32, p.y as u32);
+    if x + 1 >= image.width() || y + 1 >= image.height() {
+        return None;
+    }
+    let (fx, fy) = ((p.x - x as f64) as f32, (p.y - y as f64) as f32);
     let mut out = [0f32; 3];
     for (dx, dy, w) in [
         (0, 0, (1.0 - fx) * (1.0 - fy)),

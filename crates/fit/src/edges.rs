@@ -90,8 +90,10 @@ impl<'a> EdgeImage<'a> {
         search: f64,
         min_contrast: f64,
     ) -> Option<Edge> {
-        let outer = (search / STEP).ceil() as i32;
-        let inner = (inside / STEP).floor().max(1.0) as i32;
+        // Rounded by casts (floor and ceil are library calls without SSE4.1); both ≥ 0 here.
+        let (q_out, q_in) = (search / STEP, inside / STEP);
+        let outer = q_out as i32 + i32::from((q_out as i32 as f64) < q_out);
+        let inner = (q_in as i32).max(1);
         let mut diffs = [[0f32; 3]; 64];
         let count = (outer + inner + 1) as usize;
         if count > diffs.len() {
