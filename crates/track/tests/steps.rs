@@ -56,11 +56,29 @@ fn a_stepped_tube_is_fitted_section_by_section() {
 
 #[test]
 fn a_stepped_tube_fitted_as_one_radius_is_never_ok() {
-    let (sim, pipeline) = common::chain_of(stepped());
     // The same rig without the steps (and so without a known radius): one radius, fitted.
+    never_ok_with(Vec::new(), None);
+}
+
+#[test]
+fn a_step_the_rig_misplaces_is_never_ok() {
+    // The step declared 25 mm too far from the tip.
+    never_ok_with(
+        vec![RadiusStep {
+            from_tip_mm: 95.0,
+            radius_mm: 3.0,
+        }],
+        Some(2.0),
+    );
+}
+
+/// Every frame of the stepped tube is `inconsistent` when the rig describes its radii as
+/// `steps` and `radius_mm`.
+fn never_ok_with(steps: Vec<RadiusStep>, radius_mm: Option<f64>) {
+    let (sim, pipeline) = common::chain_of(stepped());
     let settings = ShapeSettings {
-        radius_mm: None,
-        radius_steps: Vec::new(),
+        radius_mm,
+        radius_steps: steps,
         ..pipeline.shape_settings().clone()
     };
     let pipeline = pipeline.with_shape_settings(settings).unwrap();
