@@ -543,9 +543,14 @@ pub struct SimArgs {
     /// Number of spherical occluders between cameras and volume.
     #[arg(long, default_value_t = 0)]
     pub occluders: usize,
-    /// Catheter radius in mm.
+    /// Catheter radius in mm (the tip section's with --radius-steps).
     #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
     pub radius: f64,
+    /// A catheter that steps up in radius going back from its tip (concentric tubes):
+    /// FROM_TIP:RADIUS pairs in mm, comma-separated, e.g. `70:3` (3 mm from 70 mm behind the
+    /// tip on). The recording's rig then gives the radii (`[processing.shape] radius_steps`).
+    #[arg(long, value_name = "FROM_TIP:RADIUS,…", value_parser = parse_radius_steps)]
+    pub radius_steps: Option<RadiusSteps>,
     /// Rays per pixel side when rendering (default 4: 16 rays per pixel). 2 renders about
     /// twice as fast with softer edges.
     #[arg(long, value_name = "N")]
@@ -785,6 +790,31 @@ fn parse_named_path(s: &str) -> Result<(String, PathBuf), String> {
             "`{s}` is not NAME=PATH (a camera name from the rig, then its input)"
         )),
     }
+}
+
+/// The steps of `--radius-steps` (one value holding them all).
+#[derive(Debug, Clone)]
+pub struct RadiusSteps(pub Vec<flexshape_curve::RadiusStep>);
+
+/// `--radius-steps`: `FROM_TIP:RADIUS` pairs, comma-separated (checked by the simulator).
+fn parse_radius_steps(s: &str) -> Result<RadiusSteps, String> {
+    s.split(',')
+        .map(|pair| {
+            let (at, r) = pair
+                .split_once(':')
+                .ok_or_else(|| format!("`{pair}` is not FROM_TIP:RADIUS (mm, e.g. 70:3)"))?;
+            let number = |v: &str| {
+                v.trim()
+                    .parse::<f64>()
+                    .map_err(|_| format!("`{v}` in `{pair}` is not a number of mm"))
+            };
+            Ok(flexshape_curve::RadiusStep {
+                from_tip_mm: number(at)?,
+                radius_mm: number(r)?,
+            })
+        })
+        .collect::<Result<_, String>>()
+        .map(RadiusSteps)
 }
 
 /// `--interval`: seconds, finite and not negative.

@@ -729,3 +729,44 @@ fn greyscale_frames_against_a_colour_background_are_warned_about_once() {
         "{stderr}"
     );
 }
+
+/// `simulate --radius-steps`: a catheter that steps up in radius behind its tip, whose rig says
+/// so; tracked `ok` with the tip section's radius in the records. Steps out of order are refused.
+#[test]
+fn a_simulated_stepped_catheter_tracks_with_the_rigs_radii() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&[
+        "simulate",
+        "--out",
+        r,
+        "--frames",
+        "2",
+        "--radius",
+        "2",
+        "--radius-steps",
+        "70:3",
+    ]);
+    let rig = std::fs::read_to_string(rec.join("rig.toml")).unwrap();
+    assert!(rig.contains("radius_steps"), "{rig}");
+    let out = dir.path().join("shapes.jsonl");
+    common::run(&["track", r, "--out", out.to_str().unwrap()]);
+    let (records, _) = read_lines(&out);
+    assert_eq!(records.len(), 2);
+    for rec in &records {
+        assert_eq!(rec["status"], "ok", "{rec}");
+        assert_eq!(rec["radius"].as_f64(), Some(2.0));
+    }
+    let bad = dir.path().join("bad");
+    let e = common::fails(&[
+        "simulate",
+        "--out",
+        bad.to_str().unwrap(),
+        "--frames",
+        "1",
+        "--radius-steps",
+        "70:3,50:4",
+    ]);
+    assert!(e.contains("radius_steps") && e.contains("step 1"), "{e}");
+}

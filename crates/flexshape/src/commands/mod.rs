@@ -89,6 +89,11 @@ fn sim_config(args: &SimArgs) -> SimConfig {
         },
         catheter: Catheter {
             radius: args.radius,
+            radius_steps: args
+                .radius_steps
+                .as_ref()
+                .map(|s| s.0.clone())
+                .unwrap_or_default(),
             ..defaults.catheter
         },
         occluders: args.occluders,
