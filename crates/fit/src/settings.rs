@@ -64,18 +64,19 @@ pub struct FitSettings {
     /// beyond which the shape is `ambiguous`: the cameras do not pin it down (too few of them,
     /// or the tube lying in a plane two of them share).
     pub max_sigma_mm: f64,
-    /// Tracking: start each frame from the previous frame's fit (when that one was right),
-    /// classify silhouettes only around it, and carve only to start again when the fit does
-    /// not explain the images. Off by default: under fast motion (several millimetres a
-    /// frame) a followed fit can settle with its tip a few tenths of a millimetre off and
-    /// still pass the self-check. Rigs of fewer than three cameras carve every frame anyway:
-    /// the ghost check needs the hull.
+    /// Tracking: start each frame from the previous frame's fit (when that one was right;
+    /// carried on as it moved since the right frame before), classify silhouettes only around
+    /// it, and carve only to start again when the fit does not explain the images. Off by
+    /// default: under fast motion (several millimetres a frame) a followed fit can settle with
+    /// its tip a few tenths of a millimetre off and still pass the self-check. Needs two
+    /// cameras or more.
     pub track: bool,
     /// Tracking: how far around the previous frame's tube the silhouettes are classified,
     /// pixels (more than the tube's image moves between frames).
     pub track_margin_px: f64,
-    /// Tracking: a followed fit whose tip moved farther than this from the previous frame's is
-    /// not trusted (the frame is carved again), mm.
+    /// Tracking: a followed fit whose tip moved farther than this from where it started (the
+    /// previous frame's, carried on) is not trusted (the frame is carved again), mm; also the
+    /// largest move a prediction may give a control point.
     pub track_max_move_mm: f64,
 }
 

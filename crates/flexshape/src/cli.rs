@@ -481,8 +481,9 @@ pub struct TrackArgs {
     /// Replace existing --out and --csv files and PLY clouds.
     #[arg(long)]
     pub overwrite: bool,
-    /// Start each frame's fit from the previous frame's shape when that one was right, and
-    /// carve only when it does not explain the images (tracking, `[processing.fit] track`):
+    /// Start each frame's fit from the previous frame's shape when that one was right (carried
+    /// on as it moved since the right frame before), and carve only when it does not explain
+    /// the images (tracking, `[processing.fit] track`):
     /// faster for slow, smooth motion; such records have `start` = `previous`, `voxels` 0 and
     /// no `ghost_mm`. Needs two cameras or more.
     #[arg(long)]
