@@ -13,7 +13,9 @@ use flexshape_shape::ShapeError;
 use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
-pub use pipeline::{Hull, MASK_P90_PX, Pipeline, Prior, StageTimings, Start, Tracked};
+pub use pipeline::{
+    Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, StageTimings, Start, Tracked,
+};
 pub use record::{
     ModelFrame, StageSummary, SummaryLine, Tally, TrackArcFit, TrackBand, TrackCompression,
     TrackRecord, TrackSummary, quantile, stage_summaries,

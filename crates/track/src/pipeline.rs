@@ -109,6 +109,10 @@ pub enum Start {
     Views,
 }
 
+/// The largest share of the working volume a tube's carved hull may fill; beyond it the
+/// frame gets status `bad_silhouette` and no shape.
+pub const MAX_HULL_SHARE: f64 = 0.1;
+
 /// A frame's shape that later frames may start from: one fitted to the images whose status
 /// says it is right (`ok`, `bands_missing`, `leaves_volume`), and whose direction was decided.
 #[derive(Debug, Clone)]
@@ -497,6 +501,23 @@ impl Pipeline {
             })
     }
 
+    /// Why a frame's carved hull cannot be a tube's, if it fills more than [`MAX_HULL_SHARE`]
+    /// of the working volume (a tube 600 mm long and 10 mm thick fills about 1 % of the
+    /// default 256 mm cube; the hull of silhouettes that are mostly backdrop, or of a volume
+    /// the cameras hardly see, fills a large part of it).
+    fn hull_too_large(&self, occupancy: &Occupancy) -> Option<String> {
+        let dims = occupancy.volume.dims;
+        let total = dims.iter().map(|&d| d as f64).product::<f64>().max(1.0);
+        let share = occupancy.voxels.len() as f64 / total;
+        (share > MAX_HULL_SHARE).then(|| {
+            format!(
+                "the carved hull fills {:.0} % of the working volume (a tube fills a few percent at most, here at most {:.0} %): the silhouettes cover far more than the tube, or the cameras hardly see the volume; check the backgrounds (flexshape silhouettes) and the volume (flexshape rig check)",
+                share * 100.0,
+                MAX_HULL_SHARE * 100.0
+            )
+        })
+    }
+
     /// The occupancy of a frame that was not carved.
     fn nothing_carved(&self) -> Occupancy {
         Occupancy {
@@ -571,7 +592,7 @@ impl Pipeline {
             timings,
         } = self.hull(images)?;
         let (silhouettes_ms, carve_ms) = (timings.silhouettes, timings.carve);
-        if let Some(reason) = implausible {
+        if let Some(reason) = implausible.or_else(|| self.hull_too_large(&occupancy)) {
             return Ok(Tracked {
                 silhouettes,
                 occupancy,

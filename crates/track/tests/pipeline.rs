@@ -68,3 +68,36 @@ fn a_silhouette_covering_most_of_the_image_is_bad_not_carved() {
         "ok"
     );
 }
+
+/// Lights down over the middle of every camera's view, each silhouette under
+/// `max_foreground`: the hull carved from them fills a large part of the volume, which no
+/// tube does. The frame says so (`bad_silhouette`) instead of fitting a tube into it.
+#[test]
+fn a_hull_filling_much_of_the_volume_is_bad_not_fitted() {
+    let (sim, pipeline) = common::simulated_chain();
+    let frame = sim.render(0, &sim.sweep(1)[0]).unwrap();
+    let dark: Vec<_> = frame
+        .views
+        .iter()
+        .map(|v| {
+            let mut img = v.image.clone();
+            let (w, h) = img.dimensions();
+            for (x, y, p) in img.enumerate_pixels_mut() {
+                if x > w / 5 && x < 4 * w / 5 && y > h / 5 && y < 17 * h / 20 {
+                    p.0 = p.0.map(|v| v / 5);
+                }
+            }
+            img
+        })
+        .collect();
+    let images: Vec<_> = dark.iter().collect();
+    let t = pipeline.process(&images).unwrap();
+    let record = TrackRecord::from_tracked(0, &t);
+    let share = t.occupancy.len() as f64 / 256f64.powi(3);
+    println!("hull {share:.3} of the volume: {:?}", record.reason);
+    assert_eq!(record.status, "bad_silhouette");
+    let reason = record.reason.unwrap();
+    assert!(reason.contains("of the working volume"), "{reason}");
+    assert!(share > flexshape_track::MAX_HULL_SHARE);
+    assert!(t.fit.is_none() && record.centerline.is_empty());
+}
