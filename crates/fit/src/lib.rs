@@ -243,8 +243,8 @@ impl TubeFitter {
                 if largest > 1.0 {
                     step /= largest;
                 }
-                let n = step.len();
-                let across = across_tube(&tube, &step).max(step[n - 1].abs());
+                let radii = step.rows_range(tube.radius_column(0)..).amax();
+                let across = across_tube(&tube, &step).max(radii);
                 tube.apply(&step);
                 normal = Some(eq);
                 iterations += 1;
@@ -421,20 +421,23 @@ impl TubeFitter {
         ];
         let capped = open.map(|o| !o);
         let steps = &estimator.settings().radius_steps;
-        let given = start
-            .filter(|t| t.capped == capped && &t.steps == steps && t.evenly_spread())
-            .cloned()
-            .map(|mut t| {
-                if radius.is_some() {
-                    t.radius = r0;
-                }
-                t
-            });
+        // The previous tube's radii where the fit finds them (none given), else the rig's.
+        let start = start.filter(|t| t.capped == capped && t.steps_at_same_places(steps));
+        let radii = start
+            .filter(|_| radius.is_none())
+            .map_or(steps.as_slice(), |t| t.steps.as_slice());
+        let given = start.filter(|t| t.evenly_spread()).cloned().map(|mut t| {
+            if radius.is_some() {
+                t.radius = r0;
+                t.steps = steps.clone();
+            }
+            t
+        });
         let start = match given {
             Some(t) => t,
             // Through the previous shape again, so that control points are evenly spread.
             None => match Tube::through(&previous.points, r0, capped, s.span_mm, s.extend_mm) {
-                Ok(t) => t.with_steps(steps),
+                Ok(t) => t.with_steps(radii),
                 Err(_) => return Ok((previous.clone(), None)),
             },
         };

@@ -144,7 +144,8 @@ pub(crate) struct Row<'a> {
 }
 
 /// Calls `visit` for every measured outline point with a residual: its Jacobian row in the
-/// tube's parameters (control points, then the radius if `fit_radius`) and its weight.
+/// tube's parameters (control points, then its section's radius if `fit_radius`) and its
+/// weight.
 pub(crate) fn for_each_row(
     tube: &Tube,
     measured: &[Vec<Measured>],
@@ -152,7 +153,6 @@ pub(crate) fn for_each_row(
     fit_radius: bool,
     mut visit: impl FnMut(Row<'_>),
 ) {
-    let radius_col = tube.parameters() - 1;
     let last = tube.centerline.control().len() - 1;
     let mut entries: Vec<(usize, f64)> = Vec::with_capacity(13);
     for (camera, ms) in measured.iter().enumerate() {
@@ -180,9 +180,8 @@ pub(crate) fn for_each_row(
                     }
                 }
             }
-            // Only the tip section's radius is a parameter; the steps' are known.
-            if fit_radius && p.section == 0 {
-                entries.push((radius_col, p.gain));
+            if fit_radius {
+                entries.push((tube.radius_column(p.section), p.gain));
             }
             visit(Row {
                 camera,
@@ -204,7 +203,6 @@ fn priors(
     h: &mut DMatrix<f64>,
     g: &mut DVector<f64>,
 ) {
-    let radius_col = tube.parameters() - 1;
     let last = tube.centerline.control().len() - 1;
     let mut entries: Vec<(usize, f64)> = Vec::with_capacity(3);
     // Along the tube a control point hardly moves the outline: each is held near where it
@@ -234,7 +232,10 @@ fn priors(
         }
     }
     if !fit_radius {
-        h[(radius_col, radius_col)] += 1.0;
+        for k in 0..=tube.steps.len() {
+            let col = tube.radius_column(k);
+            h[(col, col)] += 1.0;
+        }
     }
 }
 

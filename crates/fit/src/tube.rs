@@ -113,17 +113,36 @@ impl Tube {
         })
     }
 
-    /// Number of free parameters: three per control point, and the radius.
+    /// Number of free parameters: three per control point, then the radius of every section
+    /// (the tip's, then each step's).
     pub fn parameters(&self) -> usize {
-        3 * self.centerline.control().len() + 1
+        self.radius_column(0) + 1 + self.steps.len()
     }
 
-    /// Moves the tube by a parameter step (control points, then the radius, as
-    /// [`Tube::parameters`] counts them; mm); the radius stays above 0.05 mm.
+    /// The parameter column of section `k`'s radius (0: the tip's).
+    pub(crate) fn radius_column(&self, k: usize) -> usize {
+        3 * self.centerline.control().len() + k
+    }
+
+    /// Moves the tube by a parameter step (control points, then the radii, as
+    /// [`Tube::parameters`] counts them; mm); radii stay above 0.05 mm.
     pub(crate) fn apply(&mut self, step: &nalgebra::DVector<f64>) {
-        let n = step.len();
-        self.centerline.displace(&step.rows(0, n - 1).into_owned());
-        self.radius = (self.radius + step[n - 1]).max(0.05);
+        let r0 = self.radius_column(0);
+        self.centerline.displace(&step.rows(0, r0).into_owned());
+        self.radius = (self.radius + step[r0]).max(0.05);
+        for (k, s) in self.steps.iter_mut().enumerate() {
+            s.radius_mm = (s.radius_mm + step[r0 + 1 + k]).max(0.05);
+        }
+    }
+
+    /// Whether `other` steps at the same places (whatever its radii).
+    pub fn steps_at_same_places(&self, other: &[RadiusStep]) -> bool {
+        self.steps.len() == other.len()
+            && self
+                .steps
+                .iter()
+                .zip(other)
+                .all(|(a, b)| a.from_tip_mm == b.from_tip_mm)
     }
 
     /// Unit direction of the control polygon at control point `k` (from its neighbour before

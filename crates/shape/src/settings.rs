@@ -110,8 +110,10 @@ pub struct ShapeSettings {
     /// `radius_steps`, the tip section's.
     pub radius_mm: Option<f64>,
     /// Where the tube steps up in diameter going back from the tip (concentric tubes, a
-    /// sheath), by arc length from the tip; needs `radius_mm`. The image fit draws each
-    /// section at its own radius and leaves the outline around each step (the shoulder) out.
+    /// sheath), by arc length from the tip. The image fit draws each section at its own
+    /// radius and leaves the outline around each step (the shoulder) out. With `radius_mm`
+    /// every radius is known; without it the fit finds them all (the steps' radii given here
+    /// are where it starts, the tip's starts from the hull).
     pub radius_steps: Vec<RadiusStep>,
     /// The distal end's form.
     pub tip_end: TipEnd,
@@ -209,16 +211,8 @@ impl ShapeSettings {
                 format!("{r} must be between {} and {} mm", RADIUS_MM.0, RADIUS_MM.1),
             );
         }
-        if !self.radius_steps.is_empty() {
-            if self.radius_mm.is_none() {
-                return bad(
-                    "radius_steps",
-                    "a tube that steps in diameter needs its tip section's radius_mm too".into(),
-                );
-            }
-            if let Err(e) = check_steps(&self.radius_steps, RADIUS_MM) {
-                return bad("radius_steps", e.0);
-            }
+        if let Err(e) = check_steps(&self.radius_steps, RADIUS_MM) {
+            return bad("radius_steps", e.0);
         }
         match self.smoothing {
             Smoothing::Spline { bandwidth_mm }
@@ -342,7 +336,7 @@ mod tests {
     }
 
     #[test]
-    fn radius_steps_need_the_tip_radius_and_increasing_places() {
+    fn radius_steps_need_increasing_places_and_plausible_radii() {
         let read = |text: &str| {
             let table: toml::Table = toml::from_str(text).unwrap();
             ShapeSettings::from_processing(&table)
@@ -353,8 +347,9 @@ mod tests {
         .unwrap();
         assert_eq!(s.radius_steps.len(), 2);
         assert_eq!(s.radius_steps[1].radius_mm, 1.4);
+        // Without the tip's radius the fit finds every radius.
+        assert!(read("[shape]\nradius_steps = [{ from_tip_mm = 40, radius_mm = 0.9 }]\n").is_ok());
         for bad in [
-            "[shape]\nradius_steps = [{ from_tip_mm = 40, radius_mm = 0.9 }]\n",
             "[shape]\nradius_mm = 0.6\nradius_steps = [{ from_tip_mm = 95, radius_mm = 0.9 }, { from_tip_mm = 40, radius_mm = 1.4 }]\n",
             "[shape]\nradius_mm = 0.6\nradius_steps = [{ from_tip_mm = 40, radius_mm = 1e9 }]\n",
             "[shape]\nradius_mm = 0.6\nradius_steps = [{ from_tip_mm = 40, radius = 0.9 }]\n",

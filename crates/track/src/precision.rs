@@ -42,6 +42,17 @@ pub(crate) fn mm_vec<S: Serializer>(v: &[f64], s: S) -> Result<S::Ok, S::Error> 
     s.collect_seq(v.iter().map(|&x| round(x, MM)))
 }
 
+/// Radius steps, their places and radii in mm.
+pub(crate) fn steps<S: Serializer>(
+    v: &[flexshape_curve::RadiusStep],
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    s.collect_seq(v.iter().map(|step| flexshape_curve::RadiusStep {
+        from_tip_mm: round(step.from_tip_mm, MM),
+        radius_mm: round(step.radius_mm, MM),
+    }))
+}
+
 /// A point, mm.
 pub(crate) fn point<S: Serializer>(v: &[f64; 3], s: S) -> Result<S::Ok, S::Error> {
     rounded(v.map(|x| round(x, MM)), s)

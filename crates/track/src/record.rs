@@ -191,6 +191,15 @@ pub struct TrackRecord {
         serialize_with = "crate::precision::mm_opt"
     )]
     pub radius: Option<f64>,
+    /// Where the tube steps up in radius going back from the tip, and the radius behind each
+    /// step, mm (a rig with `radius_steps`: as given, or fitted to the images when the rig
+    /// gives no `radius_mm`; `radius` is then the tip section's).
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        serialize_with = "crate::precision::steps"
+    )]
+    pub radius_steps: Vec<flexshape_curve::RadiusStep>,
     /// 1-σ uncertainty of each centerline point across the tube, mm (method `fit`), from the
     /// fit's normal equations: how much a controller may trust each point.
     #[serde(
@@ -307,6 +316,11 @@ impl TrackRecord {
             processed_s: None,
             method: Some(if t.fit.is_some() { "fit" } else { "hull" }.into()),
             radius: has_shape.then_some(s.radius),
+            radius_steps: t
+                .fit
+                .as_ref()
+                .filter(|_| has_shape)
+                .map_or_else(Vec::new, |f| f.tube.steps.clone()),
             centerline_sigma: s.sigma.clone(),
             cameras: t.fit.as_ref().map_or_else(Vec::new, |f| f.cameras.clone()),
             ghost_mm: t.fit.as_ref().and_then(|f| f.ghost_mm),
@@ -381,6 +395,7 @@ impl TrackRecord {
             processed_s: None,
             method: None,
             radius: None,
+            radius_steps: Vec::new(),
             centerline_sigma: Vec::new(),
             cameras: Vec::new(),
             ghost_mm: None,

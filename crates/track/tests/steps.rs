@@ -54,6 +54,46 @@ fn a_stepped_tube_is_fitted_section_by_section() {
     }
 }
 
+/// The rig says where the step is but not the radii (the step's given 0.4 mm off, as a
+/// start): the fit finds both.
+#[test]
+fn a_steps_radii_are_fitted_when_the_rig_does_not_give_them() {
+    let (sim, pipeline) = common::chain_of(stepped());
+    let settings = ShapeSettings {
+        radius_mm: None,
+        radius_steps: vec![RadiusStep {
+            from_tip_mm: 70.0,
+            radius_mm: 2.6,
+        }],
+        ..pipeline.shape_settings().clone()
+    };
+    let pipeline = pipeline.with_shape_settings(settings).unwrap();
+    for (i, pose) in sim.sweep(5).iter().enumerate() {
+        let frame = sim.render(i as u64, pose).unwrap();
+        let images: Vec<&RgbImage> = frame.views.iter().map(|v| &v.image).collect();
+        let t = pipeline.process(&images).unwrap();
+        let tube = &t.fit.as_ref().unwrap().tube;
+        let (tip, base) = (tube.radius, tube.steps[0].radius_mm);
+        let e = rms(&frame.truth, &sim, &t.shape);
+        println!(
+            "frame {i}: {:?}, rms {e:.3} mm, radii {tip:.3} / {base:.3} mm",
+            t.shape.status
+        );
+        assert!(t.shape.status.is_right(), "frame {i}: {:?}", t.shape.status);
+        assert!(e < 0.08, "frame {i}: rms {e:.3} mm");
+        assert!((tip - 2.0).abs() < 0.06, "frame {i}: tip radius {tip:.3}");
+        assert!(
+            (base - 3.0).abs() < 0.06,
+            "frame {i}: radius behind the step {base:.3}"
+        );
+        assert_eq!(t.shape.radius, tip);
+        // The record carries both.
+        let record = flexshape_track::TrackRecord::from_tracked(i as u64, &t);
+        assert_eq!(record.radius_steps.len(), 1);
+        assert_eq!(record.radius_steps[0].radius_mm, base);
+    }
+}
+
 #[test]
 fn a_stepped_tube_fitted_as_one_radius_is_never_ok() {
     // The same rig without the steps (and so without a known radius): one radius, fitted.
