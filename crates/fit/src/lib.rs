@@ -119,7 +119,7 @@ impl Fit {
     }
 
     fn point_covariance(&self, u: f64) -> (Matrix3<f64>, Vector3<f64>) {
-        let b = self.tube.centerline.basis(u);
+        let b = self.tube.centerline.basis_to::<0>(u);
         let mut cov = Matrix3::zeros();
         for j in 0..4 {
             for k in 0..4 {
