@@ -115,3 +115,101 @@ fn capture_refuses_a_camera_given_twice_and_bad_intervals() {
     let e = common::fails(&["capture", "--out", o, "--interval", "-1", "--camera", "a=x"]);
     assert!(e.contains("not a time"), "{e}");
 }
+
+/// The walk-through's first two steps on cameras played live: a chessboard held still in
+/// front of two simulated cameras (1 s per pose, the empty scene for 0.3 s between poses, as a
+/// person moving a board does), captured every 0.8 s, then calibrated from the captured
+/// folders. The second camera lands where the simulator put it.
+#[test]
+fn chessboards_captured_live_calibrate_the_rig() {
+    use flexshape_sim::{BoardRenderer, PrintedBoard, SimConfig, SimRigConfig, calibration_views};
+    if !common::ffmpeg_or_skip() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let rig = SimConfig {
+        rig: SimRigConfig {
+            cameras: 2,
+            ..SimRigConfig::default()
+        },
+        ..SimConfig::default()
+    }
+    .rig
+    .rig()
+    .unwrap();
+    let cameras: Vec<_> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
+    let board = PrintedBoard {
+        cols: 9,
+        rows: 6,
+        square: 30.0,
+    };
+    let views = calibration_views(&cameras, &board, 5, 4, 3);
+    let mut videos = Vec::new();
+    for (k, cam) in rig.cameras.iter().enumerate() {
+        let renderer = BoardRenderer::new(&cam.camera).unwrap();
+        let frames = dir.path().join(format!("frames{k}"));
+        std::fs::create_dir_all(&frames).unwrap();
+        let (w, h) = (cam.camera.intrinsics.width, cam.camera.intrinsics.height);
+        let empty = image::GrayImage::from_pixel(w, h, image::Luma([120]));
+        let mut n = 0;
+        for (i, view) in views.iter().enumerate() {
+            // Every camera films every instant, whether or not it sees the whole board.
+            let shot = renderer.render(&board, &view.pose, 1.0, i as u64 * 7 + k as u64);
+            for f in 0..13 {
+                let img = if f < 3 { &empty } else { &shot };
+                img.save(frames.join(format!("{n:06}.png"))).unwrap();
+                n += 1;
+            }
+        }
+        let video = dir.path().join(format!("{}.mkv", cam.name));
+        let status = std::process::Command::new("ffmpeg")
+            .args(["-y", "-loglevel", "error", "-framerate", "10", "-i"])
+            .arg(frames.join("%06d.png"))
+            .args(["-c:v", "png", "-pix_fmt", "rgb24"])
+            .arg(&video)
+            .status()
+            .unwrap();
+        assert!(status.success());
+        videos.push(format!("{}={}", cam.name, video.display()));
+    }
+    let out = dir.path().join("chessboards");
+    let mut args = vec!["capture", "--out", out.to_str().unwrap(), "--sets", "1000"];
+    args.extend(["--interval", "0.8"]);
+    for v in &videos {
+        args.extend(["--camera", v.as_str()]);
+    }
+    let printed = common::run(&args);
+    println!("{printed}");
+    let cal = dir.path().join("cal");
+    let images: Vec<String> = rig
+        .cameras
+        .iter()
+        .map(|c| format!("{0}={1}", c.name, out.join(&c.name).display()))
+        .collect();
+    let mut args = vec![
+        "calibrate",
+        "--board",
+        "9x6",
+        "--square",
+        "30",
+        "--out",
+        cal.to_str().unwrap(),
+    ];
+    for i in &images {
+        args.extend(["--images", i.as_str()]);
+    }
+    let printed = common::run(&args);
+    println!("{printed}");
+    // The second camera relative to the first, against the simulator's.
+    let got = flexshape_rig::Rig::load(&cal.join("rig.toml")).unwrap();
+    let relative = |r: &flexshape_rig::Rig| {
+        let (a, b) = (&r.cameras[0].camera.pose, &r.cameras[1].camera.pose);
+        let rotation = b.rotation * a.rotation.inverse();
+        (rotation, b.translation - rotation * a.translation)
+    };
+    let ((rt, tt), (rg, tg)) = (relative(&rig), relative(&got));
+    let angle = (rg * rt.inverse()).angle().to_degrees();
+    let offset = (tg - tt).norm();
+    println!("relative pose off by {angle:.3}° and {offset:.2} mm");
+    assert!(angle < 0.2 && offset < 2.0, "{angle:.3}°, {offset:.2} mm");
+}
