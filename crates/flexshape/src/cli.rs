@@ -439,6 +439,12 @@ pub struct FramesArgs {
     /// Voxel edge in mm (default: the rig volume's).
     #[arg(long, allow_negative_numbers = true, value_name = "MM")]
     pub voxel: Option<f64>,
+    /// The silhouette classifier and its thresholds, as the rig file's
+    /// `[processing.silhouette] classifier` table (which it overrides), e.g.
+    /// '{ kind = "difference", min_difference = 40 }' or '{ kind = "green_matte" }'
+    /// (`flexshape silhouettes` tries every kind on a frame and suggests one).
+    #[arg(long, value_name = "TOML", value_parser = parse_classifier)]
+    pub classifier: Option<toml::Value>,
 }
 
 #[derive(Debug, Args)]
@@ -816,6 +822,22 @@ fn parse_radius_steps(s: &str) -> Result<RadiusSteps, String> {
         })
         .collect::<Result<_, String>>()
         .map(RadiusSteps)
+}
+
+/// `--classifier`: a TOML inline table with a `kind`.
+fn parse_classifier(s: &str) -> Result<toml::Value, String> {
+    let doc: toml::Table = toml::from_str(&format!("classifier = {s}")).map_err(|e| {
+        format!(
+            "`{s}` is not a TOML table like '{{ kind = \"difference\", min_difference = 40 }}': {}",
+            e.message()
+        )
+    })?;
+    match doc.get("classifier") {
+        Some(v @ toml::Value::Table(t)) if t.contains_key("kind") => Ok(v.clone()),
+        _ => Err(format!(
+            "`{s}` needs a kind: colour_shadow, green_matte or difference, e.g. '{{ kind = \"difference\" }}'"
+        )),
+    }
 }
 
 /// `--interval`: seconds, finite and not negative.

@@ -770,3 +770,42 @@ fn a_simulated_stepped_catheter_tracks_with_the_rigs_radii() {
     ]);
     assert!(e.contains("radius_steps") && e.contains("step 1"), "{e}");
 }
+
+/// `--classifier` replaces the rig's silhouette classifier: a threshold no pixel reaches
+/// leaves nothing to carve, a usual one tracks as the rig's; what is not a classifier table
+/// is refused, naming what to write.
+#[test]
+fn the_classifier_is_chosen_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "1"]);
+    let statuses = |classifier: &str| {
+        let out = dir.path().join(format!("{}.jsonl", classifier.len()));
+        common::run(&[
+            "track",
+            r,
+            "--out",
+            out.to_str().unwrap(),
+            "--overwrite",
+            "--classifier",
+            classifier,
+        ]);
+        let (records, _) = read_lines(&out);
+        records
+            .iter()
+            .map(|r| r["status"].as_str().unwrap().to_string())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        statuses(r#"{ kind = "difference", min_difference = 255, noise_factor = 100 }"#),
+        ["no_object"]
+    );
+    assert_eq!(statuses(r#"{ kind = "colour_shadow" }"#), ["ok"]);
+    let e = common::fails(&["track", r, "--classifier", "difference"]);
+    assert!(e.contains("not a TOML table"), "{e}");
+    let e = common::fails(&["track", r, "--classifier", "{ min_difference = 3 }"]);
+    assert!(e.contains("needs a kind"), "{e}");
+    let e = common::fails(&["track", r, "--classifier", r#"{ kind = "magic" }"#]);
+    assert!(e.contains("--classifier") && e.contains("magic"), "{e}");
+}

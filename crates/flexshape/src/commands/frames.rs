@@ -65,8 +65,30 @@ fn named_inputs(args: &FramesArgs) -> Vec<PathBuf> {
         .collect()
 }
 
-/// The rig, backgrounds and frame source the arguments name.
+/// The rig, backgrounds and frame source the arguments name; `--classifier` replaces the
+/// rig's silhouette classifier.
 pub fn open_input(args: &FramesArgs) -> anyhow::Result<Input> {
+    let mut input = open_input_as_given(args)?;
+    if let Some(classifier) = &args.classifier {
+        // Said against the option, not the rig file it overrides.
+        classifier
+            .clone()
+            .try_into::<flexshape_silhouette::Classifier>()
+            .map_err(|e| anyhow::anyhow!("--classifier: {}", e.message()))?;
+        let silhouette = input
+            .rig
+            .processing
+            .entry("silhouette")
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        let toml::Value::Table(table) = silhouette else {
+            bail!("{}: [processing.silhouette] is not a table", input.rig_name);
+        };
+        table.insert("classifier".into(), classifier.clone());
+    }
+    Ok(input)
+}
+
+fn open_input_as_given(args: &FramesArgs) -> anyhow::Result<Input> {
     if let Some(dir) = &args.recording {
         let rec = RecordingReader::open(dir)
             .with_context(|| format!("cannot open the recording {}", dir.display()))?;
