@@ -8,7 +8,8 @@ use common::{rms, tip_error};
 
 use flexshape_curve::RadiusStep;
 use flexshape_shape::{ShapeSettings, Status};
-use flexshape_sim::{Catheter, SimConfig};
+use flexshape_sim::{Catheter, SimConfig, SimFrame, Simulator};
+use flexshape_track::Tracked;
 use image::RgbImage;
 
 /// The simulated catheter 2 mm in radius over its last 70 mm, 3 mm before.
@@ -26,14 +27,31 @@ fn stepped() -> SimConfig {
     }
 }
 
+/// The stepped catheter's 5 sweep frames through the chain of its simulated rig, the rig's
+/// shape settings changed by `change` first: each frame with what the chain made of it.
+fn sweep(change: impl FnOnce(&mut ShapeSettings)) -> (Simulator, Vec<(SimFrame, Tracked)>) {
+    let (sim, pipeline) = common::chain_of(stepped());
+    let mut settings = pipeline.shape_settings().clone();
+    change(&mut settings);
+    let pipeline = pipeline.with_shape_settings(settings).unwrap();
+    let tracked = sim
+        .sweep(5)
+        .iter()
+        .enumerate()
+        .map(|(i, pose)| {
+            let frame = sim.render(i as u64, pose).unwrap();
+            let images: Vec<&RgbImage> = frame.views.iter().map(|v| &v.image).collect();
+            let t = pipeline.process(&images).unwrap();
+            (frame, t)
+        })
+        .collect();
+    (sim, tracked)
+}
+
 #[test]
 fn a_stepped_tube_is_fitted_section_by_section() {
-    let (sim, pipeline) = common::chain_of(stepped());
-    assert_eq!(pipeline.shape_settings().radius_steps.len(), 1);
-    for (i, pose) in sim.sweep(5).iter().enumerate() {
-        let frame = sim.render(i as u64, pose).unwrap();
-        let images: Vec<&RgbImage> = frame.views.iter().map(|v| &v.image).collect();
-        let t = pipeline.process(&images).unwrap();
+    let (sim, frames) = sweep(|s| assert_eq!(s.radius_steps.len(), 1));
+    for (i, (frame, t)) in frames.iter().enumerate() {
         let (e, tip) = (
             rms(&frame.truth, &sim, &t.shape),
             tip_error(&frame.truth, &t.shape),
@@ -58,20 +76,14 @@ fn a_stepped_tube_is_fitted_section_by_section() {
 /// start): the fit finds both.
 #[test]
 fn a_steps_radii_are_fitted_when_the_rig_does_not_give_them() {
-    let (sim, pipeline) = common::chain_of(stepped());
-    let settings = ShapeSettings {
-        radius_mm: None,
-        radius_steps: vec![RadiusStep {
+    let (sim, frames) = sweep(|s| {
+        s.radius_mm = None;
+        s.radius_steps = vec![RadiusStep {
             from_tip_mm: 70.0,
             radius_mm: 2.6,
-        }],
-        ..pipeline.shape_settings().clone()
-    };
-    let pipeline = pipeline.with_shape_settings(settings).unwrap();
-    for (i, pose) in sim.sweep(5).iter().enumerate() {
-        let frame = sim.render(i as u64, pose).unwrap();
-        let images: Vec<&RgbImage> = frame.views.iter().map(|v| &v.image).collect();
-        let t = pipeline.process(&images).unwrap();
+        }];
+    });
+    for (i, (frame, t)) in frames.iter().enumerate() {
         let tube = &t.fit.as_ref().unwrap().tube;
         let (tip, base) = (tube.radius, tube.steps[0].radius_mm);
         let e = rms(&frame.truth, &sim, &t.shape);
@@ -88,7 +100,7 @@ fn a_steps_radii_are_fitted_when_the_rig_does_not_give_them() {
         );
         assert_eq!(t.shape.radius, tip);
         // The record carries both.
-        let record = flexshape_track::TrackRecord::from_tracked(i as u64, &t);
+        let record = flexshape_track::TrackRecord::from_tracked(i as u64, t);
         assert_eq!(record.radius_steps.len(), 1);
         assert_eq!(record.radius_steps[0].radius_mm, base);
     }
@@ -115,17 +127,11 @@ fn a_step_the_rig_misplaces_is_never_ok() {
 /// Every frame of the stepped tube is `inconsistent` when the rig describes its radii as
 /// `steps` and `radius_mm`.
 fn never_ok_with(steps: Vec<RadiusStep>, radius_mm: Option<f64>) {
-    let (sim, pipeline) = common::chain_of(stepped());
-    let settings = ShapeSettings {
-        radius_mm,
-        radius_steps: steps,
-        ..pipeline.shape_settings().clone()
-    };
-    let pipeline = pipeline.with_shape_settings(settings).unwrap();
-    for (i, pose) in sim.sweep(5).iter().enumerate() {
-        let frame = sim.render(i as u64, pose).unwrap();
-        let images: Vec<&RgbImage> = frame.views.iter().map(|v| &v.image).collect();
-        let t = pipeline.process(&images).unwrap();
+    let (_, frames) = sweep(|s| {
+        s.radius_mm = radius_mm;
+        s.radius_steps = steps;
+    });
+    for (i, (_, t)) in frames.iter().enumerate() {
         println!("frame {i}: {:?}", t.shape.status);
         assert!(
             matches!(t.shape.status, Status::Inconsistent { .. }),
