@@ -2,7 +2,7 @@
 
 use nalgebra::Point3;
 
-/// A chessboard: `cols × rows` inner corners, `square` mm apart.
+/// A chessboard, or a ChArUco board: `cols × rows` inner corners, `square` mm apart.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Board {
     /// Inner corners along the board's x direction.
@@ -11,6 +11,19 @@ pub struct Board {
     pub rows: usize,
     /// Square edge, mm.
     pub square: f64,
+    /// The ArUco markers of a ChArUco board (`None`: a plain chessboard).
+    pub markers: Option<Markers>,
+}
+
+/// The markers in a ChArUco board's light squares, in OpenCV's layout since 4.6 (the
+/// top-left square dark; markers numbered row by row over the light squares). Each view
+/// identifies the corners it sees, so part of the board is enough.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Markers {
+    /// Marker edge, mm.
+    pub side: f64,
+    /// ArUco dictionary, by OpenCV's name (e.g. `DICT_4X4_50`).
+    pub dictionary: &'static str,
 }
 
 impl Board {
@@ -35,7 +48,75 @@ impl Board {
             cols: parse(c)?,
             rows: parse(r)?,
             square,
+            markers: None,
         })
+    }
+
+    /// The board `spec` names: `COLSxROWS` inner corners of a chessboard, or
+    /// `charuco:SXxSY` squares of a ChArUco board (then `marker`, the marker edge in mm, is
+    /// needed, and `dictionary` names its ArUco dictionary); `square` mm squares.
+    pub fn from_spec(
+        spec: &str,
+        square: f64,
+        marker: Option<f64>,
+        dictionary: &str,
+    ) -> Result<Self, String> {
+        match spec.strip_prefix("charuco:") {
+            Some(squares) => {
+                let marker = marker.ok_or_else(|| {
+                    "a ChArUco board needs its marker size (--marker MM)".to_string()
+                })?;
+                Board::charuco(squares, square, marker, dictionary)
+            }
+            None if marker.is_some() => Err(format!(
+                "`{spec}` is a chessboard, which has no markers: give charuco:SXxSY for a ChArUco board"
+            )),
+            None => Board::parse(spec, square),
+        }
+    }
+
+    /// A ChArUco board of `squares` (`SXxSY` squares, e.g. `11x8`: OpenCV's and printing
+    /// tools' count, one more each way than inner corners), `square` mm squares, markers of
+    /// `marker` mm from the ArUco dictionary named `dictionary`.
+    pub fn charuco(
+        squares: &str,
+        square: f64,
+        marker: f64,
+        dictionary: &str,
+    ) -> Result<Self, String> {
+        let (sx, sy) = squares.split_once(['x', 'X']).ok_or_else(|| {
+            format!("`{squares}`: give the ChArUco board's squares as SXxSY, e.g. 11x8")
+        })?;
+        let parse = |s: &str| {
+            s.trim()
+                .parse::<usize>()
+                .ok()
+                .filter(|&n| n >= 3)
+                .ok_or_else(|| format!("`{squares}`: square counts must be integers ≥ 3"))
+        };
+        let (sx, sy) = (parse(sx)?, parse(sy)?);
+        let mut board = Board::parse(&format!("{}x{}", sx - 1, sy - 1), square)?;
+        if !(marker.is_finite() && marker > 0.0 && marker < square) {
+            return Err(format!(
+                "marker size {marker} mm must be positive and smaller than the square ({square} mm)"
+            ));
+        }
+        let dict = calib_targets::aruco::resolve_dictionary(dictionary).ok_or_else(|| {
+            format!("unknown ArUco dictionary `{dictionary}`: give OpenCV's name, e.g. DICT_4X4_50, DICT_5X5_100, DICT_6X6_250")
+        })?;
+        let needed = sx * sy / 2;
+        if dict.codes().len() < needed {
+            return Err(format!(
+                "dictionary {} has {} markers; a {sx}×{sy} board needs {needed}",
+                dict.name(),
+                dict.codes().len()
+            ));
+        }
+        board.markers = Some(Markers {
+            side: marker,
+            dictionary: dict.name(),
+        });
+        Ok(board)
     }
 
     /// Number of inner corners.

@@ -9,7 +9,7 @@ use flexshape_camera::{Distortion, Intrinsics};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned, Point2, Point3, Rotation3, Vector2, Vector3};
 
-use crate::{Board, BoardPose, CalibError, Calibration, Detection};
+use crate::{BoardPose, CalibError, Calibration, Detection};
 
 /// One camera's input to the adjustment.
 pub struct RigCamera<'a> {
@@ -51,7 +51,6 @@ pub enum JointIntrinsics {
 /// Adjusts the cameras' poses and every board pose jointly, and the intrinsics as
 /// `intrinsics` says.
 pub fn adjust_rig(
-    board: &Board,
     cameras: &[RigCamera],
     intrinsics: JointIntrinsics,
 ) -> Result<RigAdjustment, CalibError> {
@@ -112,18 +111,18 @@ pub fn adjust_rig(
                     camera: k,
                     board: b,
                     corners: d.corners.clone(),
+                    points: d.points.clone(),
                 });
             }
         }
     }
-    let problem = Problem {
-        points: board.points(),
+    let problem = Problem::new(
         observations,
-        cameras: cameras.len(),
-        free_intrinsics: intrinsics != JointIntrinsics::Fixed,
-        fix_k3: intrinsics == JointIntrinsics::Refined { fix_k3: true },
-        x: DVector::from_vec(x),
-    };
+        cameras.len(),
+        intrinsics != JointIntrinsics::Fixed,
+        intrinsics == JointIntrinsics::Refined { fix_k3: true },
+        DVector::from_vec(x),
+    );
     let (problem, _) = LevenbergMarquardt::new()
         .with_xtol(1e-10)
         .with_ftol(1e-12)
@@ -146,12 +145,10 @@ pub fn adjust_rig(
     let poses = (0..cameras.len())
         .map(|k| problem.camera_pose(x, k))
         .collect();
-    let per = 2 * problem.points.len();
     let mut sums = vec![(0.0, 0usize); cameras.len()];
     for (i, o) in problem.observations.iter().enumerate() {
-        let block = r.rows(i * per, per);
-        sums[o.camera].0 += block.norm_squared();
-        sums[o.camera].1 += problem.points.len();
+        sums[o.camera].0 += problem.rows_of(i).map(|k| r[k] * r[k]).sum::<f64>();
+        sums[o.camera].1 += o.points.len();
     }
     Ok(RigAdjustment {
         intrinsics,
@@ -170,8 +167,10 @@ pub(crate) struct Observation {
     pub camera: usize,
     /// The board pose (instant).
     pub board: usize,
-    /// Pixels, in [`Board::points`] order.
+    /// Pixels.
     pub corners: Vec<Point2<f64>>,
+    /// Where each corner lies on the board, board frame, mm.
+    pub points: Vec<Point3<f64>>,
 }
 
 /// Reprojection of boards into cameras. Parameters: 9 intrinsics per camera (fx fy cx cy k1
@@ -179,10 +178,10 @@ pub(crate) struct Observation {
 /// first), 6 per board (its pose in the first camera). One camera is the single-camera
 /// calibration ([`crate::calibrate`]).
 pub(crate) struct Problem {
-    /// Board corners, board frame.
-    pub points: Vec<Point3<f64>>,
     /// What was seen.
     pub observations: Vec<Observation>,
+    /// Each observation's first residual row; the last entry is the rows in all.
+    offsets: Vec<usize>,
     /// Cameras.
     pub cameras: usize,
     /// Refine the intrinsics (else they stay at their start).
@@ -194,6 +193,33 @@ pub(crate) struct Problem {
 }
 
 impl Problem {
+    /// The problem of `observations` seen by `cameras` cameras from the start `x`.
+    pub fn new(
+        observations: Vec<Observation>,
+        cameras: usize,
+        free_intrinsics: bool,
+        fix_k3: bool,
+        x: DVector<f64>,
+    ) -> Self {
+        let mut offsets = vec![0];
+        for o in &observations {
+            offsets.push(offsets[offsets.len() - 1] + 2 * o.points.len());
+        }
+        Problem {
+            observations,
+            offsets,
+            cameras,
+            free_intrinsics,
+            fix_k3,
+            x,
+        }
+    }
+
+    /// The residual rows of observation `i` (x then y of each corner).
+    pub fn rows_of(&self, i: usize) -> std::ops::Range<usize> {
+        self.offsets[i]..self.offsets[i + 1]
+    }
+
     fn pose_at(x: &DVector<f64>, at: usize) -> BoardPose {
         BoardPose {
             rotation: Rotation3::from_scaled_axis(Vector3::new(x[at], x[at + 1], x[at + 2])),
@@ -223,7 +249,7 @@ impl Problem {
         let board = Self::pose_at(x, self.board_at(o.board));
         let r = cam.rotation * board.rotation;
         let t = cam.rotation * board.translation + cam.translation;
-        for (j, (pt, obs)) in self.points.iter().zip(&o.corners).enumerate() {
+        for (j, (pt, obs)) in o.points.iter().zip(&o.corners).enumerate() {
             let c = r * pt + t;
             if c.z <= 1e-9 {
                 return None;
@@ -236,10 +262,9 @@ impl Problem {
     }
 
     fn residuals_at(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
-        let per = 2 * self.points.len();
-        let mut r = DVector::zeros(per * self.observations.len());
+        let mut r = DVector::zeros(self.offsets[self.offsets.len() - 1]);
         for (i, o) in self.observations.iter().enumerate() {
-            self.block(x, o, &mut r.as_mut_slice()[i * per..(i + 1) * per])?;
+            self.block(x, o, &mut r.as_mut_slice()[self.rows_of(i)])?;
         }
         Some(r)
     }
@@ -265,9 +290,15 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem {
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         // Central differences, block by block: a parameter moves only the observations of its
         // camera or its board.
-        let per = 2 * self.points.len();
-        let mut j = DMatrix::zeros(per * self.observations.len(), self.x.len());
-        let (mut up_block, mut down_block) = (vec![0.0; per], vec![0.0; per]);
+        let rows = self.offsets[self.offsets.len() - 1];
+        let mut j = DMatrix::zeros(rows, self.x.len());
+        let most = self
+            .observations
+            .iter()
+            .map(|o| 2 * o.points.len())
+            .max()
+            .unwrap_or(0);
+        let (mut up_block, mut down_block) = (vec![0.0; most], vec![0.0; most]);
         let first = if self.free_intrinsics {
             0
         } else {
@@ -294,10 +325,12 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem {
                 if !touches(o) {
                     continue;
                 }
-                self.block(&up, o, &mut up_block)?;
-                self.block(&down, o, &mut down_block)?;
+                let per = 2 * o.points.len();
+                self.block(&up, o, &mut up_block[..per])?;
+                self.block(&down, o, &mut down_block[..per])?;
+                let first = self.offsets[i];
                 for row in 0..per {
-                    j[(i * per + row, col)] = (up_block[row] - down_block[row]) / (2.0 * h);
+                    j[(first + row, col)] = (up_block[row] - down_block[row]) / (2.0 * h);
                 }
             }
         }

@@ -7,26 +7,40 @@
 //! whose outer corner square is dark — the board's own corner, the same in every camera
 //! that sees its front. When calib-targets' grid growth gives no whole board, our own
 //! assembly (`lattice`) tries its corner cloud.
+//!
+//! A ChArUco board's corners are identified by its markers (calib-targets' ChArUco detector,
+//! with the same saddle-point refiner), so a view of part of the board is enough.
 
+use calib_targets::charuco::{CharucoBoardSpec, CharucoParams};
 use calib_targets::chessboard::ChessboardParams;
 use calib_targets::core::ImageRefiner;
 use calib_targets::detect as ct;
 use image::GrayImage;
-use nalgebra::{Point2, Vector2};
+use nalgebra::{Point2, Point3, Vector2};
 
+use crate::board::Markers;
 use crate::{Board, CalibError};
 
-/// A whole board found in an image.
+/// A board found in an image: corners and where each lies on the board.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Detection {
-    /// Pixel positions (OpenCV convention), row by row (`c` fastest), as
-    /// [`Board::points`] orders the board's corners.
+    /// Pixel positions (OpenCV convention). For a chessboard every corner, row by row (`c`
+    /// fastest), as [`Board::points`] orders them.
     pub corners: Vec<Point2<f64>>,
+    /// Each corner in the board frame, mm.
+    pub points: Vec<Point3<f64>>,
 }
+
+/// Fewest ChArUco corners a view must show, on at least two rows and two columns (a
+/// homography needs four off one line; a few more keep a poorly seen corner from deciding).
+pub const MIN_CHARUCO_CORNERS: usize = 8;
 
 /// Finds `board` in `image`, or says why not.
 pub fn detect(image: &GrayImage, board: &Board) -> Result<Detection, CalibError> {
     let chess = ct::default_chess_config().with_refiner(ImageRefiner::saddle_point());
+    if let Some(markers) = &board.markers {
+        return detect_charuco(image, board, markers, chess);
+    }
     let mut configs = vec![ChessboardParams::default()];
     configs.extend(ChessboardParams::sweep_default());
     let mut why = String::from("no chessboard grid found");
@@ -149,7 +163,134 @@ fn label(
             corners.reverse();
         }
     }
-    Ok(Detection { corners })
+    Ok(Detection {
+        corners,
+        points: board.points(),
+    })
+}
+
+/// The ChArUco corners `image` shows of `board`.
+fn detect_charuco(
+    image: &GrayImage,
+    board: &Board,
+    markers: &Markers,
+    chess: calib_targets::core::DetectorConfig,
+) -> Result<Detection, CalibError> {
+    let dictionary =
+        calib_targets::aruco::resolve_dictionary(markers.dictionary).ok_or_else(|| {
+            CalibError::NotDetected(format!("unknown dictionary {}", markers.dictionary))
+        })?;
+    let spec = CharucoBoardSpec::new(
+        (board.rows + 1) as u32,
+        (board.cols + 1) as u32,
+        board.square as f32,
+        (markers.side / board.square) as f32,
+        dictionary,
+    );
+    let configs: Vec<CharucoParams> = CharucoParams::sweep_for_board(&spec)
+        .into_iter()
+        .map(|mut p| {
+            p.chess = chess;
+            p
+        })
+        .collect();
+    let found = ct::detect_charuco_best(image, &configs)
+        .map_err(|e| CalibError::NotDetected(format!("no ChArUco board found ({e})")))?;
+    let (mut corners, mut points) = (Vec::new(), Vec::new());
+    for c in &found.corners {
+        let id = c.id as usize;
+        let (i, j) = (id % board.cols, id / board.cols);
+        if j >= board.rows {
+            continue;
+        }
+        corners.push(Point2::new(c.position.x as f64, c.position.y as f64));
+        points.push(board.point(i, j));
+    }
+    let (corners, points) = consistent(corners, points, board.square);
+    // Distinct board columns (x) and rows (y) among the corners.
+    let distinct = |along: fn(&Point3<f64>) -> f64| {
+        let mut v: Vec<i64> = points
+            .iter()
+            .map(|p| (along(p) / board.square).round() as i64)
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v.len()
+    };
+    if corners.len() < MIN_CHARUCO_CORNERS || distinct(|p| p.x) < 2 || distinct(|p| p.y) < 2 {
+        return Err(CalibError::NotDetected(format!(
+            "{} ChArUco corners identified (at least {MIN_CHARUCO_CORNERS}, on two rows and two columns, needed)",
+            corners.len()
+        )));
+    }
+    Ok(Detection { corners, points })
+}
+
+/// Farthest a corner may lie from where its neighbours put it, px.
+const NEIGHBOUR_TOLERANCE_PX: f64 = 1.0;
+
+/// The corners that agree with their neighbours: each is predicted by a homography through the
+/// other corners within two squares of it (a lens bends the board's image too little over two
+/// squares to matter); the one farthest from its prediction is dropped while it lies more than
+/// [`NEIGHBOUR_TOLERANCE_PX`] away, and corners with too few neighbours to be checked go too.
+/// The ChArUco detector now and then labels a point a few pixels off as a board corner.
+fn consistent(
+    mut corners: Vec<Point2<f64>>,
+    mut points: Vec<Point3<f64>>,
+    square: f64,
+) -> (Vec<Point2<f64>>, Vec<Point3<f64>>) {
+    loop {
+        let off: Vec<Option<f64>> = (0..corners.len())
+            .map(|k| off_neighbours(&corners, &points, k, square))
+            .collect();
+        let worst = off
+            .iter()
+            .enumerate()
+            .filter_map(|(k, d)| d.map(|d| (k, d)))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        match worst {
+            Some((k, d)) if d > NEIGHBOUR_TOLERANCE_PX => {
+                corners.remove(k);
+                points.remove(k);
+            }
+            _ => {
+                return corners
+                    .into_iter()
+                    .zip(points)
+                    .zip(off)
+                    .filter_map(|(c, d)| d.is_some().then_some(c))
+                    .unzip();
+            }
+        }
+    }
+}
+
+/// How far corner `k` lies from where the corners within two squares of it put it, px;
+/// `None` with fewer than six of them.
+fn off_neighbours(
+    corners: &[Point2<f64>],
+    points: &[Point3<f64>],
+    k: usize,
+    square: f64,
+) -> Option<f64> {
+    let near: Vec<usize> = (0..corners.len())
+        .filter(|&j| {
+            j != k
+                && (points[j].x - points[k].x).abs() <= 2.0 * square + 1e-9
+                && (points[j].y - points[k].y).abs() <= 2.0 * square + 1e-9
+        })
+        .collect();
+    if near.len() < 6 {
+        return None;
+    }
+    let plane: Vec<Point2<f64>> = near
+        .iter()
+        .map(|&j| Point2::new(points[j].x, points[j].y))
+        .collect();
+    let pixels: Vec<Point2<f64>> = near.iter().map(|&j| corners[j]).collect();
+    let h = crate::homography::fit(&plane, &pixels)?;
+    let p = h * nalgebra::Vector3::new(points[k].x, points[k].y, 1.0);
+    Some((Point2::new(p.x / p.z, p.y / p.z) - corners[k]).norm())
 }
 
 /// Mean grey level in a square of half-width `radius` around `centre`, if inside the image.

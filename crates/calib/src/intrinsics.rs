@@ -8,7 +8,7 @@ use nalgebra::{DVector, Matrix3, Point2, Rotation3, Vector3};
 use serde::Serialize;
 
 use crate::bundle::{Observation, Problem};
-use crate::{Board, CalibError, Detection, homography, zhang};
+use crate::{CalibError, Detection, homography, zhang};
 
 /// Options of [`calibrate`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,16 +73,15 @@ pub struct Calibration {
     pub std_dev: [f64; 9],
 }
 
-/// Calibrates one camera from `views` (name and detection) of `board` in images of
+/// Calibrates one camera from `views` (name and detection of the board) in images of
 /// `width × height`.
 pub fn calibrate(
-    board: &Board,
     views: &[(String, Detection)],
     width: u32,
     height: u32,
     settings: &CalibrationSettings,
 ) -> Result<Calibration, CalibError> {
-    let first = solve(board, views, width, height, settings)?;
+    let first = solve(views, width, height, settings)?;
     if !settings.drop_outliers || first.views.iter().all(|v| !v.outlier) {
         return Ok(first);
     }
@@ -92,7 +91,7 @@ pub fn calibrate(
         .filter(|(_, r)| !r.outlier)
         .map(|(v, _)| v.clone())
         .collect();
-    let mut again = solve(board, &kept, width, height, settings)?;
+    let mut again = solve(&kept, width, height, settings)?;
     again.dropped = first
         .views
         .iter()
@@ -103,7 +102,6 @@ pub fn calibrate(
 }
 
 fn solve(
-    board: &Board,
     views: &[(String, Detection)],
     width: u32,
     height: u32,
@@ -115,11 +113,10 @@ fn solve(
             needed: 3,
         });
     }
-    let points = board.points();
-    let plane: Vec<Point2<f64>> = points.iter().map(|p| Point2::new(p.x, p.y)).collect();
     let homographies = views
         .iter()
         .map(|(name, d)| {
+            let plane: Vec<Point2<f64>> = d.points.iter().map(|p| Point2::new(p.x, p.y)).collect();
             homography::fit(&plane, &d.corners)
                 .ok_or_else(|| CalibError::Degenerate(format!("view {name}: no homography")))
         })
@@ -139,22 +136,22 @@ fn solve(
         x.extend(r.scaled_axis().iter());
         x.extend(t.iter());
     }
-    let problem = Problem {
-        points: points.clone(),
-        observations: views
+    let problem = Problem::new(
+        views
             .iter()
             .enumerate()
             .map(|(board, (_, d))| Observation {
                 camera: 0,
                 board,
                 corners: d.corners.clone(),
+                points: d.points.clone(),
             })
             .collect(),
-        cameras: 1,
-        free_intrinsics: true,
-        fix_k3: settings.fix_k3,
-        x: DVector::from_vec(x),
-    };
+        1,
+        true,
+        settings.fix_k3,
+        DVector::from_vec(x),
+    );
     let (problem, _) = LevenbergMarquardt::new()
         .with_xtol(1e-12)
         .with_ftol(1e-14)
@@ -170,14 +167,16 @@ fn solve(
         .map_err(|e| CalibError::Degenerate(e.to_string()))?;
     let intrinsics = Intrinsics::new(width, height, x[0], x[1], x[2], x[3], distortion)
         .map_err(|e| CalibError::Degenerate(e.to_string()))?;
-    let n = points.len();
     let mut results: Vec<ViewResult> = views
         .iter()
         .enumerate()
         .map(|(i, (name, _))| {
-            let res: Vec<[f64; 2]> = (0..n)
-                .map(|c| [r[2 * (i * n + c)], r[2 * (i * n + c) + 1]])
+            let res: Vec<[f64; 2]> = problem
+                .rows_of(i)
+                .step_by(2)
+                .map(|k| [r[k], r[k + 1]])
                 .collect();
+            let n = res.len().max(1);
             let ss: f64 = res.iter().map(|e| e[0] * e[0] + e[1] * e[1]).sum();
             let p = 9 + 6 * i;
             ViewResult {

@@ -26,9 +26,9 @@ pub mod zhang;
 
 use thiserror::Error;
 
-pub use board::Board;
+pub use board::{Board, Markers};
 pub use bundle::{JointIntrinsics, RigAdjustment, RigCamera, adjust_rig};
-pub use detect::{Detection, detect};
+pub use detect::{Detection, MIN_CHARUCO_CORNERS, detect};
 pub use extrinsics::{
     BoardPose, ROTATION_TOLERANCE_DEG, RelativePose, TRANSLATION_TOLERANCE_MM,
     TRANSLATION_TOLERANCE_SHARE, relative_pose,

@@ -67,7 +67,7 @@ fn compare(set: &str, prefix: &str, key: Option<&str>, tolerance: f64) {
     let board = Board::parse("9x6", 1.0).unwrap();
     let (views, missed, (w, h)) = detections(&dir, prefix, &board);
     assert!(missed.is_empty(), "missed {missed:?}");
-    let cal = calibrate(&board, &views, w, h, &CalibrationSettings::default()).unwrap();
+    let cal = calibrate(&views, w, h, &CalibrationSettings::default()).unwrap();
     let all = reference(&dir);
     let r = key.map_or(&all, |k| &all[k]);
     let k = &cal.intrinsics;
@@ -139,7 +139,8 @@ fn opencv_corners() -> Vec<(String, Detection)> {
                 .iter()
                 .map(|p| Point2::new(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
                 .collect();
-            (name.clone(), Detection { corners })
+            let points = Board::parse("9x6", 1.0).unwrap().points();
+            (name.clone(), Detection { corners, points })
         })
         .collect();
     views.sort_by(|a, b| a.0.cmp(&b.0));
@@ -151,10 +152,9 @@ fn our_solver_on_opencv_corners_gives_opencv_figures() {
     let Some(dir) = data("opencv-left") else {
         return;
     };
-    let board = Board::parse("9x6", 1.0).unwrap();
     let views = opencv_corners();
     assert_eq!(views.len(), 12);
-    let cal = calibrate(&board, &views, 640, 480, &CalibrationSettings::default()).unwrap();
+    let cal = calibrate(&views, 640, 480, &CalibrationSettings::default()).unwrap();
     let r = reference(&dir);
     let k = &cal.intrinsics;
     for (got, name) in [
@@ -258,8 +258,8 @@ fn stereo_rig_relative_pose_matches_opencv() {
     let settings = CalibrationSettings::default();
     let (left, _, (w, h)) = detections(&dir, "left", &board);
     let (right, _, _) = detections(&dir, "right", &board);
-    let l = calibrate(&board, &left, w, h, &settings).unwrap();
-    let r = calibrate(&board, &right, w, h, &settings).unwrap();
+    let l = calibrate(&left, w, h, &settings).unwrap();
+    let r = calibrate(&right, w, h, &settings).unwrap();
     let pairs: Vec<_> = l
         .views
         .iter()
@@ -311,7 +311,7 @@ fn fixing_k3_keeps_it_zero_and_still_reports_standard_deviations() {
         fix_k3: true,
         ..CalibrationSettings::default()
     };
-    let cal = calibrate(&board, &views, w, h, &settings).unwrap();
+    let cal = calibrate(&views, w, h, &settings).unwrap();
     assert_eq!(cal.intrinsics.distortion.to_opencv()[4], 0.0);
     assert_eq!(cal.std_dev[8], 0.0);
     for (k, sd) in cal.std_dev[..8].iter().enumerate() {
@@ -327,7 +327,6 @@ fn fixing_k3_keeps_it_zero_and_still_reports_standard_deviations() {
         },
     }];
     let adjusted = flexshape_calib::adjust_rig(
-        &board,
         &rig,
         flexshape_calib::JointIntrinsics::Refined { fix_k3: true },
     )

@@ -40,6 +40,7 @@ fn simulated_rig_is_recovered() {
         cols: 9,
         rows: 6,
         square: 30.0,
+        markers: None,
     };
     let board = Board::parse("9x6", 30.0).unwrap();
     let session = calibration_views(
@@ -87,7 +88,7 @@ fn simulated_rig_is_recovered() {
         );
         let (w, h) = (cam.intrinsics.width, cam.intrinsics.height);
         detected.push(detections.clone());
-        let cal = calibrate(&board, &detections, w, h, &settings).unwrap();
+        let cal = calibrate(&detections, w, h, &settings).unwrap();
         let (t, g) = (&cam.intrinsics, &cal.intrinsics);
         let seen: Vec<Point2<f64>> = detections
             .iter()
@@ -182,7 +183,7 @@ fn simulated_rig_is_recovered() {
             pose: relative[k],
         })
         .collect();
-    let adjusted = adjust_rig(&board, &rig, JointIntrinsics::Refined { fix_k3: false }).unwrap();
+    let adjusted = adjust_rig(&rig, JointIntrinsics::Refined { fix_k3: false }).unwrap();
     println!("joint adjustment: rms per camera {:?} px", adjusted.rms_px);
     for (k, (_, cam)) in cameras.iter().enumerate() {
         let (t, g) = (&cam.intrinsics, &adjusted.intrinsics[k]);

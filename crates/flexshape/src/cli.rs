@@ -139,12 +139,19 @@ pub struct ValidateShapeArgs {
 
 #[derive(Debug, Args)]
 pub struct CalibrateArgs {
-    /// Inner corners of the chessboard, COLSxROWS (e.g. 9x6).
+    /// The board: inner corners of a chessboard, COLSxROWS (e.g. 9x6), or the squares of a
+    /// ChArUco board, charuco:SXxSY (e.g. charuco:11x8; give --marker too).
     #[arg(long)]
     pub board: String,
     /// Square size, mm.
     #[arg(long, allow_negative_numbers = true)]
     pub square: f64,
+    /// Marker size of a ChArUco board, mm.
+    #[arg(long, allow_negative_numbers = true)]
+    pub marker: Option<f64>,
+    /// ArUco dictionary of a ChArUco board's markers, by OpenCV's name.
+    #[arg(long, default_value = "DICT_4X4_50")]
+    pub dictionary: String,
     /// A camera and its image folder, NAME=DIR, or its images by a file-name pattern in one,
     /// NAME=DIR/PATTERN with `*` and `?` (quote it: 'left=imgs/left*.jpg'); repeat for every
     /// camera (the first is the reference). Images taken together share a file name (folders)
@@ -615,12 +622,19 @@ pub struct ChessboardsArgs {
     /// Output folder: images/camK/NAME.png and truth/rig.toml (+ camK.yml).
     #[arg(long)]
     pub out: PathBuf,
-    /// Inner corners, COLSxROWS.
+    /// Inner corners, COLSxROWS, or a ChArUco board's squares, charuco:SXxSY (give --marker
+    /// too).
     #[arg(long, default_value = "9x6")]
     pub board: String,
     /// Square size, mm.
     #[arg(long, allow_negative_numbers = true, default_value_t = 30.0)]
     pub square: f64,
+    /// Marker size of a ChArUco board, mm.
+    #[arg(long, allow_negative_numbers = true)]
+    pub marker: Option<f64>,
+    /// ArUco dictionary of a ChArUco board's markers, by OpenCV's name.
+    #[arg(long, default_value = "DICT_4X4_50")]
+    pub dictionary: String,
     /// Views per camera facing it.
     #[arg(long, default_value_t = 10)]
     pub own: usize,

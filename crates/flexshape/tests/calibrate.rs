@@ -138,6 +138,116 @@ fn stereo_photographs_calibrate_into_a_rig() {
     assert!(e.contains("same file name"), "{e}");
 }
 
+/// The numbers after `key` on the lines of `rig check`'s report that hold it.
+fn numbers(text: &str, key: &str) -> Vec<f64> {
+    text.lines()
+        .filter_map(|l| l.split(key).nth(1))
+        .map(|rest| {
+            rest.split_whitespace()
+                .next()
+                .unwrap()
+                .parse::<f64>()
+                .unwrap()
+        })
+        .collect()
+}
+
+/// The camera centres in `rig check`'s report, world mm.
+fn centres(text: &str) -> Vec<[f64; 3]> {
+    text.lines()
+        .filter_map(|l| l.split("centre (").nth(1))
+        .map(|rest| {
+            let inside = rest.split(')').next().unwrap();
+            let v: Vec<f64> = inside
+                .split(',')
+                .map(|x| x.trim().parse().unwrap())
+                .collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect()
+}
+
+fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// ChArUco boards (10 × 7 squares, 4×4 markers) through the simulated rig: the calibrated
+/// focal lengths and the distances between camera centres are the truth's.
+#[test]
+fn simulated_charuco_boards_calibrate_to_the_true_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path();
+    let board = [
+        "--board",
+        "charuco:10x7",
+        "--square",
+        "25",
+        "--marker",
+        "18",
+        "--dictionary",
+        "DICT_4X4_50",
+    ];
+    let mut args = vec!["simulate", "chessboards", "--out", out.to_str().unwrap()];
+    args.extend_from_slice(&["--own", "5", "--shared", "3"]);
+    args.extend_from_slice(&board);
+    run(&args);
+    let cal = out.join("calibration");
+    let images: Vec<String> = (0..3)
+        .map(|k| {
+            format!(
+                "cam{k}={}",
+                out.join("images").join(format!("cam{k}")).display()
+            )
+        })
+        .collect();
+    let mut args = vec!["calibrate", "--out", cal.to_str().unwrap()];
+    args.extend_from_slice(&board);
+    for i in &images {
+        args.extend_from_slice(&["--images", i]);
+    }
+    run(&args);
+    let read = |path: &Path| run(&["rig", "check", path.to_str().unwrap()]);
+    let (truth, got) = (
+        read(&out.join("truth/rig.toml")),
+        read(&cal.join("rig.toml")),
+    );
+    let (ft, fg) = (numbers(&truth, " fx "), numbers(&got, " fx "));
+    assert_eq!((ft.len(), fg.len()), (3, 3));
+    for (t, g) in ft.iter().zip(&fg) {
+        println!("fx {g} (truth {t})");
+        assert!((t - g).abs() < 0.003 * t, "fx {g} vs {t}");
+    }
+    let (ct, cg) = (centres(&truth), centres(&got));
+    for k in 1..3 {
+        let (t, g) = (distance(&ct[0], &ct[k]), distance(&cg[0], &cg[k]));
+        println!("cam0 to cam{k}: {g:.2} mm (truth {t:.2})");
+        assert!((t - g).abs() < 1.0, "cam0 to cam{k}: {g} vs {t}");
+    }
+    // A ChArUco board needs its marker size; a chessboard has none; dictionaries by name.
+    let base = [
+        "calibrate",
+        "--square",
+        "25",
+        "--out",
+        "x",
+        "--images",
+        &images[0],
+    ];
+    let e = fails(&[&base[..], &["--board", "charuco:10x7"]].concat());
+    assert!(e.contains("--marker"), "{e}");
+    let e = fails(&[&base[..], &["--board", "9x6", "--marker", "18"]].concat());
+    assert!(e.contains("charuco:"), "{e}");
+    let e = fails(
+        &[
+            &base[..],
+            &board[..2],
+            &["--marker", "18", "--dictionary", "DICT_9X9"],
+        ]
+        .concat(),
+    );
+    assert!(e.contains("unknown ArUco dictionary `DICT_9X9`"), "{e}");
+}
+
 #[test]
 fn simulated_chessboards_calibrate_to_the_true_rig() {
     let dir = tempfile::tempdir().unwrap();
@@ -179,18 +289,6 @@ fn simulated_chessboards_calibrate_to_the_true_rig() {
     let read = |path: &Path| run(&["rig", "check", path.to_str().unwrap()]);
     let truth = read(&out.join("truth/rig.toml"));
     let got = read(&cal.join("rig.toml"));
-    let numbers = |text: &str, key: &str| -> Vec<f64> {
-        text.lines()
-            .filter_map(|l| l.split(key).nth(1))
-            .map(|rest| {
-                rest.split_whitespace()
-                    .next()
-                    .unwrap()
-                    .parse::<f64>()
-                    .unwrap()
-            })
-            .collect()
-    };
     let (ft, fg) = (numbers(&truth, " fx "), numbers(&got, " fx "));
     assert_eq!(ft.len(), 3);
     for (t, g) in ft.iter().zip(&fg) {
@@ -219,23 +317,10 @@ fn simulated_chessboards_calibrate_to_the_true_rig() {
     std::fs::write(&points, csv).unwrap();
     let cal2 = out.join("calibration-world");
     calibrate(&cal2, &["--world", &format!("points:{}", points.display())]);
-    let centres = |text: &str| -> Vec<[f64; 3]> {
-        text.lines()
-            .filter_map(|l| l.split("centre (").nth(1))
-            .map(|rest| {
-                let inside = rest.split(')').next().unwrap();
-                let v: Vec<f64> = inside
-                    .split(',')
-                    .map(|x| x.trim().parse().unwrap())
-                    .collect();
-                [v[0], v[1], v[2]]
-            })
-            .collect()
-    };
     let (ct, cg) = (centres(&truth), centres(&read(&cal2.join("rig.toml"))));
     assert_eq!(ct.len(), 3);
     for (a, b) in ct.iter().zip(&cg) {
-        let d = (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt();
+        let d = distance(a, b);
         println!("camera centre {b:?} vs truth {a:?}: {d:.2} mm");
         assert!(d < 2.0, "camera centre {b:?} vs truth {a:?}");
     }

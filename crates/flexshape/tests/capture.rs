@@ -142,6 +142,7 @@ fn chessboards_captured_live_calibrate_the_rig() {
         cols: 9,
         rows: 6,
         square: 30.0,
+        markers: None,
     };
     let views = calibration_views(&cameras, &board, 5, 4, 3);
     let mut videos = Vec::new();

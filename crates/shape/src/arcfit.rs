@@ -13,7 +13,7 @@ use crate::record::{ArcFit, TwoSectionFit};
 use crate::settings::ArcFitSettings;
 
 /// Spacing of the data points compared with the arc, mm.
-const DATA_STEP: f64 = 2.0;
+const DATA_STEP: f64 = 4.0;
 
 /// Fits the curve from arc length `start` to the tip; `None` when the section is shorter than
 /// 5 mm.

@@ -1,6 +1,8 @@
 //! Chessboards rendered through a camera with known truth, for testing calibration: a planar
 //! board of `cols × rows` inner corners with one extra square all round and a white margin,
-//! on a grey background, antialiased by 4 × 4 supersampling, with Gaussian noise.
+//! on a grey background, antialiased by 4 × 4 supersampling, with Gaussian noise. A ChArUco
+//! board is the same chessboard with an ArUco marker in every light square (OpenCV's layout
+//! since 4.6: the top-left square dark, markers numbered row by row over the light squares).
 //!
 //! Board frame (as the calibration uses it): origin at the first inner corner, x along `cols`,
 //! y along `rows`, z = 0 on the board; the outer square at the origin is dark (so for
@@ -15,7 +17,7 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use rand_distr::StandardNormal;
 
-/// A printed chessboard.
+/// A printed chessboard, or ChArUco board.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PrintedBoard {
     /// Inner corners along x.
@@ -24,6 +26,50 @@ pub struct PrintedBoard {
     pub rows: usize,
     /// Square edge, mm.
     pub square: f64,
+    /// ArUco markers in the light squares (a ChArUco board), or none (a chessboard).
+    pub markers: Option<PrintedMarkers>,
+}
+
+/// The ArUco markers of a ChArUco board.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PrintedMarkers {
+    /// Marker edge, mm (centred in its square).
+    pub side: f64,
+    /// Bits per marker side (without the one-cell black border).
+    bits: usize,
+    /// Marker codes by id: bit `y·bits + x` set where cell `(x, y)` is black.
+    codes: &'static [u64],
+}
+
+impl PrintedMarkers {
+    /// Markers of `side` mm from the ArUco dictionary named `dictionary` (OpenCV's names, e.g.
+    /// `DICT_4X4_50`); `None` for a name it does not know.
+    pub fn new(side: f64, dictionary: &str) -> Option<Self> {
+        let d = calib_targets_aruco::resolve_dictionary(dictionary)?;
+        Some(PrintedMarkers {
+            side,
+            bits: d.marker_size(),
+            codes: d.codes(),
+        })
+    }
+
+    /// Whether the marker `id` is dark at `(x, y)`, its position in the marker's square
+    /// from that square's top-left corner, mm (`square` its edge); `None` outside the marker.
+    fn dark(&self, id: usize, x: f64, y: f64, square: f64) -> Option<bool> {
+        let margin = (square - self.side) / 2.0;
+        let cells = self.bits + 2;
+        let cell = self.side / cells as f64;
+        let (u, v) = ((x - margin) / cell, (y - margin) / cell);
+        if !(u >= 0.0 && v >= 0.0 && u < cells as f64 && v < cells as f64) {
+            return None;
+        }
+        let (cx, cy) = (u as usize, v as usize);
+        if cx == 0 || cy == 0 || cx == cells - 1 || cy == cells - 1 {
+            return Some(true);
+        }
+        let code = self.codes.get(id).copied().unwrap_or(0);
+        Some((code >> ((cy - 1) * self.bits + cx - 1)) & 1 == 1)
+    }
 }
 
 const SUB: usize = 4;
@@ -209,9 +255,20 @@ impl PrintedBoard {
         let margin = |v: i64, n: usize| v >= -2 && v <= n as i64;
         if inside(i, self.cols) && inside(j, self.rows) {
             if (i + j).rem_euclid(2) == 0 {
-                DARK
-            } else {
-                LIGHT
+                return DARK;
+            }
+            let Some(markers) = &self.markers else {
+                return LIGHT;
+            };
+            // Squares counted from the board's top-left one; light ones hold markers 0, 1, …
+            // row by row.
+            let (sx, sy) = ((i + 1) as usize, (j + 1) as usize);
+            let across = self.cols + 1;
+            let id = (sy * across + sx) / 2;
+            let (x0, y0) = (i as f64 * s, j as f64 * s);
+            match markers.dark(id, x - x0, y - y0, s) {
+                Some(true) => DARK,
+                _ => LIGHT,
             }
         } else if margin(i, self.cols) && margin(j, self.rows) {
             LIGHT
@@ -231,6 +288,7 @@ mod tests {
             cols: 9,
             rows: 6,
             square: 10.0,
+            markers: None,
         };
         assert_eq!(b.shade(-5.0, -5.0), DARK);
         assert_eq!(b.shade(5.0, -5.0), LIGHT);

@@ -26,7 +26,9 @@ mod sequence;
 mod simulator;
 
 pub use catheter::{Catheter, CatheterPose, CatheterState, RENDER_STEP, TRUTH_STEP};
-pub use chessboard::{BoardRenderer, CalibrationView, PrintedBoard, calibration_views};
+pub use chessboard::{
+    BoardRenderer, CalibrationView, PrintedBoard, PrintedMarkers, calibration_views,
+};
 pub use error::SimError;
 pub use render::{RenderSettings, Renderer, View};
 pub use rig::SimRigConfig;

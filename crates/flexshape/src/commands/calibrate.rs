@@ -98,8 +98,8 @@ struct ViewReport {
 }
 
 pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
-    let board =
-        Board::parse(&args.board, args.square).map_err(|e| anyhow::anyhow!("--board: {e}"))?;
+    let board = Board::from_spec(&args.board, args.square, args.marker, &args.dictionary)
+        .map_err(|e| anyhow::anyhow!("--board: {e}"))?;
     let cameras = cameras(&args.images)?;
     let total: usize = cameras.iter().map(|c| c.files.len()).sum();
     let bar = ProgressBar::new(total as u64).with_style(
@@ -116,7 +116,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     let mut detections = Vec::new();
     for cam in &cameras {
         let (views, rejected, size) = detect_all(cam, &board, &bar)?;
-        let cal = calibrate(&board, &views, size.0, size.1, &settings)
+        let cal = calibrate(&views, size.0, size.1, &settings)
             .with_context(|| format!("camera {}", cam.name))?;
         // The views the calibration kept (outliers may have been dropped), by instant.
         let kept: Vec<(String, Detection)> = views
@@ -203,7 +203,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         } else {
             JointIntrinsics::Fixed
         };
-        match adjust_rig(&board, &rig, intrinsics) {
+        match adjust_rig(&rig, intrinsics) {
             Ok(a) => {
                 for ((cal, _), k) in results.iter_mut().zip(&a.intrinsics) {
                     cal.intrinsics = k.clone();

@@ -6,7 +6,9 @@ use std::time::Instant;
 use anyhow::Context;
 use flexshape_model::{ExperimentPlan, Role};
 use flexshape_recording::PoseRole;
-use flexshape_sim::{BoardRenderer, CatheterPose, PrintedBoard, Simulator, calibration_views};
+use flexshape_sim::{
+    BoardRenderer, CatheterPose, PrintedBoard, PrintedMarkers, Simulator, calibration_views,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::cli::{ChessboardsArgs, SimulateArgs, SimulateWhat};
@@ -110,13 +112,21 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
 
 /// `flexshape simulate chessboards`.
 fn chessboards(args: &ChessboardsArgs) -> anyhow::Result<()> {
-    let parsed = flexshape_calib::Board::parse(&args.board, args.square)
-        .map_err(|e| anyhow::anyhow!("--board/--square: {e}"))?;
-    let (cols, rows) = (parsed.cols, parsed.rows);
+    let parsed =
+        flexshape_calib::Board::from_spec(&args.board, args.square, args.marker, &args.dictionary)
+            .map_err(|e| anyhow::anyhow!("--board/--square: {e}"))?;
+    let markers = match parsed.markers {
+        Some(m) => Some(
+            PrintedMarkers::new(m.side, m.dictionary)
+                .with_context(|| format!("--dictionary {}: not known", m.dictionary))?,
+        ),
+        None => None,
+    };
     let board = PrintedBoard {
-        cols,
-        rows,
+        cols: parsed.cols,
+        rows: parsed.rows,
         square: parsed.square,
+        markers,
     };
     let config = super::sim_config(&args.sim);
     let rig = config
@@ -171,7 +181,8 @@ fn chessboards(args: &ChessboardsArgs) -> anyhow::Result<()> {
     std::fs::write(&boards_path, serde_json::to_string_pretty(&boards)?)
         .with_context(|| format!("cannot write {}", boards_path.display()))?;
     println!(
-        "wrote {total} images of a {cols}×{rows} board ({} mm squares) to {} and the true rig to {}",
+        "wrote {total} images of a {} board ({} mm squares) to {} and the true rig to {}",
+        args.board,
         args.square,
         args.out.join("images").display(),
         truth.display()
@@ -187,8 +198,13 @@ fn chessboards(args: &ChessboardsArgs) -> anyhow::Result<()> {
             )
         })
         .collect();
+    let markers = args
+        .marker
+        .map(|m| format!(" --marker {m} --dictionary {}", args.dictionary))
+        .unwrap_or_default();
     println!(
-        "  calibrate with: flexshape calibrate --board {cols}x{rows} --square {} {} --out {}",
+        "  calibrate with: flexshape calibrate --board {} --square {}{markers} {} --out {}",
+        args.board,
         args.square,
         images.join(" "),
         args.out.join("calibration").display()
