@@ -2,17 +2,35 @@
 
 use nalgebra::Point3;
 
-/// A chessboard, or a ChArUco board: `cols × rows` inner corners, `square` mm apart.
+/// A calibration target: `cols × rows` points (a chessboard's or ChArUco board's inner
+/// corners, a circle grid's circles), see [`Board::point`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Board {
-    /// Inner corners along the board's x direction.
+    /// Points along the board's x direction.
     pub cols: usize,
-    /// Inner corners along y.
+    /// Points along y.
     pub rows: usize,
-    /// Square edge, mm.
+    /// Square edge, mm (circle grids: the distance between neighbouring circles of a
+    /// symmetric grid; half that between neighbours in a row of an asymmetric one, as OpenCV's
+    /// calibration sample has it).
     pub square: f64,
-    /// The ArUco markers of a ChArUco board (`None`: a plain chessboard).
-    pub markers: Option<Markers>,
+    /// What the board shows.
+    pub pattern: Pattern,
+}
+
+/// What a [`Board`] shows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pattern {
+    /// A chessboard: every view must show it whole.
+    Chessboard,
+    /// A ChArUco board: a chessboard with ArUco markers in its light squares.
+    Charuco(Markers),
+    /// Dark circles on a light board (OpenCV's circle grids): symmetric, or asymmetric (rows
+    /// offset by half a spacing). Every view must show it whole.
+    Circles {
+        /// OpenCV's asymmetric layout.
+        asymmetric: bool,
+    },
 }
 
 /// The markers in a ChArUco board's light squares, in OpenCV's layout since 4.6 (the
@@ -48,7 +66,7 @@ impl Board {
             cols: parse(c)?,
             rows: parse(r)?,
             square,
-            markers: None,
+            pattern: Pattern::Chessboard,
         })
     }
 
@@ -61,15 +79,26 @@ impl Board {
         marker: Option<f64>,
         dictionary: &str,
     ) -> Result<Self, String> {
-        match spec.strip_prefix("charuco:") {
-            Some(squares) => {
-                let marker = marker.ok_or_else(|| {
-                    "a ChArUco board needs its marker size (--marker MM)".to_string()
-                })?;
-                Board::charuco(squares, square, marker, dictionary)
-            }
-            None if marker.is_some() => Err(format!(
-                "`{spec}` is a chessboard, which has no markers: give charuco:SXxSY for a ChArUco board"
+        if let Some(squares) = spec.strip_prefix("charuco:") {
+            let marker = marker
+                .ok_or_else(|| "a ChArUco board needs its marker size (--marker MM)".to_string())?;
+            return Board::charuco(squares, square, marker, dictionary);
+        }
+        if marker.is_some() {
+            return Err(format!(
+                "`{spec}` has no markers: give charuco:SXxSY for a ChArUco board"
+            ));
+        }
+        let circles = |size: &str, asymmetric: bool| {
+            let mut board = Board::parse(size, square)?;
+            board.pattern = Pattern::Circles { asymmetric };
+            Ok(board)
+        };
+        match spec.split_once(':') {
+            Some(("circles", size)) => circles(size, false),
+            Some(("acircles", size)) => circles(size, true),
+            Some((kind, _)) => Err(format!(
+                "`{spec}`: unknown board kind `{kind}` (COLSxROWS for a chessboard, charuco:SXxSY, circles:COLSxROWS or acircles:COLSxROWS)"
             )),
             None => Board::parse(spec, square),
         }
@@ -112,7 +141,7 @@ impl Board {
                 dict.codes().len()
             ));
         }
-        board.markers = Some(Markers {
+        board.pattern = Pattern::Charuco(Markers {
             side: marker,
             dictionary: dict.name(),
         });
@@ -124,9 +153,14 @@ impl Board {
         self.cols * self.rows
     }
 
-    /// Corner `(c, r)` in the board frame, mm: `(c·square, r·square, 0)`.
+    /// Point `(c, r)` in the board frame, mm: `(c·square, r·square, 0)`; on an asymmetric
+    /// circle grid `((2c + r mod 2)·square, r·square, 0)`.
     pub fn point(&self, c: usize, r: usize) -> Point3<f64> {
-        Point3::new(c as f64 * self.square, r as f64 * self.square, 0.0)
+        let x = match self.pattern {
+            Pattern::Circles { asymmetric: true } => 2 * c + r % 2,
+            _ => c,
+        };
+        Point3::new(x as f64 * self.square, r as f64 * self.square, 0.0)
     }
 
     /// All corners, row by row (`c` fastest), as [`crate::Detection::corners`] orders them.

@@ -18,7 +18,7 @@ use calib_targets::detect as ct;
 use image::GrayImage;
 use nalgebra::{Point2, Point3, Vector2};
 
-use crate::board::Markers;
+use crate::board::{Markers, Pattern};
 use crate::{Board, CalibError};
 
 /// A board found in an image: corners and where each lies on the board.
@@ -38,8 +38,13 @@ pub const MIN_CHARUCO_CORNERS: usize = 8;
 /// Finds `board` in `image`, or says why not.
 pub fn detect(image: &GrayImage, board: &Board) -> Result<Detection, CalibError> {
     let chess = ct::default_chess_config().with_refiner(ImageRefiner::saddle_point());
-    if let Some(markers) = &board.markers {
-        return detect_charuco(image, board, markers, chess);
+    match &board.pattern {
+        Pattern::Chessboard => {}
+        Pattern::Charuco(markers) => return detect_charuco(image, board, markers, chess),
+        Pattern::Circles { asymmetric } => {
+            return crate::circles::detect(image, board, *asymmetric)
+                .map_err(CalibError::NotDetected);
+        }
     }
     let mut configs = vec![ChessboardParams::default()];
     configs.extend(ChessboardParams::sweep_default());

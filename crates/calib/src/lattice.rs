@@ -6,7 +6,8 @@
 //! lies close to the prediction and shows the chessboard's X-junction — two opposite squares
 //! dark, the other two light, the dark pair alternating from corner to corner — so the outer
 //! corners of the border squares and clutter beyond the board are left out. Labels are
-//! right-handed in the image (never mirrored).
+//! right-handed in the image (never mirrored). Circle grids grow the same way from their
+//! circles' centres, with no junction to check.
 
 use image::GrayImage;
 use nalgebra::{Point2, Vector2};
@@ -34,13 +35,27 @@ pub(crate) fn assemble(
     order
         .into_iter()
         .take(SEEDS)
-        .filter_map(|seed| grow(image, &points, seed))
+        .filter_map(|seed| grow(Some(image), &points, seed))
         .find_map(|grid| board_window(&grid, cols as i32, rows as i32))
+}
+
+/// The lattices grown from the strongest `candidates` (position, strength) as seeds, with no
+/// image check: every candidate near a prediction is taken.
+pub(crate) fn grown(
+    candidates: &[(Point2<f64>, f64)],
+) -> impl Iterator<Item = Vec<([i32; 2], Point2<f64>)>> {
+    let mut order: Vec<usize> = (0..candidates.len()).collect();
+    order.sort_by(|&a, &b| candidates[b].1.total_cmp(&candidates[a].1));
+    let points: Vec<Point2<f64>> = candidates.iter().map(|c| c.0).collect();
+    order
+        .into_iter()
+        .take(SEEDS)
+        .filter_map(move |seed| grow(None, &points, seed))
 }
 
 /// The only complete `cols × rows` (or `rows × cols`) window of a grown grid: corners grown
 /// past the board's edge onto clutter fall outside it. Two complete windows are ambiguous.
-fn board_window(
+pub(crate) fn board_window(
     grid: &[([i32; 2], Point2<f64>)],
     cols: i32,
     rows: i32,
@@ -78,9 +93,9 @@ fn board_window(
     found
 }
 
-/// The grid grown from `seed`.
+/// The grid grown from `seed`; with `image`, only through chessboard X-junctions.
 fn grow(
-    image: &GrayImage,
+    image: Option<&GrayImage>,
     points: &[Point2<f64>],
     seed: usize,
 ) -> Option<Vec<([i32; 2], Point2<f64>)>> {
@@ -102,7 +117,10 @@ fn grow(
     })?;
     let step_v = points[second] - origin;
     // The seed's X-junction: which diagonal is dark, and how strongly.
-    let seed_checker = checker(image, origin, step_u, step_v)?;
+    let seed_checker = match image {
+        Some(image) => checker(image, origin, step_u, step_v)?,
+        None => MIN_CONTRAST,
+    };
     if seed_checker.abs() < MIN_CONTRAST {
         return None;
     }
@@ -136,8 +154,11 @@ fn grow(
             };
             if let Some((d, i)) = nearest
                 && d <= TOLERANCE * step
-                && checker(image, points[i], step_u, step_v)
-                    .is_some_and(|c| c * seed_checker.signum() * parity >= 0.4 * seed_checker.abs())
+                && image.is_none_or(|image| {
+                    checker(image, points[i], step_u, step_v).is_some_and(|c| {
+                        c * seed_checker.signum() * parity >= 0.4 * seed_checker.abs()
+                    })
+                })
             {
                 grid.insert(next, i);
                 used[i] = true;

@@ -17,6 +17,7 @@
 
 mod board;
 mod bundle;
+mod circles;
 mod detect;
 mod extrinsics;
 pub mod homography;
@@ -26,7 +27,7 @@ pub mod zhang;
 
 use thiserror::Error;
 
-pub use board::{Board, Markers};
+pub use board::{Board, Markers, Pattern};
 pub use bundle::{JointIntrinsics, RigAdjustment, RigCamera, adjust_rig};
 pub use detect::{Detection, MIN_CHARUCO_CORNERS, detect};
 pub use extrinsics::{

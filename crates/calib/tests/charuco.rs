@@ -3,7 +3,9 @@
 
 use flexshape_calib::{Board, CalibrationSettings, MIN_CHARUCO_CORNERS, calibrate, detect};
 use flexshape_camera::nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
-use flexshape_sim::{BoardRenderer, PrintedBoard, PrintedMarkers, SimRigConfig, calibration_views};
+use flexshape_sim::{
+    BoardRenderer, PrintedBoard, PrintedMarkers, PrintedPattern, SimRigConfig, calibration_views,
+};
 
 /// The board of the test: 10 × 7 squares of 25 mm, 18-mm markers of DICT_4X4_50 (the
 /// OpenCV check in `fixtures/charuco_opencv.py` uses the same).
@@ -13,7 +15,7 @@ fn boards() -> (Board, PrintedBoard) {
         cols: board.cols,
         rows: board.rows,
         square: board.square,
-        markers: Some(PrintedMarkers::new(18.0, "DICT_4X4_50").unwrap()),
+        pattern: PrintedPattern::Charuco(PrintedMarkers::new(18.0, "DICT_4X4_50").unwrap()),
     };
     (board, printed)
 }

@@ -7,7 +7,7 @@ use flexshape_calib::{
 };
 use flexshape_camera::Camera;
 use flexshape_camera::nalgebra::{Isometry3, Point2, Rotation3, Vector2, Vector3};
-use flexshape_sim::{BoardRenderer, PrintedBoard, SimRigConfig, calibration_views};
+use flexshape_sim::{BoardRenderer, PrintedBoard, PrintedPattern, SimRigConfig, calibration_views};
 
 /// Largest pixel distance between two cameras' projections of the same normalized rays over
 /// the part of the image the boards covered (within 25 px of a detected corner: beyond, the
@@ -40,7 +40,7 @@ fn simulated_rig_is_recovered() {
         cols: 9,
         rows: 6,
         square: 30.0,
-        markers: None,
+        pattern: PrintedPattern::Chessboard,
     };
     let board = Board::parse("9x6", 30.0).unwrap();
     let session = calibration_views(

@@ -171,25 +171,13 @@ fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
 }
 
-/// ChArUco boards (10 × 7 squares, 4×4 markers) through the simulated rig: the calibrated
-/// focal lengths and the distances between camera centres are the truth's.
-#[test]
-fn simulated_charuco_boards_calibrate_to_the_true_rig() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path();
-    let board = [
-        "--board",
-        "charuco:10x7",
-        "--square",
-        "25",
-        "--marker",
-        "18",
-        "--dictionary",
-        "DICT_4X4_50",
-    ];
+/// Boards of `board` (the options naming it) through the simulated rig, calibrated: the
+/// focal lengths and the distances between camera centres are the truth's. Returns the
+/// `--images` options.
+fn calibrates_to_the_true_rig(out: &Path, board: &[&str]) -> Vec<String> {
     let mut args = vec!["simulate", "chessboards", "--out", out.to_str().unwrap()];
     args.extend_from_slice(&["--own", "5", "--shared", "3"]);
-    args.extend_from_slice(&board);
+    args.extend_from_slice(board);
     run(&args);
     let cal = out.join("calibration");
     let images: Vec<String> = (0..3)
@@ -201,7 +189,7 @@ fn simulated_charuco_boards_calibrate_to_the_true_rig() {
         })
         .collect();
     let mut args = vec!["calibrate", "--out", cal.to_str().unwrap()];
-    args.extend_from_slice(&board);
+    args.extend_from_slice(board);
     for i in &images {
         args.extend_from_slice(&["--images", i]);
     }
@@ -214,15 +202,40 @@ fn simulated_charuco_boards_calibrate_to_the_true_rig() {
     let (ft, fg) = (numbers(&truth, " fx "), numbers(&got, " fx "));
     assert_eq!((ft.len(), fg.len()), (3, 3));
     for (t, g) in ft.iter().zip(&fg) {
-        println!("fx {g} (truth {t})");
+        println!("{board:?}: fx {g} (truth {t})");
         assert!((t - g).abs() < 0.003 * t, "fx {g} vs {t}");
     }
     let (ct, cg) = (centres(&truth), centres(&got));
     for k in 1..3 {
         let (t, g) = (distance(&ct[0], &ct[k]), distance(&cg[0], &cg[k]));
-        println!("cam0 to cam{k}: {g:.2} mm (truth {t:.2})");
+        println!("{board:?}: cam0 to cam{k}: {g:.2} mm (truth {t:.2})");
         assert!((t - g).abs() < 1.0, "cam0 to cam{k}: {g} vs {t}");
     }
+    images
+}
+
+/// An asymmetric circle grid (4 × 11, OpenCV's layout) calibrates the simulated rig.
+#[test]
+fn simulated_asymmetric_circle_grids_calibrate_to_the_true_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    calibrates_to_the_true_rig(dir.path(), &["--board", "acircles:4x11", "--square", "20"]);
+}
+
+/// ChArUco boards (10 × 7 squares, 4×4 markers) calibrate the simulated rig.
+#[test]
+fn simulated_charuco_boards_calibrate_to_the_true_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    let board = [
+        "--board",
+        "charuco:10x7",
+        "--square",
+        "25",
+        "--marker",
+        "18",
+        "--dictionary",
+        "DICT_4X4_50",
+    ];
+    let images = calibrates_to_the_true_rig(dir.path(), &board);
     // A ChArUco board needs its marker size; a chessboard has none; dictionaries by name.
     let base = [
         "calibrate",

@@ -122,7 +122,9 @@ fn capture_refuses_a_camera_given_twice_and_bad_intervals() {
 /// folders. The second camera lands where the simulator put it.
 #[test]
 fn chessboards_captured_live_calibrate_the_rig() {
-    use flexshape_sim::{BoardRenderer, PrintedBoard, SimConfig, SimRigConfig, calibration_views};
+    use flexshape_sim::{
+        BoardRenderer, PrintedBoard, PrintedPattern, SimConfig, SimRigConfig, calibration_views,
+    };
     if !common::ffmpeg_or_skip() {
         return;
     }
@@ -142,7 +144,7 @@ fn chessboards_captured_live_calibrate_the_rig() {
         cols: 9,
         rows: 6,
         square: 30.0,
-        markers: None,
+        pattern: PrintedPattern::Chessboard,
     };
     let views = calibration_views(&cameras, &board, 5, 4, 3);
     let mut videos = Vec::new();

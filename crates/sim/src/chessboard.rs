@@ -3,6 +3,7 @@
 //! on a grey background, antialiased by 4 × 4 supersampling, with Gaussian noise. A ChArUco
 //! board is the same chessboard with an ArUco marker in every light square (OpenCV's layout
 //! since 4.6: the top-left square dark, markers numbered row by row over the light squares).
+//! A circle grid is dark dots on a light board, OpenCV's symmetric or asymmetric layout.
 //!
 //! Board frame (as the calibration uses it): origin at the first inner corner, x along `cols`,
 //! y along `rows`, z = 0 on the board; the outer square at the origin is dark (so for
@@ -17,17 +18,35 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use rand_distr::StandardNormal;
 
-/// A printed chessboard, or ChArUco board.
+/// A printed chessboard, ChArUco board or circle grid.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PrintedBoard {
-    /// Inner corners along x.
+    /// Inner corners (circles) along x.
     pub cols: usize,
-    /// Inner corners along y.
+    /// Inner corners (circles) along y.
     pub rows: usize,
-    /// Square edge, mm.
+    /// Square edge, mm (circle grids: the distance between neighbouring circles of a
+    /// symmetric grid, half that between neighbours in a row of an asymmetric one).
     pub square: f64,
-    /// ArUco markers in the light squares (a ChArUco board), or none (a chessboard).
-    pub markers: Option<PrintedMarkers>,
+    /// What is printed.
+    pub pattern: PrintedPattern,
+}
+
+/// What a [`PrintedBoard`] shows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PrintedPattern {
+    /// Dark and light squares.
+    Chessboard,
+    /// A chessboard with ArUco markers in the light squares.
+    Charuco(PrintedMarkers),
+    /// Dark dots of `diameter` mm centred at `(c·square, r·square)` (symmetric) or
+    /// `((2c + r mod 2)·square, r·square)` (asymmetric, OpenCV's layout).
+    Circles {
+        /// OpenCV's asymmetric layout.
+        asymmetric: bool,
+        /// Dot diameter, mm.
+        diameter: f64,
+    },
 }
 
 /// The ArUco markers of a ChArUco board.
@@ -237,8 +256,13 @@ impl PrintedBoard {
             rng.random_range(-30.0..30.0),
             rng.random_range(-30.0..30.0),
         );
-        let half =
-            Vector3::new(self.cols as f64 - 1.0, self.rows as f64 - 1.0, 0.0) * self.square / 2.0;
+        let across = match self.pattern {
+            PrintedPattern::Circles {
+                asymmetric: true, ..
+            } => 2.0 * self.cols as f64 - 1.0,
+            _ => self.cols as f64,
+        };
+        let half = Vector3::new(across - 1.0, self.rows as f64 - 1.0, 0.0) * self.square / 2.0;
         Isometry3::from_parts(
             Translation3::from(centre - rotation * half),
             UnitQuaternion::from_rotation_matrix(&rotation),
@@ -248,6 +272,13 @@ impl PrintedBoard {
     /// Grey level at board point `(x, y)` mm.
     fn shade(&self, x: f64, y: f64) -> f64 {
         let s = self.square;
+        if let PrintedPattern::Circles {
+            asymmetric,
+            diameter,
+        } = self.pattern
+        {
+            return self.dots(x, y, asymmetric, diameter);
+        }
         // `cols` inner corners lie between `cols + 1` squares, indices −1 to cols − 1 along x;
         // a white margin of one square beyond.
         let (i, j) = ((x / s).floor() as i64, (y / s).floor() as i64);
@@ -257,7 +288,7 @@ impl PrintedBoard {
             if (i + j).rem_euclid(2) == 0 {
                 return DARK;
             }
-            let Some(markers) = &self.markers else {
+            let PrintedPattern::Charuco(markers) = &self.pattern else {
                 return LIGHT;
             };
             // Squares counted from the board's top-left one; light ones hold markers 0, 1, …
@@ -276,6 +307,36 @@ impl PrintedBoard {
             BACKGROUND
         }
     }
+
+    /// Grey level at `(x, y)` mm of a circle grid: light within two spacings of the outer
+    /// dots' centres, dark within the dots.
+    fn dots(&self, x: f64, y: f64, asymmetric: bool, diameter: f64) -> f64 {
+        let s = self.square;
+        let width = if asymmetric {
+            2 * self.cols - 1
+        } else {
+            self.cols - 1
+        } as f64
+            * s;
+        let height = (self.rows - 1) as f64 * s;
+        if x < -2.0 * s || y < -2.0 * s || x > width + 2.0 * s || y > height + 2.0 * s {
+            return BACKGROUND;
+        }
+        let r = (y / s).round();
+        if (0.0..self.rows as f64).contains(&r) {
+            let (step, offset) = if asymmetric {
+                (2.0, (r as usize % 2) as f64)
+            } else {
+                (1.0, 0.0)
+            };
+            let c = ((x / s - offset) / step).round();
+            let cx = (c * step + offset) * s;
+            if (0.0..self.cols as f64).contains(&c) && (x - cx).hypot(y - r * s) <= diameter / 2.0 {
+                return DARK;
+            }
+        }
+        LIGHT
+    }
 }
 
 #[cfg(test)]
@@ -288,7 +349,7 @@ mod tests {
             cols: 9,
             rows: 6,
             square: 10.0,
-            markers: None,
+            pattern: PrintedPattern::Chessboard,
         };
         assert_eq!(b.shade(-5.0, -5.0), DARK);
         assert_eq!(b.shade(5.0, -5.0), LIGHT);

@@ -27,7 +27,7 @@ mod simulator;
 
 pub use catheter::{Catheter, CatheterPose, CatheterState, RENDER_STEP, TRUTH_STEP};
 pub use chessboard::{
-    BoardRenderer, CalibrationView, PrintedBoard, PrintedMarkers, calibration_views,
+    BoardRenderer, CalibrationView, PrintedBoard, PrintedMarkers, PrintedPattern, calibration_views,
 };
 pub use error::SimError;
 pub use render::{RenderSettings, Renderer, View};

@@ -4,10 +4,12 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use anyhow::Context;
+use flexshape_calib::Pattern;
 use flexshape_model::{ExperimentPlan, Role};
 use flexshape_recording::PoseRole;
 use flexshape_sim::{
-    BoardRenderer, CatheterPose, PrintedBoard, PrintedMarkers, Simulator, calibration_views,
+    BoardRenderer, CatheterPose, PrintedBoard, PrintedMarkers, PrintedPattern, Simulator,
+    calibration_views,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -115,18 +117,23 @@ fn chessboards(args: &ChessboardsArgs) -> anyhow::Result<()> {
     let parsed =
         flexshape_calib::Board::from_spec(&args.board, args.square, args.marker, &args.dictionary)
             .map_err(|e| anyhow::anyhow!("--board/--square: {e}"))?;
-    let markers = match parsed.markers {
-        Some(m) => Some(
+    let pattern = match parsed.pattern {
+        Pattern::Chessboard => PrintedPattern::Chessboard,
+        Pattern::Charuco(m) => PrintedPattern::Charuco(
             PrintedMarkers::new(m.side, m.dictionary)
                 .with_context(|| format!("--dictionary {}: not known", m.dictionary))?,
         ),
-        None => None,
+        // Dots half as wide as the distance to their nearest neighbour.
+        Pattern::Circles { asymmetric } => PrintedPattern::Circles {
+            asymmetric,
+            diameter: parsed.square * if asymmetric { 0.7 } else { 0.5 },
+        },
     };
     let board = PrintedBoard {
         cols: parsed.cols,
         rows: parsed.rows,
         square: parsed.square,
-        markers,
+        pattern,
     };
     let config = super::sim_config(&args.sim);
     let rig = config
