@@ -546,6 +546,14 @@ pub struct SimArgs {
     /// Cast soft shadows on the backdrops.
     #[arg(long)]
     pub shadows: bool,
+    /// The catheter body's diffuse reflectance, R,G,B in 0–1 (default a blue plastic,
+    /// 0.14,0.20,0.40; e.g. 0.35,0.35,0.35 for a grey tube).
+    #[arg(long, value_name = "R,G,B", value_parser = parse_albedo)]
+    pub body_albedo: Option<[f64; 3]>,
+    /// The backdrops' diffuse reflectance, R,G,B in 0–1 (default a green cloth, 0.70,0.88,0.66;
+    /// e.g. 0.9,0.9,0.9 for white paper).
+    #[arg(long, value_name = "R,G,B", value_parser = parse_albedo)]
+    pub backdrop_albedo: Option<[f64; 3]>,
     /// Sensor noise, standard deviation in grey levels.
     #[arg(
         long,
@@ -868,5 +876,20 @@ fn parse_threads(s: &str) -> Result<usize, String> {
         Ok(0) => Err("at least 1 frame must be processed at once".into()),
         Ok(n) => Ok(n),
         Err(_) => Err(format!("`{s}` is not a number of threads")),
+    }
+}
+
+/// `R,G,B` reflectances in 0–1.
+fn parse_albedo(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("`{s}`: give three numbers R,G,B, e.g. 0.35,0.35,0.35"))?;
+    match v[..] {
+        [r, g, b] if v.iter().all(|x| (0.0..=1.0).contains(x)) => Ok([r, g, b]),
+        _ => Err(format!(
+            "`{s}`: give three reflectances R,G,B, each from 0 to 1"
+        )),
     }
 }

@@ -17,7 +17,12 @@
 //!   foreground; a pixel passing a looser test that touches them is foreground when its
 //!   estimated coverage `c = (I − E)·(S − E) / ‖S − E‖²` is at least ½, with `S` the mean
 //!   colour of its strict neighbours (the pure surface colour). That puts the boundary at half
-//!   contrast whatever the surface colour.
+//!   contrast whatever the surface colour. A grey or silvery object on a white backdrop is
+//!   shadow-like all over; what tells it from a shadow is its edge: a shadow cast from across
+//!   the room fades in over its penumbra, an object in focus is whole within a pixel or two. So
+//!   a connected region of shadow-like pixels (`α < shade`) whose outline reaches its own
+//!   darkness within two pixels (the median of `Δα` over its boundary, relative to `1 − ᾱ`, at
+//!   least `edge`) is foreground too, down to its pixels at least half as dark as its mean.
 
 use image::RgbImage;
 use serde::{Deserialize, Serialize};
@@ -119,6 +124,13 @@ pub struct ColourShadow {
     pub bright: f32,
     /// The chromaticity thresholds are at least this many noise spreads.
     pub noise_factor: f32,
+    /// Brightness ratio below which a shadow-like pixel may belong to a sharp-edged region
+    /// (see `edge`).
+    pub shade: f32,
+    /// How sharp a shadow-like region's outline must be for the region to count as an object,
+    /// as a share of its darkness reached within two pixels (0: shadow-like regions never
+    /// count).
+    pub edge: f32,
 }
 
 impl Default for ColourShadow {
@@ -131,6 +143,8 @@ impl Default for ColourShadow {
             dark_weak: 0.57,
             bright: 1.40,
             noise_factor: 4.0,
+            shade: 0.85,
+            edge: 0.9,
         }
     }
 }
@@ -186,7 +200,9 @@ impl Classifier {
                 check("dark", c.dark, 0.0, 1.0)?;
                 check("dark_weak", c.dark_weak, c.dark, 1.0)?;
                 check("bright", c.bright, 1.0, 100.0)?;
-                check("noise_factor", c.noise_factor, 0.0, 100.0)
+                check("noise_factor", c.noise_factor, 0.0, 100.0)?;
+                check("shade", c.shade, c.dark_weak, 1.0)?;
+                check("edge", c.edge, 0.0, 2.0)
             }
         }
     }
@@ -219,6 +235,9 @@ enum Kind {
         dark: f32,
         dark_weak: f32,
         bright: f32,
+        /// Shadow-like below this brightness ratio; `edge` (0: off) as in [`ColourShadow`].
+        shade: f32,
+        edge: f32,
     },
 }
 
@@ -271,7 +290,11 @@ impl Prepared {
                 dark_weak,
                 bright,
                 noise_factor,
+                shade,
+                edge,
             }) => {
+                // Shadow-like pixels are only looked for when sharp regions count.
+                let shade = if edge > 0.0 { shade } else { 0.0 };
                 let mut bg = Vec::with_capacity(n);
                 let mut inv_e2 = Vec::with_capacity(n);
                 let mut cd2 = Vec::with_capacity(n);
@@ -283,7 +306,8 @@ impl Prepared {
                     let (s, w) = (chroma.max(floor), chroma_weak.max(floor));
                     // A deviation of at most t per channel (plus ½ of rounding) moves CD and α
                     // by at most √3·(t + ½)/‖E‖: keep both inside the loose test.
-                    let room = w.min(1.0 - dark_weak).min(bright - 1.0) * e2.sqrt() / 3f32.sqrt();
+                    let room = w.min(1.0 - dark_weak.max(shade)).min(bright - 1.0) * e2.sqrt()
+                        / 3f32.sqrt();
                     *tol = room - 0.5 - 1e-3;
                     bg.push(e);
                     inv_e2.push(1.0 / e2);
@@ -296,6 +320,8 @@ impl Prepared {
                     dark,
                     dark_weak,
                     bright,
+                    shade,
+                    edge,
                 }
             }
         };
@@ -376,8 +402,11 @@ impl Prepared {
     /// Classifies a frame into the foreground mask (before clean-up): the pixels of `region`
     /// (rounded out to whole 64-pixel words across), the rest background.
     pub fn foreground(&self, frame: &RgbImage, region: &Region) -> BitMask {
-        let (strong, weak) = self.classify(frame, region);
-        let Kind::Colour { bg, .. } = &self.kind else {
+        let (strong, weak, shady) = self.classify(frame, region);
+        let Kind::Colour {
+            bg, inv_e2, edge, ..
+        } = &self.kind
+        else {
             return strong;
         };
         let (w, h) = (strong.width(), strong.height());
@@ -411,6 +440,20 @@ impl Prepared {
                 out.set(x, y, true);
             }
         });
+        if *edge > 0.0 {
+            let alpha = |x: usize, y: usize| {
+                let i = y * w + x;
+                let (p, e) = (colour(x, y), bg[i]);
+                (p[0] * e[0] + p[1] * e[1] + p[2] * e[2]) * inv_e2[i]
+            };
+            // Pixels beside the strict foreground are its outline, which the ring above
+            // decided; what is left are regions of their own.
+            let apart = shady.and(&strong.dilate(1).not());
+            let backdrop = shady.or(&strong).not();
+            out = out.or(&crate::shade::sharp_regions(
+                &apart, &backdrop, alpha, *edge,
+            ));
+        }
         out
     }
 
@@ -421,7 +464,7 @@ impl Prepared {
         frame: &RgbImage,
         region: &Region,
         fg: impl Fn(usize, &[u8]) -> bool,
-    ) -> (BitMask, BitMask) {
+    ) -> (BitMask, BitMask, BitMask) {
         let (w, h) = (frame.width() as usize, frame.height() as usize);
         let px = frame.as_raw();
         let mut strong = BitMask::new(w, h);
@@ -438,12 +481,13 @@ impl Prepared {
             });
         }
         let weak = strong.clone();
-        (strong, weak)
+        let shady = BitMask::new(w, h);
+        (strong, weak, shady)
     }
 
-    /// Classifies a frame: the strict foreground and the loose candidates (equal for green
-    /// matting and plain difference).
-    fn classify(&self, frame: &RgbImage, region: &Region) -> (BitMask, BitMask) {
+    /// Classifies a frame: the strict foreground, the loose candidates (equal for green
+    /// matting and plain difference) and the shadow-like pixels (none but for colour).
+    fn classify(&self, frame: &RgbImage, region: &Region) -> (BitMask, BitMask, BitMask) {
         match &self.kind {
             Kind::Green { limit } => self.single_test(frame, region, |i, p| p[1] < limit[i]),
             Kind::Difference { bg, margin } => self.single_test(frame, region, |i, p| {
@@ -457,17 +501,21 @@ impl Prepared {
                 dark,
                 dark_weak,
                 bright,
+                shade,
+                ..
             } => {
                 let (w, h) = (frame.width() as usize, frame.height() as usize);
                 let px = frame.as_raw();
                 let mut strong = BitMask::new(w, h);
                 let mut weak = BitMask::new(w, h);
+                let mut shady = BitMask::new(w, h);
                 for y in region.rows(h) {
                     let row = &px[y * w * 3..(y + 1) * w * 3];
                     let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
-                    let (s_row, w_row) = (strong.row_mut(y), weak.row_mut(y));
+                    let (s_row, w_row, d_row) =
+                        (strong.row_mut(y), weak.row_mut(y), shady.row_mut(y));
                     self.busy_blocks(row, bg_row, y, w, region.columns(w), |x0, x1| {
-                        let (mut s_bits, mut w_bits) = (0u64, 0u64);
+                        let (mut s_bits, mut w_bits, mut d_bits) = (0u64, 0u64, 0u64);
                         for x in x0..x1 {
                             let i = y * w + x;
                             let p = &row[x * 3..x * 3 + 3];
@@ -478,14 +526,17 @@ impl Prepared {
                             let [s2, w2] = cd2[i];
                             let strict = cd > s2 || alpha < *dark || alpha > *bright;
                             let loose = cd > w2 || alpha < *dark_weak || alpha > *bright;
+                            let dim = !strict && alpha < *shade;
                             s_bits |= (strict as u64) << (x - x0);
                             w_bits |= (loose as u64) << (x - x0);
+                            d_bits |= (dim as u64) << (x - x0);
                         }
                         s_row[x0 / 64] |= s_bits << (x0 % 64);
                         w_row[x0 / 64] |= w_bits << (x0 % 64);
+                        d_row[x0 / 64] |= d_bits << (x0 % 64);
                     });
                 }
-                (strong, weak)
+                (strong, weak, shady)
             }
         }
     }

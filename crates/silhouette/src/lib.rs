@@ -14,6 +14,7 @@ mod classify;
 pub mod components;
 mod error;
 mod markers;
+mod shade;
 mod silhouetter;
 
 pub use background::{BackgroundModel, DEFAULT_SPREAD};
@@ -23,5 +24,6 @@ pub use components::KeepComponents;
 pub use error::SilhouetteError;
 pub use markers::MarkerSettings;
 pub use silhouetter::{
-    MASK_LEVEL, Silhouette, SilhouetteSettings, SilhouetteStatus, Silhouetter, debug_image,
+    GROWTH_FLOOR, MASK_LEVEL, Silhouette, SilhouetteSettings, SilhouetteStatus, Silhouetter,
+    debug_image,
 };

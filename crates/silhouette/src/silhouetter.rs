@@ -27,7 +27,16 @@ pub struct SilhouetteSettings {
     /// Largest share of the image the object may cover; beyond it the silhouette is
     /// implausible (a dark or changed backdrop the classifier takes for foreground).
     pub max_foreground: f64,
+    /// Largest multiple of its usual share (what the run's first right frames covered) a
+    /// silhouette may cover, once it covers at least [`GROWTH_FLOOR`] of the image more; beyond
+    /// it the frame is implausible (light changed, something entered the view). 0: no limit.
+    pub max_foreground_growth: f64,
 }
+
+/// Share of the image a silhouette may grow by, whatever its usual share, before
+/// `max_foreground_growth` applies (a thin tube's share moves by a large factor as it turns
+/// toward a camera).
+pub const GROWTH_FLOOR: f64 = 0.01;
 
 impl Default for SilhouetteSettings {
     fn default() -> Self {
@@ -37,6 +46,7 @@ impl Default for SilhouetteSettings {
             keep: KeepComponents::MinArea(40),
             markers: MarkerSettings::default(),
             max_foreground: 0.5,
+            max_foreground_growth: 5.0,
         }
     }
 }
@@ -110,6 +120,7 @@ impl SilhouetteSettings {
                 ..rig.markers.clone()
             },
             max_foreground: rig.max_foreground,
+            max_foreground_growth: rig.max_foreground_growth,
         }
     }
 
@@ -122,6 +133,17 @@ impl SilhouetteSettings {
             return Err(SilhouetteError::Setting {
                 field: "close_radius",
                 problem: "must be at most 16 pixels".into(),
+            });
+        }
+        if !(self.max_foreground_growth == 0.0
+            || (self.max_foreground_growth >= 1.0 && self.max_foreground_growth <= 1e6))
+        {
+            return Err(SilhouetteError::Setting {
+                field: "max_foreground_growth",
+                problem: format!(
+                    "{} must be 0 (no limit) or a factor from 1 to 10⁶",
+                    self.max_foreground_growth
+                ),
             });
         }
         if !(self.max_foreground > 0.0 && self.max_foreground <= 1.0) {

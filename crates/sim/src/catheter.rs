@@ -8,7 +8,7 @@ use flexshape_recording::{BendBase, Truth, TruthBand, TruthSection};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SimError, config_error};
-use crate::scene::{BAND_ALBEDO, BODY_ALBEDO, Tube};
+use crate::scene::{Albedo, BAND_ALBEDO, BODY_ALBEDO, Tube};
 
 /// Spacing of the ground-truth centerline samples, mm (the contract asks for ≤ 0.5 mm).
 pub const TRUTH_STEP: f64 = 0.25;
@@ -35,6 +35,13 @@ pub struct Catheter {
     /// (concentric tubes; empty: constant radius). `radius` is then the tip section's.
     #[serde(default)]
     pub radius_steps: Vec<RadiusStep>,
+    /// Diffuse reflectance of the body, RGB in 0–1 (the bands keep theirs).
+    #[serde(default = "body_albedo")]
+    pub albedo: Albedo,
+}
+
+fn body_albedo() -> Albedo {
+    BODY_ALBEDO
 }
 
 impl Default for Catheter {
@@ -53,6 +60,7 @@ impl Default for Catheter {
             band_width: 5.0,
             extra_bands: Vec::new(),
             radius_steps: Vec::new(),
+            albedo: BODY_ALBEDO,
         }
     }
 }
@@ -282,7 +290,7 @@ impl Catheter {
             radius: self.radius,
             steps: self.radius_steps.clone(),
             bands: state.bands.clone(),
-            albedo: BODY_ALBEDO,
+            albedo: self.albedo,
             band_albedo: BAND_ALBEDO,
         })
     }

@@ -6,6 +6,7 @@ mod precision;
 mod record;
 mod refine;
 mod runner;
+mod usual;
 
 use flexshape_carve::CarveError;
 use flexshape_fit::FitError;

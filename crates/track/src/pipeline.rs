@@ -20,13 +20,15 @@ use flexshape_input::FrameImage;
 use flexshape_rig::{Rig, Volume};
 use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status};
 use flexshape_silhouette::{
-    BackgroundModel, Region, Silhouette, SilhouetteSettings, SilhouetteStatus, Silhouetter,
+    BackgroundModel, GROWTH_FLOOR, Region, Silhouette, SilhouetteSettings, SilhouetteStatus,
+    Silhouetter,
 };
 use image::RgbImage;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::TrackError;
+use crate::usual::{UsualShares, share};
 
 /// Milliseconds per stage of one frame.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -159,6 +161,8 @@ pub struct Pipeline {
     /// Per camera: whether its background is in colour ([`BackgroundModel::in_colour`]).
     colour: Vec<bool>,
     fitter: TubeFitter,
+    /// The silhouette shares of the first right frames.
+    usual: UsualShares,
 }
 
 impl Pipeline {
@@ -271,6 +275,7 @@ impl Pipeline {
             backgrounds: backgrounds.to_vec(),
             colour: backgrounds.iter().map(BackgroundModel::in_colour).collect(),
             fitter,
+            usual: UsualShares::default(),
         })
     }
 
@@ -300,6 +305,7 @@ impl Pipeline {
             backgrounds: self.backgrounds.clone(),
             colour: self.colour.clone(),
             fitter,
+            usual: self.usual.clone(),
         })
     }
 
@@ -450,6 +456,12 @@ impl Pipeline {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let silhouettes_ms = ms(t);
+        if self.grown(&silhouettes).is_some() {
+            // The whole chain says so, with the whole images' shares.
+            let mut full = self.process(images)?;
+            full.timings.silhouettes += silhouettes_ms;
+            return Ok(full);
+        }
         let t = Instant::now();
         let views = self.views(images, &silhouettes);
         let radius = self.shape.settings().radius_mm;
@@ -469,6 +481,7 @@ impl Pipeline {
             full.timings.fit += fit_ms + silhouettes_ms;
             return Ok(full);
         }
+        self.usual.learn(&silhouettes);
         Ok(Tracked {
             silhouettes,
             occupancy: self.nothing_carved(),
@@ -498,6 +511,29 @@ impl Pipeline {
                     sil.settings().max_foreground * 100.0
                 )),
                 _ => None,
+            })
+    }
+
+    /// Why a frame's silhouettes cannot be the tube's, if one camera's covers more than its
+    /// `max_foreground_growth` times its usual share (and [`GROWTH_FLOOR`] of the image more).
+    fn grown(&self, silhouettes: &[Silhouette]) -> Option<String> {
+        silhouettes
+            .iter()
+            .zip(&self.names)
+            .zip(&self.silhouetters)
+            .enumerate()
+            .find_map(|(i, ((s, name), sil))| {
+                let growth = sil.settings().max_foreground_growth;
+                let usual = self.usual.of(i)?;
+                let now = share(s);
+                (growth > 0.0 && now > growth * usual && now - usual > GROWTH_FLOOR).then(|| {
+                    format!(
+                        "camera {name}: {:.1} % of the image is foreground, {:.0}× its usual {:.2} % (the run's first right frames; at most {growth}×): the light changed or something entered the view; capture the background again if the scene changed ([processing.silhouette] max_foreground_growth sets the limit, 0 turns it off)",
+                        now * 100.0,
+                        now / usual.max(1e-12),
+                        usual * 100.0
+                    )
+                })
             })
     }
 
@@ -556,7 +592,10 @@ impl Pipeline {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let silhouettes_ms = ms(t);
-        if let Some(reason) = self.implausible(&silhouettes) {
+        if let Some(reason) = self
+            .implausible(&silhouettes)
+            .or_else(|| self.grown(&silhouettes))
+        {
             return Ok(Hull {
                 silhouettes,
                 occupancy: self.nothing_carved(),
@@ -643,6 +682,9 @@ impl Pipeline {
             }
         };
         let fit_ms = ms(t);
+        if shape.status.is_right() {
+            self.usual.learn(&silhouettes);
+        }
         Ok(Tracked {
             silhouettes,
             occupancy,

@@ -218,6 +218,7 @@ image_size = [640, 480]
 [processing.silhouette]
 close_radius = 1
 max_foreground = 0.5
+max_foreground_growth = 5.0
 
 [processing.shape]
 cell_voxels = 4

@@ -69,6 +69,56 @@ fn a_silhouette_covering_most_of_the_image_is_bad_not_carved() {
     );
 }
 
+/// After a few right frames the chain knows how much of each image the tube covers; a frame
+/// whose silhouette in one camera covers many times that (a stripe of the backdrop darkened:
+/// a shadow of something new, light changed), though far below `max_foreground`, is
+/// `bad_silhouette`, naming the camera, the share and its usual one. A chain that has seen no
+/// right frame yet cannot say so.
+#[test]
+fn a_silhouette_far_larger_than_usual_is_bad() {
+    let (sim, pipeline) = common::simulated_chain();
+    let poses = sim.sweep(8);
+    let darkened = |frame: &flexshape_sim::SimFrame| {
+        let mut img = frame.views[1].image.clone();
+        for y in 200..260 {
+            for x in 0..img.width() {
+                let p = img.get_pixel_mut(x, y);
+                p.0 = p.0.map(|v| v / 5);
+            }
+        }
+        img
+    };
+    let last = sim.render(7, &poses[7]).unwrap();
+    let dark = darkened(&last);
+    let images = vec![&last.views[0].image, &dark, &last.views[2].image];
+    let fresh = TrackRecord::from_tracked(7, &pipeline.clone().process(&images).unwrap());
+    assert!(
+        !fresh.reason.clone().unwrap_or_default().contains("usual"),
+        "{fresh:?}"
+    );
+    for (i, pose) in poses.iter().enumerate().take(6) {
+        let frame = sim.render(i as u64, pose).unwrap();
+        let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+        let t = pipeline.process(&images).unwrap();
+        assert_eq!(TrackRecord::from_tracked(i as u64, &t).status, "ok");
+    }
+    let t = pipeline.process(&images).unwrap();
+    let record = TrackRecord::from_tracked(7, &t);
+    assert_eq!(record.status, "bad_silhouette");
+    let reason = record.reason.unwrap();
+    println!("{reason}");
+    assert!(
+        reason.starts_with("camera cam1:") && reason.contains("its usual"),
+        "{reason}"
+    );
+    // The same frame undarkened is fine.
+    let images: Vec<_> = last.views.iter().map(|v| &v.image).collect();
+    assert_eq!(
+        TrackRecord::from_tracked(7, &pipeline.process(&images).unwrap()).status,
+        "ok"
+    );
+}
+
 /// Lights down over the middle of every camera's view, each silhouette under
 /// `max_foreground`: the hull carved from them fills a large part of the volume, which no
 /// tube does. The frame says so (`bad_silhouette`) instead of fitting a tube into it.

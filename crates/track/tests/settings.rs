@@ -43,6 +43,7 @@ fn every_numeric_setting_at_special_values_is_refused_or_runs() {
         ("shape", "sample_mm"),
         ("shape", "radius_mm"),
         ("silhouette", "max_foreground"),
+        ("silhouette", "max_foreground_growth"),
     ];
     let integers: &[(&str, &str)] = &[
         ("fit", "max_iterations"),

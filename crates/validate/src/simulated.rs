@@ -246,6 +246,7 @@ fn object(base: Frame) -> (Catheter, CatheterPose) {
         band_width: 5.0,
         extra_bands: vec![70.0],
         radius_steps: Vec::new(),
+        ..Catheter::default()
     };
     let k = 1.0 / 60.0;
     let pose = CatheterPose::two_section(&catheter, [k, 0.0], [-k, 0.0], 70.0, [0.0, 0.0], 0.0);

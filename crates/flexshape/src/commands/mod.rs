@@ -85,6 +85,9 @@ fn sim_config(args: &SimArgs) -> SimConfig {
             noise_sigma: args.noise,
             seed: args.seed,
             supersampling: args.supersampling.unwrap_or(defaults.render.supersampling),
+            backdrop_albedo: args
+                .backdrop_albedo
+                .unwrap_or(defaults.render.backdrop_albedo),
             ..defaults.render
         },
         catheter: Catheter {
@@ -94,6 +97,7 @@ fn sim_config(args: &SimArgs) -> SimConfig {
                 .as_ref()
                 .map(|s| s.0.clone())
                 .unwrap_or_default(),
+            albedo: args.body_albedo.unwrap_or(defaults.catheter.albedo),
             ..defaults.catheter
         },
         occluders: args.occluders,
