@@ -148,6 +148,23 @@ impl Board {
         Ok(board)
     }
 
+    /// The half turn about the board's centre that maps its points onto one another in
+    /// reverse order (`X ↦ (W − x, H − y, 0)`), for a board that looks the same turned (a
+    /// symmetric circle grid); `None` for boards that tell their ends apart.
+    pub fn half_turn(&self) -> Option<crate::BoardPose> {
+        if self.pattern != (Pattern::Circles { asymmetric: false }) {
+            return None;
+        }
+        let far = self.point(self.cols - 1, self.rows - 1);
+        Some(crate::BoardPose {
+            rotation: nalgebra::Rotation3::from_axis_angle(
+                &nalgebra::Vector3::z_axis(),
+                std::f64::consts::PI,
+            ),
+            translation: far.coords,
+        })
+    }
+
     /// Number of inner corners.
     pub fn corners(&self) -> usize {
         self.cols * self.rows

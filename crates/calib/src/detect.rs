@@ -31,6 +31,17 @@ pub struct Detection {
     pub points: Vec<Point3<f64>>,
 }
 
+impl Detection {
+    /// The same corners labelled the other way round (for a board that looks the same turned
+    /// half a turn, see [`Board::half_turn`]): corner `i` is the one that was `n − 1 − i`.
+    pub fn half_turned(&self) -> Detection {
+        Detection {
+            corners: self.corners.iter().rev().copied().collect(),
+            points: self.points.clone(),
+        }
+    }
+}
+
 /// Fewest ChArUco corners a view must show, on at least two rows and two columns (a
 /// homography needs four off one line; a few more keep a poorly seen corner from deciding).
 pub const MIN_CHARUCO_CORNERS: usize = 8;

@@ -4,7 +4,7 @@
 //! their mean) and chained from the reference camera, with the spread over views reported as a
 //! consistency check.
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
 use crate::CalibError;
@@ -43,6 +43,62 @@ pub struct RelativePose {
     pub translation_spread_mm: f64,
 }
 
+/// A camera's pose relative to another: rotation and translation.
+type Relative = (Rotation3<f64>, Vector3<f64>);
+
+/// The second camera's pose relative to the first from one board both saw (`a` in the first,
+/// `b` in the second).
+fn relative(a: &BoardPose, b: &BoardPose) -> Relative {
+    let r = b.rotation * a.rotation.inverse();
+    (r, b.translation - r * a.translation)
+}
+
+/// The angle between two rotations, radians: from their quaternion by `atan2`, exact where
+/// `acos` of the trace is not (it gives NaN for rotations a rounding error apart).
+fn angle_between(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
+    let q = UnitQuaternion::from_rotation_matrix(&(a.inverse() * b));
+    2.0 * q.imag().norm().atan2(q.scalar().abs())
+}
+
+/// Whether two relative poses agree within the tolerances.
+fn agree(a: &Relative, b: &Relative) -> bool {
+    let scale = a.1.norm().max(b.1.norm());
+    angle_between(&a.0, &b.0).to_degrees() <= ROTATION_TOLERANCE_DEG
+        && (a.1 - b.1).norm() <= TRANSLATION_TOLERANCE_MM.max(TRANSLATION_TOLERANCE_SHARE * scale)
+}
+
+/// For a board that looks the same turned half a turn (`half_turn`, see [`crate::Board::half_turn`]),
+/// which shared views the second camera labelled the other way round: each view's second pose
+/// is taken as detected or turned, whichever agrees with the relative pose that the most views
+/// allow either way. `pairs` as for [`relative_pose`].
+pub fn half_turned_views(pairs: &[(BoardPose, BoardPose)], half_turn: &BoardPose) -> Vec<bool> {
+    let both: Vec<[Relative; 2]> = pairs
+        .iter()
+        .map(|(a, b)| [relative(a, b), relative(a, &b.then(half_turn))])
+        .collect();
+    let support = |h: &Relative| {
+        both.iter()
+            .filter(|e| agree(h, &e[0]) || agree(h, &e[1]))
+            .count()
+    };
+    let Some(best) = both.iter().flatten().max_by_key(|h| support(h)).copied() else {
+        return Vec::new();
+    };
+    both.iter()
+        .map(|e| !agree(&best, &e[0]) && agree(&best, &e[1]))
+        .collect()
+}
+
+impl BoardPose {
+    /// This pose after `first` moves the board in its own frame: `X ↦ self(first(X))`.
+    pub fn then(&self, first: &BoardPose) -> BoardPose {
+        BoardPose {
+            rotation: self.rotation * first.rotation,
+            translation: self.rotation * first.translation + self.translation,
+        }
+    }
+}
+
 /// The pose of a camera relative to the reference from the board poses both saw in the same
 /// views (`pairs`: reference's pose, this camera's pose). Refused when some views disagree
 /// with the largest set of views that agree with one another ([`CalibError::SharedViews`]
@@ -54,19 +110,8 @@ pub fn relative_pose(pairs: &[(BoardPose, BoardPose)]) -> Result<RelativePose, C
                 .into(),
         ));
     }
-    let each: Vec<(Rotation3<f64>, Vector3<f64>)> = pairs
-        .iter()
-        .map(|(a, b)| {
-            let r = b.rotation * a.rotation.inverse();
-            (r, b.translation - r * a.translation)
-        })
-        .collect();
-    let agree = |a: &(Rotation3<f64>, Vector3<f64>), b: &(Rotation3<f64>, Vector3<f64>)| {
-        let scale = a.1.norm().max(b.1.norm());
-        a.0.angle_to(&b.0).to_degrees() <= ROTATION_TOLERANCE_DEG
-            && (a.1 - b.1).norm()
-                <= TRANSLATION_TOLERANCE_MM.max(TRANSLATION_TOLERANCE_SHARE * scale)
-    };
+    let each: Vec<Relative> = pairs.iter().map(|(a, b)| relative(a, b)).collect();
+
     // The view most others agree with, and those.
     let best = (0..each.len())
         .max_by_key(|&i| each.iter().filter(|e| agree(&each[i], e)).count())
@@ -102,7 +147,7 @@ pub fn relative_pose(pairs: &[(BoardPose, BoardPose)]) -> Result<RelativePose, C
     let n = each.len() as f64;
     let rot_spread = (each
         .iter()
-        .map(|(r, _)| r.angle_to(&mean).powi(2))
+        .map(|(r, _)| angle_between(r, &mean).powi(2))
         .sum::<f64>()
         / n)
         .sqrt();
@@ -160,6 +205,45 @@ mod tests {
         match relative_pose(&pairs[4..]) {
             Err(CalibError::SharedViews { disagreeing, .. }) => assert_eq!(disagreeing, [0, 1]),
             other => panic!("{other:?}"),
+        }
+    }
+
+    /// A symmetric board labelled the other way round by the second camera in two of five
+    /// views: exactly those are found, and turned they agree.
+    #[test]
+    fn half_turned_views_are_found() {
+        let board = crate::Board::from_spec("circles:7x5", 20.0, None, "").unwrap();
+        let h = board.half_turn().unwrap();
+        let mut pairs: Vec<_> = (0..5)
+            .map(|k| pair(k as f64, [0.0, 0.5, 0.0], [-300.0, 0.0, 80.0]))
+            .collect();
+        for i in [1, 3] {
+            pairs[i].1 = pairs[i].1.then(&h);
+        }
+        assert!(relative_pose(&pairs).is_err());
+        let turned = half_turned_views(&pairs, &h);
+        assert_eq!(turned, [false, true, false, true, false]);
+        for (p, t) in pairs.iter_mut().zip(&turned) {
+            if *t {
+                p.1 = p.1.then(&h);
+            }
+        }
+        let rel = relative_pose(&pairs).unwrap();
+        assert!(
+            rel.rotation_spread_deg < 1e-6 && rel.translation_spread_mm < 1e-6,
+            "{rel:?}"
+        );
+        // Turning twice is no turn.
+        let twice = h.then(&h);
+        assert!(twice.rotation.angle() < 1e-12 && twice.translation.norm() < 1e-9);
+        // Boards that tell their ends apart have no half turn.
+        for spec in ["9x6", "acircles:4x11"] {
+            assert!(
+                crate::Board::from_spec(spec, 20.0, None, "")
+                    .unwrap()
+                    .half_turn()
+                    .is_none()
+            );
         }
     }
 }

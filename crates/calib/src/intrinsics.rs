@@ -29,6 +29,15 @@ impl ViewResult {
             translation: Vector3::from(self.tvec),
         }
     }
+
+    /// The view with its corners labelled the other way round (see
+    /// [`crate::Detection::half_turned`]): its pose after `half_turn`, its residuals reversed.
+    pub fn half_turn(&mut self, half_turn: &crate::BoardPose) {
+        let turned = self.board_pose().then(half_turn);
+        self.rvec = turned.rotation.scaled_axis().into();
+        self.tvec = turned.translation.into();
+        self.residuals.reverse();
+    }
 }
 
 impl Default for CalibrationSettings {

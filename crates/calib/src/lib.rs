@@ -32,7 +32,7 @@ pub use bundle::{JointIntrinsics, RigAdjustment, RigCamera, adjust_rig};
 pub use detect::{Detection, MIN_CHARUCO_CORNERS, detect};
 pub use extrinsics::{
     BoardPose, ROTATION_TOLERANCE_DEG, RelativePose, TRANSLATION_TOLERANCE_MM,
-    TRANSLATION_TOLERANCE_SHARE, relative_pose,
+    TRANSLATION_TOLERANCE_SHARE, half_turned_views, relative_pose,
 };
 pub use intrinsics::{Calibration, CalibrationSettings, ViewResult, calibrate};
 

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use flexshape_calib::{
     Board, BoardPose, CalibError, Calibration, CalibrationSettings, Detection, JointIntrinsics,
-    RelativePose, adjust_rig, calibrate, detect, relative_pose,
+    RelativePose, adjust_rig, calibrate, detect, half_turned_views, relative_pose,
 };
 use flexshape_camera::nalgebra::{Matrix3, Rotation3, Vector3};
 use flexshape_camera::{Camera, Pose};
@@ -128,21 +128,31 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         results.push((cal, rejected));
     }
     bar.finish_and_clear();
+    // A board that looks the same turned (a symmetric circle grid) may be labelled the other
+    // way round by a camera: such shared views are turned to agree with the others.
+    if let Some(half_turn) = board.half_turn() {
+        for k in 1..results.len() {
+            let (names, pairs) = shared_views(&results[0].0, &results[k].0, &cameras, k);
+            let turned = half_turned_views(&pairs, &half_turn);
+            for (name, _) in names.iter().zip(&turned).filter(|(_, t)| **t) {
+                if let Some(v) = results[k].0.views.iter_mut().find(|v| &v.name == name) {
+                    v.half_turn(&half_turn);
+                }
+                let instant = cameras[k].instant(name);
+                for (view, d) in detections[k].iter_mut() {
+                    if *view == instant {
+                        *d = d.half_turned();
+                    }
+                }
+            }
+        }
+    }
     // Poses: each camera relative to the reference from the views both saw.
     let reference = &results[0].0;
     let mut relative = vec![None];
     let mut poses = vec![Pose::identity()];
     for (k, (cal, _)) in results.iter().enumerate().skip(1) {
-        let (names, pairs): (Vec<&str>, Vec<(BoardPose, BoardPose)>) = reference
-            .views
-            .iter()
-            .filter_map(|a| {
-                cal.views
-                    .iter()
-                    .find(|b| cameras[k].instant(&b.name) == cameras[0].instant(&a.name))
-                    .map(|b| (b.name.as_str(), (a.board_pose(), b.board_pose())))
-            })
-            .unzip();
+        let (names, pairs) = shared_views(reference, cal, &cameras, k);
         let rel = match relative_pose(&pairs) {
             Ok(rel) => rel,
             Err(e) => {
@@ -153,7 +163,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
                         cameras[k].name,
                         disagreeing
                             .iter()
-                            .map(|&i| names[i])
+                            .map(|&i| names[i].as_str())
                             .collect::<Vec<_>>()
                             .join(", "),
                         cameras[k].name
@@ -365,6 +375,26 @@ fn cameras(specs: &[(String, PathBuf)]) -> anyhow::Result<Vec<CameraImages>> {
         });
     }
     Ok(out)
+}
+
+/// The views camera `k` shares with the reference (its view names) and both board poses of
+/// each.
+fn shared_views(
+    reference: &Calibration,
+    cal: &Calibration,
+    cameras: &[CameraImages],
+    k: usize,
+) -> (Vec<String>, Vec<(BoardPose, BoardPose)>) {
+    reference
+        .views
+        .iter()
+        .filter_map(|a| {
+            cal.views
+                .iter()
+                .find(|b| cameras[k].instant(&b.name) == cameras[0].instant(&a.name))
+                .map(|b| (b.name.clone(), (a.board_pose(), b.board_pose())))
+        })
+        .unzip()
 }
 
 type Detected = (Vec<(String, Detection)>, Vec<String>, (u32, u32));
