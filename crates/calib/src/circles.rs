@@ -13,6 +13,7 @@ use image::GrayImage;
 use nalgebra::Point2;
 use std::collections::HashMap;
 
+use crate::lattice::label_bounds;
 use crate::{Board, Detection};
 
 /// Smallest dot, pixels.
@@ -61,13 +62,7 @@ pub(crate) fn detect(
 /// The dots of a symmetric grid in board order, from a grown lattice.
 fn symmetric_window(grid: &[([i32; 2], Point2<f64>)], board: &Board) -> Option<Vec<Point2<f64>>> {
     let window = crate::lattice::board_window(grid, board.cols as i32, board.rows as i32)?;
-    let (mut lo, mut hi) = ([i32::MAX; 2], [i32::MIN; 2]);
-    for (l, _) in &window {
-        for a in 0..2 {
-            lo[a] = lo[a].min(l[a]);
-            hi[a] = hi[a].max(l[a]);
-        }
-    }
+    let (lo, hi) = label_bounds(window.iter().map(|(l, _)| l));
     let w = (hi[0] - lo[0] + 1) as usize;
     // The long side is `cols` (turned, never mirrored); on a square grid the image's u is.
     let turned = w != board.cols;
@@ -103,13 +98,7 @@ fn asymmetric_window(grid: &[([i32; 2], Point2<f64>)], board: &Board) -> Option<
                 ([u + v, v - u], p)
             })
             .collect();
-        let (mut lo, mut hi) = ([i32::MAX; 2], [i32::MIN; 2]);
-        for l in at.keys() {
-            for a in 0..2 {
-                lo[a] = lo[a].min(l[a]);
-                hi[a] = hi[a].max(l[a]);
-            }
-        }
+        let (lo, hi) = label_bounds(at.keys());
         for x0 in lo[0]..=hi[0] - (2 * cols - 1) + 1 {
             for y0 in lo[1]..=hi[1] - rows + 1 {
                 let window: Option<Vec<Point2<f64>>> = (0..rows)

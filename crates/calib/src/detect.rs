@@ -19,6 +19,7 @@ use image::GrayImage;
 use nalgebra::{Point2, Point3, Vector2};
 
 use crate::board::{Markers, Pattern};
+use crate::lattice::label_bounds;
 use crate::{Board, CalibError};
 
 /// A board found in an image: corners and where each lies on the board.
@@ -104,13 +105,7 @@ fn label(
     board: &Board,
     image: &GrayImage,
 ) -> Result<Detection, String> {
-    let (mut lo, mut hi) = ([i32::MAX; 2], [i32::MIN; 2]);
-    for (g, _) in found {
-        for a in 0..2 {
-            lo[a] = lo[a].min(g[a]);
-            hi[a] = hi[a].max(g[a]);
-        }
-    }
+    let (lo, hi) = label_bounds(found.iter().map(|(l, _)| l));
     let (w, h) = ((hi[0] - lo[0] + 1) as usize, (hi[1] - lo[1] + 1) as usize);
     let whole = found.len() == board.corners()
         && ((w, h) == (board.cols, board.rows) || (w, h) == (board.rows, board.cols));

@@ -29,14 +29,7 @@ pub(crate) fn assemble(
     cols: usize,
     rows: usize,
 ) -> Option<Vec<([i32; 2], Point2<f64>)>> {
-    let mut order: Vec<usize> = (0..candidates.len()).collect();
-    order.sort_by(|&a, &b| candidates[b].1.total_cmp(&candidates[a].1));
-    let points: Vec<Point2<f64>> = candidates.iter().map(|c| c.0).collect();
-    order
-        .into_iter()
-        .take(SEEDS)
-        .filter_map(|seed| grow(Some(image), &points, seed))
-        .find_map(|grid| board_window(&grid, cols as i32, rows as i32))
+    grids(Some(image), candidates).find_map(|grid| board_window(&grid, cols as i32, rows as i32))
 }
 
 /// The lattices grown from the strongest `candidates` (position, strength) as seeds, with no
@@ -44,13 +37,36 @@ pub(crate) fn assemble(
 pub(crate) fn grown(
     candidates: &[(Point2<f64>, f64)],
 ) -> impl Iterator<Item = Vec<([i32; 2], Point2<f64>)>> {
+    grids(None, candidates)
+}
+
+/// The grids grown from the [`SEEDS`] strongest candidates, strongest first; with `image`,
+/// only through chessboard X-junctions.
+fn grids<'a>(
+    image: Option<&'a GrayImage>,
+    candidates: &[(Point2<f64>, f64)],
+) -> impl Iterator<Item = Vec<([i32; 2], Point2<f64>)>> + 'a {
     let mut order: Vec<usize> = (0..candidates.len()).collect();
     order.sort_by(|&a, &b| candidates[b].1.total_cmp(&candidates[a].1));
     let points: Vec<Point2<f64>> = candidates.iter().map(|c| c.0).collect();
     order
         .into_iter()
         .take(SEEDS)
-        .filter_map(move |seed| grow(None, &points, seed))
+        .filter_map(move |seed| grow(image, &points, seed))
+}
+
+/// The smallest and largest of each coordinate of `labels`.
+pub(crate) fn label_bounds<'a>(
+    labels: impl IntoIterator<Item = &'a [i32; 2]>,
+) -> ([i32; 2], [i32; 2]) {
+    let (mut lo, mut hi) = ([i32::MAX; 2], [i32::MIN; 2]);
+    for l in labels {
+        for a in 0..2 {
+            lo[a] = lo[a].min(l[a]);
+            hi[a] = hi[a].max(l[a]);
+        }
+    }
+    (lo, hi)
 }
 
 /// The only complete `cols × rows` (or `rows × cols`) window of a grown grid: corners grown
@@ -61,13 +77,7 @@ pub(crate) fn board_window(
     rows: i32,
 ) -> Option<Vec<([i32; 2], Point2<f64>)>> {
     let at: HashMap<[i32; 2], Point2<f64>> = grid.iter().copied().collect();
-    let (mut lo, mut hi) = ([i32::MAX; 2], [i32::MIN; 2]);
-    for (l, _) in grid {
-        for a in 0..2 {
-            lo[a] = lo[a].min(l[a]);
-            hi[a] = hi[a].max(l[a]);
-        }
-    }
+    let (lo, hi) = label_bounds(grid.iter().map(|(l, _)| l));
     let mut found = None;
     let sizes = if cols == rows {
         vec![(cols, rows)]
@@ -288,13 +298,7 @@ mod tests {
         ];
         let (image, c) = scene(&clutter);
         let grid = assemble(&image, &c, 9, 6).expect("the board");
-        let (mut lo, mut hi) = ([i32::MAX; 2], [i32::MIN; 2]);
-        for (l, _) in &grid {
-            for a in 0..2 {
-                lo[a] = lo[a].min(l[a]);
-                hi[a] = hi[a].max(l[a]);
-            }
-        }
+        let (lo, hi) = label_bounds(grid.iter().map(|(l, _)| l));
         let span = ((hi[0] - lo[0] + 1), (hi[1] - lo[1] + 1));
         assert!(span == (9, 6) || span == (6, 9), "{span:?}");
         let get = |l: [i32; 2]| grid.iter().find(|g| g.0 == l).unwrap().1;
