@@ -148,7 +148,9 @@ impl Tracked {
     }
 }
 
-/// The sensing chain, set up once per rig.
+/// The sensing chain, set up once per rig. Its one state: each camera's usual silhouette share,
+/// learned from the first right frames it processes (see `max_foreground_growth`); a clone
+/// keeps what was learned.
 #[derive(Debug, Clone)]
 pub struct Pipeline {
     names: Vec<String>,
