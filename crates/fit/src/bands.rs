@@ -1,7 +1,7 @@
 //! Marker bands on the fitted centerline, from the colour along its projection in every
 //! camera.
 //!
-//! Along the tube every quarter millimetre, each camera that sees the tube side-on enough
+//! Along the tube every half millimetre, each camera that sees the tube side-on enough
 //! reads the colour at the centerline's pixel. Tape and body colours come from the samples the
 //! silhouette's marker mask does and does not mark; the tape's share `q = (I − B)·(T − B) /
 //! ‖T − B‖²` is linear in how much of the pixel the tape covers, so a band's edge is where `q`
@@ -21,7 +21,7 @@ use crate::outline::{Spheres, sphere_centres};
 use crate::tube::Tube;
 
 /// Spacing of the colour samples along the tube, mm.
-const STEP: f64 = 0.25;
+const STEP: f64 = 0.5;
 /// Smallest sine of the angle between a camera's ray and the tube for its colour to count.
 const MIN_SIN: f64 = 0.5;
 
@@ -79,7 +79,7 @@ pub(crate) fn locate(
 /// Samples between two projected ones: the centerline's image is straight to far below a
 /// pixel over a millimetre, so pixels in between are interpolated, and a sample counts as
 /// hidden when either projected neighbour is (visibility edges move out by at most this).
-const PROJECTED_EVERY: usize = 4;
+const PROJECTED_EVERY: usize = 2;
 
 /// Colour samples of one camera at the centerline points `frames` (centre, unit tangent and
 /// the tube's radius there, every `STEP` mm from the tube's start; `None` where it does not see
@@ -218,7 +218,11 @@ fn edge(
 ) -> Option<f64> {
     let step = |i: usize, by: isize| i.checked_add_signed(by).filter(|&j| j < q.len());
     // Up to 3 mm beyond the crossing, leaving out the first half millimetre of mixed pixels.
-    let outside: Vec<Option<f64>> = (3..14)
+    let (near, far) = (
+        (0.75 / STEP).round() as isize,
+        (3.5 / STEP).round() as isize,
+    );
+    let outside: Vec<Option<f64>> = (near..far)
         .filter_map(|k| step(at, dir * k))
         .map(|j| q[j])
         .collect();
