@@ -92,6 +92,11 @@ fn rig_check_names_the_bad_field() {
     ]);
     assert!(!o.status.success());
     assert!(text(&o).contains("/nonexistent/rig.toml"), "{}", text(&o));
+    // A folder named like a rig file is not read as a calibration folder.
+    let folder = dir.path().join("other/rig.toml");
+    std::fs::create_dir_all(&folder).unwrap();
+    let e = text(&flexshape(&["rig", "check", folder.to_str().unwrap()]));
+    assert!(e.contains("is a folder, not a rig file"), "{e}");
     // What `track` refuses, `rig check` refuses: a processing setting out of range, and a
     // volume no camera sees.
     std::fs::write(&cam, yaml).unwrap();

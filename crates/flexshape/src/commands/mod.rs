@@ -129,6 +129,15 @@ pub(crate) fn catheter_for(default: &Catheter, params: &ManipulatorParams) -> Ca
 /// A rig TOML, or a folder of OpenCV camera files (with the default volume).
 pub(crate) fn load_rig(path: &std::path::Path) -> anyhow::Result<flexshape_rig::Rig> {
     use anyhow::Context;
+    let named_toml = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if path.is_dir() && named_toml {
+        anyhow::bail!(
+            "{} is a folder, not a rig file: give the rig TOML, or a folder of camera files",
+            path.display()
+        );
+    }
     if path.is_dir() {
         let (rig, skipped) = flexshape_rig::Rig::from_calibration_dir_skipping(
             path,
