@@ -228,6 +228,24 @@ pub struct ModelFitArgs {
     /// Write the registered model frame to FILE (JSON), for `flexshape track --model-frame`.
     #[arg(long, value_name = "FILE")]
     pub save_frame: Option<PathBuf>,
+    /// How well the sensed curvatures are known beyond their scatter (a bias), percent: it
+    /// widens each stiffness's interval by what the tendons make of it.
+    #[arg(
+        long,
+        value_name = "PERCENT",
+        default_value_t = 0.1,
+        allow_negative_numbers = true
+    )]
+    pub curvature_accuracy: f64,
+    /// How well the sensed axial strains are known beyond their scatter (a bias), as a strain
+    /// (3e-4: band spacing off by 0.05 mm over 155 mm).
+    #[arg(
+        long,
+        value_name = "STRAIN",
+        default_value_t = 3e-4,
+        allow_negative_numbers = true
+    )]
+    pub strain_accuracy: f64,
 }
 
 #[derive(Debug, Args)]

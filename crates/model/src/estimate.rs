@@ -81,6 +81,99 @@ pub struct Held {
     pub remedy: &'static str,
 }
 
+/// How well sensed configurations are known beyond their scatter (1 σ): the biases of the
+/// sensing, which no number of poses averages away.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensingAccuracy {
+    /// Relative error of a sensed curvature (0.001: 0.1 %).
+    pub curvature_share: f64,
+    /// Error of a sensed axial strain (absolute).
+    pub strain: f64,
+}
+
+impl Default for SensingAccuracy {
+    /// The image fit's on the simulator: curvature bias within 0.1 % (`crates/fit/tests/
+    /// accuracy.rs`), band spacing biased by about 0.05 mm over a 155 mm section (strain 3e-4).
+    fn default() -> Self {
+        SensingAccuracy {
+            curvature_share: 0.001,
+            strain: 3e-4,
+        }
+    }
+}
+
+/// Largest relative error (standard and sensing together) of a stiffness the poses determine.
+pub const DETERMINED_SHARE: f64 = 0.10;
+
+impl Estimate {
+    /// Each estimate's error from `accuracy` (1 σ, its own unit; 0 where not estimated): a
+    /// systematic error of the sensed component, relative to its RMS over `data`, amplified by
+    /// [`Estimate::sensitivity`].
+    pub fn sensing_error(&self, data: &[Observation], accuracy: &SensingAccuracy) -> [f64; 4] {
+        let k = self.stiffness.diagonal();
+        std::array::from_fn(|j| {
+            if !self.estimated[j] {
+                return 0.0;
+            }
+            let relative = if j < 2 {
+                accuracy.curvature_share
+            } else {
+                let measured: Vec<f64> = data
+                    .iter()
+                    .filter(|o| o.measured[j])
+                    .map(|o| o.q[j] * o.q[j])
+                    .collect();
+                let rms = (measured.iter().sum::<f64>() / measured.len().max(1) as f64).sqrt();
+                if rms > 0.0 {
+                    accuracy.strain / rms
+                } else {
+                    f64::INFINITY
+                }
+            };
+            k[j] * self.sensitivity[j] * relative
+        })
+    }
+
+    /// The standard and the sensing error together (root sum of squares).
+    pub fn total_error(&self, data: &[Observation], accuracy: &SensingAccuracy) -> [f64; 4] {
+        let sensing = self.sensing_error(data, accuracy);
+        std::array::from_fn(|j| self.standard_error[j].hypot(sensing[j]))
+    }
+
+    /// Whether each stiffness is estimated to [`DETERMINED_SHARE`] or better, sensing
+    /// included; when not, why, and what poses would do better.
+    pub fn determined(
+        &self,
+        data: &[Observation],
+        accuracy: &SensingAccuracy,
+    ) -> [Result<(), Held>; 4] {
+        let total = self.total_error(data, accuracy);
+        let k = self.stiffness.diagonal();
+        std::array::from_fn(|j| {
+            let share = total[j] / k[j];
+            if !self.estimated[j] || share <= DETERMINED_SHARE {
+                return Ok(());
+            }
+            Err(Held {
+                parameter: NAMES[j],
+                reason: format!(
+                    "±{:.0} % with the sensing accuracy ({} ±{}, amplified {:.1}× by the tendons): {} is too small next to what the sensing can tell",
+                    100.0 * share,
+                    if j < 2 { "curvature" } else { "strain" },
+                    if j < 2 {
+                        format!("{:.2} %", 100.0 * accuracy.curvature_share)
+                    } else {
+                        format!("{:.1e}", accuracy.strain)
+                    },
+                    self.sensitivity[j],
+                    COMPONENTS[j]
+                ),
+                remedy: REMEDIES[j],
+            })
+        })
+    }
+}
+
 const NAMES: [&str; 4] = ["Kx", "Kz", "Ka0", "Ka1"];
 
 /// The configuration component each stiffness acts on.

@@ -26,7 +26,9 @@ mod tendons;
 
 use thiserror::Error;
 
-pub use estimate::{Estimate, Held, Observation, estimate_stiffness, tip_error};
+pub use estimate::{
+    DETERMINED_SHARE, Estimate, Held, Observation, SensingAccuracy, estimate_stiffness, tip_error,
+};
 pub use experiment::{CommandedPose, ExperimentPlan, Role, Sweep, experiment, taut_command};
 pub use mechanics::{Forward, Model};
 pub use params::{ManipulatorParams, Stiffness, Tendon};

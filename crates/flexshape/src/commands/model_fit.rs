@@ -7,8 +7,8 @@ use anyhow::{Context, bail};
 use flexshape_curve::Section;
 use flexshape_model::nalgebra_types::{DVector, Point3, Vector3};
 use flexshape_model::{
-    ManipulatorParams, Model, Observation, SensedPose, SensorFrame, estimate_stiffness,
-    estimate_tendons, tip_error,
+    ManipulatorParams, Model, Observation, SensedPose, SensingAccuracy, SensorFrame,
+    estimate_stiffness, estimate_tendons, tip_error,
 };
 use flexshape_plot::{Mark, PALETTE, Series3, orthographic_views};
 use flexshape_recording::PoseRole;
@@ -26,8 +26,14 @@ struct Report {
     estimated: [f64; 4],
     /// Which were estimated.
     estimated_from_data: [bool; 4],
-    /// Standard errors of the estimate.
+    /// Standard errors of the estimate (the poses' scatter).
     standard_error: [f64; 4],
+    /// Errors from the sensing accuracy (`--curvature-accuracy`, `--strain-accuracy`).
+    sensing_error: [f64; 4],
+    /// Both together.
+    total_error: [f64; 4],
+    /// Estimated stiffnesses whose total error exceeds 10 %, with why and what would help.
+    undetermined: Vec<HeldReport>,
     /// Relative stiffness error per relative error of the sensed configuration.
     sensitivity: [f64; 4],
     /// Ka0 and Ka1 in series: nominal, estimated.
@@ -119,7 +125,26 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
             args.data.display()
         );
     }
-    let (report, frame) = fit(&model, &poses, skipped, args.tendons, args.plots.as_deref())?;
+    for (name, v, hi) in [
+        ("--curvature-accuracy", args.curvature_accuracy, 100.0),
+        ("--strain-accuracy", args.strain_accuracy, 1.0),
+    ] {
+        if !(v.is_finite() && (0.0..=hi).contains(&v)) {
+            bail!("{name} {v}: give a value from 0 to {hi}");
+        }
+    }
+    let accuracy = SensingAccuracy {
+        curvature_share: args.curvature_accuracy / 100.0,
+        strain: args.strain_accuracy,
+    };
+    let (report, frame) = fit(
+        &model,
+        &poses,
+        skipped,
+        args.tendons,
+        args.plots.as_deref(),
+        &accuracy,
+    )?;
     if let Some(path) = &args.save_frame {
         let m = frame.rotation.matrix();
         let saved = ModelFrame {
@@ -227,6 +252,7 @@ fn fit(
     skipped: Vec<String>,
     with_tendons: bool,
     plots: Option<&Path>,
+    accuracy: &SensingAccuracy,
 ) -> anyhow::Result<(Report, SensorFrame)> {
     let is_reference = |y: &DVector<f64>, role: &Option<PoseRole>| match role {
         Some(r) => *r == PoseRole::Reference,
@@ -305,6 +331,18 @@ fn fit(
         estimated: estimate.stiffness.diagonal(),
         estimated_from_data: estimate.estimated,
         standard_error: estimate.standard_error,
+        sensing_error: estimate.sensing_error(&observations, accuracy),
+        total_error: estimate.total_error(&observations, accuracy),
+        undetermined: estimate
+            .determined(&observations, accuracy)
+            .into_iter()
+            .filter_map(Result::err)
+            .map(|h| HeldReport {
+                parameter: h.parameter,
+                reason: h.reason,
+                remedy: h.remedy,
+            })
+            .collect(),
         sensitivity: estimate.sensitivity,
         serial_axial: [nominal.serial_axial(), estimate.serial_axial],
         tip_error_percent: [nominal_mean, estimate.tip_error_percent],
@@ -349,8 +387,8 @@ fn print_table(r: &Report) {
     );
     println!();
     println!(
-        "{:<34} {:>12} {:>12} {:>12} {:>12}",
-        "", "nominal", "estimated", "± std. err.", "sensitivity"
+        "{:<34} {:>12} {:>12} {:>12} {:>12} {:>12}",
+        "", "nominal", "estimated", "± std. err.", "± w/ sensing", "sensitivity"
     );
     let names = [
         "Bending stiffness Kx (N·mm²)",
@@ -361,8 +399,12 @@ fn print_table(r: &Report) {
     for (j, name) in names.iter().enumerate() {
         if r.estimated_from_data[j] {
             println!(
-                "{name:<34} {:>12.1} {:>12.1} {:>12.1} {:>11.1}×",
-                r.nominal[j], r.estimated[j], r.standard_error[j], r.sensitivity[j]
+                "{name:<34} {:>12.1} {:>12.1} {:>12.1} {:>12.1} {:>11.1}×",
+                r.nominal[j],
+                r.estimated[j],
+                r.standard_error[j],
+                r.total_error[j],
+                r.sensitivity[j]
             );
         } else {
             println!("{name:<34} {:>12.1} {:>12}", r.nominal[j], "held");
@@ -387,6 +429,12 @@ fn print_table(r: &Report) {
     for h in &r.held {
         println!(
             "{} held at its nominal value: {}; {}",
+            h.parameter, h.reason, h.remedy
+        );
+    }
+    for h in &r.undetermined {
+        println!(
+            "{} not determined to 10 %: {}; {}",
             h.parameter, h.reason, h.remedy
         );
     }
