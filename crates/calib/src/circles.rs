@@ -13,7 +13,7 @@ use image::GrayImage;
 use nalgebra::Point2;
 use std::collections::HashMap;
 
-use crate::lattice::label_bounds;
+use crate::lattice::{label_bounds, only_one};
 use crate::{Board, Detection};
 
 /// Smallest dot, pixels.
@@ -86,35 +86,31 @@ fn symmetric_window(grid: &[([i32; 2], Point2<f64>)], board: &Board) -> Option<V
 /// `(2c + r mod 2, r)` is there.
 fn asymmetric_window(grid: &[([i32; 2], Point2<f64>)], board: &Board) -> Option<Vec<Point2<f64>>> {
     let (cols, rows) = (board.cols as i32, board.rows as i32);
-    let mut found = None;
-    for turn in 0..4 {
-        let at: HashMap<[i32; 2], Point2<f64>> = grid
-            .iter()
-            .map(|&(l, p)| {
-                let (mut u, mut v) = (l[0], l[1]);
-                for _ in 0..turn {
-                    (u, v) = (-v, u);
-                }
-                ([u + v, v - u], p)
-            })
-            .collect();
+    // Board positions of the lattice's dots, in each of its four quarter turns.
+    let turns: Vec<HashMap<[i32; 2], Point2<f64>>> = (0..4)
+        .map(|turn| {
+            grid.iter()
+                .map(|&(l, p)| {
+                    let (mut u, mut v) = (l[0], l[1]);
+                    for _ in 0..turn {
+                        (u, v) = (-v, u);
+                    }
+                    ([u + v, v - u], p)
+                })
+                .collect()
+        })
+        .collect();
+    only_one(turns.iter().flat_map(|at| {
         let (lo, hi) = label_bounds(at.keys());
-        for x0 in lo[0]..=hi[0] - (2 * cols - 1) + 1 {
-            for y0 in lo[1]..=hi[1] - rows + 1 {
-                let window: Option<Vec<Point2<f64>>> = (0..rows)
+        (lo[0]..=hi[0] - (2 * cols - 1) + 1).flat_map(move |x0| {
+            (lo[1]..=hi[1] - rows + 1).map(move |y0| {
+                (0..rows)
                     .flat_map(|r| (0..cols).map(move |c| [x0 + 2 * c + r % 2, y0 + r]))
                     .map(|l| at.get(&l).copied())
-                    .collect();
-                if let Some(w) = window {
-                    if found.is_some() {
-                        return None;
-                    }
-                    found = Some(w);
-                }
-            }
-        }
-    }
-    found
+                    .collect::<Option<Vec<Point2<f64>>>>()
+            })
+        })
+    }))
 }
 
 /// Dark blobs shaped like filled ellipses, each no larger than a `count`-th of the image:

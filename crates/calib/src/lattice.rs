@@ -77,30 +77,31 @@ pub(crate) fn board_window(
     rows: i32,
 ) -> Option<Vec<([i32; 2], Point2<f64>)>> {
     let at: HashMap<[i32; 2], Point2<f64>> = grid.iter().copied().collect();
+    let at = &at;
     let (lo, hi) = label_bounds(grid.iter().map(|(l, _)| l));
-    let mut found = None;
     let sizes = if cols == rows {
         vec![(cols, rows)]
     } else {
         vec![(cols, rows), (rows, cols)]
     };
-    for (w, h) in sizes {
-        for u0 in lo[0]..=hi[0] - w + 1 {
-            for v0 in lo[1]..=hi[1] - h + 1 {
-                let window: Option<Vec<_>> = (v0..v0 + h)
+    let windows = sizes.into_iter().flat_map(|(w, h)| {
+        (lo[0]..=hi[0] - w + 1).flat_map(move |u0| {
+            (lo[1]..=hi[1] - h + 1).map(move |v0| {
+                (v0..v0 + h)
                     .flat_map(|v| (u0..u0 + w).map(move |u| [u, v]))
                     .map(|l| at.get(&l).map(|&p| (l, p)))
-                    .collect();
-                if let Some(w) = window {
-                    if found.is_some() {
-                        return None;
-                    }
-                    found = Some(w);
-                }
-            }
-        }
-    }
-    found
+                    .collect::<Option<Vec<_>>>()
+            })
+        })
+    });
+    only_one(windows)
+}
+
+/// The one `Some` among `candidates`; `None` when there is none, or more than one (ambiguous).
+pub(crate) fn only_one<T>(candidates: impl IntoIterator<Item = Option<T>>) -> Option<T> {
+    let mut found = candidates.into_iter().flatten();
+    let first = found.next()?;
+    found.next().is_none().then_some(first)
 }
 
 /// The grid grown from `seed`; with `image`, only through chessboard X-junctions.

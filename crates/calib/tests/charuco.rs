@@ -6,7 +6,7 @@ mod common;
 use flexshape_calib::{Board, MIN_CHARUCO_CORNERS, detect};
 use flexshape_camera::nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use flexshape_sim::{
-    BoardRenderer, PrintedBoard, PrintedMarkers, PrintedPattern, SimRigConfig, calibration_views,
+    BoardRenderer, PrintedBoard, PrintedMarkers, PrintedPattern, calibration_views,
 };
 
 /// The board of the test: 10 × 7 squares of 25 mm, 18-mm markers of DICT_4X4_50 (the
@@ -41,12 +41,7 @@ fn worst_error(
 
 #[test]
 fn charuco_corners_are_identified_and_placed_to_a_fraction_of_a_pixel() {
-    let cameras: Vec<_> = SimRigConfig::default()
-        .cameras()
-        .unwrap()
-        .into_iter()
-        .map(|(_, c)| c)
-        .collect();
+    let cameras = common::rig_cameras();
     let (board, printed) = boards();
     let session = calibration_views(&cameras, &printed, 8, 0, 5);
     let cam = &cameras[0];
@@ -72,7 +67,7 @@ fn charuco_corners_are_identified_and_placed_to_a_fraction_of_a_pixel() {
 /// label; a chessboard detector needs the whole board.
 #[test]
 fn a_partly_seen_charuco_board_gives_its_visible_corners() {
-    let cam = SimRigConfig::default().cameras().unwrap().remove(0).1;
+    let cam = common::rig_cameras().remove(0);
     let (board, printed) = boards();
     // Facing the camera, turned 25° in its plane and tilted 20°, 150 mm off its axis
     // sideways: about half the board out.

@@ -7,7 +7,7 @@ mod common;
 use flexshape_calib::{Board, Detection, detect};
 use flexshape_camera::Camera;
 use flexshape_camera::nalgebra::{Isometry3, Point2};
-use flexshape_sim::{BoardRenderer, PrintedBoard, PrintedPattern, SimRigConfig, calibration_views};
+use flexshape_sim::{BoardRenderer, PrintedBoard, PrintedPattern, calibration_views};
 
 /// Largest distance of a detection's dots from where the truth projects their board points,
 /// px: as labelled, and with the labels half-turned (a symmetric grid cannot tell its ends
@@ -28,12 +28,7 @@ fn errors(cam: &Camera, pose: &Isometry3<f64>, d: &Detection) -> (f64, f64) {
 }
 
 fn calibrates(spec: &str, asymmetric: bool, diameter: f64) {
-    let cameras: Vec<_> = SimRigConfig::default()
-        .cameras()
-        .unwrap()
-        .into_iter()
-        .map(|(_, c)| c)
-        .collect();
+    let cameras = common::rig_cameras();
     let board = Board::from_spec(spec, 20.0, None, "").unwrap();
     let printed = PrintedBoard {
         cols: board.cols,
@@ -79,7 +74,7 @@ fn asymmetric_circle_grids_are_labelled_and_calibrate_a_camera() {
 /// A board partly out of view, or a grid of another size, is not taken for the board.
 #[test]
 fn a_circle_grid_of_another_size_is_refused() {
-    let cam = SimRigConfig::default().cameras().unwrap().remove(0).1;
+    let cam = common::rig_cameras().remove(0);
     let printed = PrintedBoard {
         cols: 4,
         rows: 11,

@@ -2,6 +2,17 @@
 
 use flexshape_calib::{CalibrationSettings, Detection, calibrate};
 use flexshape_camera::Camera;
+use flexshape_sim::SimRigConfig;
+
+/// The default simulated rig's cameras.
+pub fn rig_cameras() -> Vec<Camera> {
+    SimRigConfig::default()
+        .cameras()
+        .unwrap()
+        .into_iter()
+        .map(|(_, c)| c)
+        .collect()
+}
 
 /// Calibrates `cam`'s intrinsics from `detections` (what `label` names) and checks them
 /// against the truth: RMS under 0.1 px, focal lengths within 0.3 %, principal point within
