@@ -6,7 +6,7 @@
 
 use flexshape_camera::Camera;
 use flexshape_silhouette::BitMask;
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::solve::Measured;
@@ -315,4 +315,175 @@ pub(crate) fn ghost_length(tube: &Tube, hull: &[[f64; 3]], voxel: f64, reach: f6
     };
     let away = hull.iter().filter(|p| !near(p)).count();
     away as f64 * voxel / (std::f64::consts::PI * tube.radius * tube.radius)
+}
+
+/// A point of a tube's centerline, as the shape checks see it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Station {
+    /// Arc length from the proximal end, mm.
+    pub at: f64,
+    /// Position, world mm.
+    pub point: Point3<f64>,
+    /// The tube's radius there, mm.
+    pub radius: f64,
+    /// Curvature times radius there.
+    pub bend: f64,
+}
+
+/// `tube`'s centerline every half millimetre (`length` its length, mm), only where `keep`
+/// holds (the part a record reports: inside the working volume).
+pub(crate) fn stations(
+    tube: &Tube,
+    length: f64,
+    keep: impl Fn(&Point3<f64>) -> bool,
+) -> Vec<Station> {
+    let n = (length / 0.5).ceil().max(4.0) as usize;
+    (0..=n)
+        .filter_map(|i| {
+            let u = i as f64 / n as f64;
+            let d = tube.centerline.eval(u);
+            let point = Point3::from(d.value);
+            if !keep(&point) {
+                return None;
+            }
+            let (d1, d2) = (Vector3::from(d.d1), Vector3::from(d.d2));
+            let speed = d1.norm().max(1e-300);
+            let radius = tube.radius_at(u, length);
+            Some(Station {
+                at: u * length,
+                point,
+                radius,
+                bend: d1.cross(&d2).norm() / speed.powi(3) * radius,
+            })
+        })
+        .collect()
+}
+
+/// The tightest bend among `stations`: the largest curvature times radius. At 1 or more the
+/// tube's inner side would have to fold through itself: no tube bends so tightly, and a
+/// fitted tube that does has curled an end where the images do not hold it (inside its own
+/// outline).
+pub(crate) fn tightest_bend(stations: &[Station]) -> Option<&Station> {
+    stations.iter().max_by(|a, b| a.bend.total_cmp(&b.bend))
+}
+
+/// Where a tube would pass through itself: two points of its centerline at least two radii
+/// apart along it yet closer than a radius in space.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct SelfCrossing {
+    /// Arc lengths of the two points from the proximal end, mm.
+    pub at_mm: [f64; 2],
+    /// Their distance, mm.
+    pub distance_mm: f64,
+}
+
+/// The closest place where the tube of `stations` passes through itself, if it does. Such a
+/// shape explains the images no worse than the right one — a part folded back along the tube
+/// hides in its own silhouette, and the fold looks like the tip's cap — but no tube can take
+/// it. A tube bent no tighter than its radius keeps points two radii apart along it at least
+/// 4/π radii apart in space, so the rule never flags a shape a tube can take.
+pub(crate) fn self_crossing(stations: &[Station]) -> Option<SelfCrossing> {
+    let largest = stations.iter().map(|s| s.radius).fold(0.0, f64::max);
+    let mut worst: Option<SelfCrossing> = None;
+    for (i, a) in stations.iter().enumerate() {
+        let mut j = i + 1;
+        while let Some(b) = stations.get(j) {
+            let r = a.radius.max(b.radius);
+            let d = (b.point - a.point).norm();
+            if b.at - a.at >= 2.0 * r && d < r {
+                if worst.is_none_or(|w| d < w.distance_mm) {
+                    worst = Some(SelfCrossing {
+                        at_mm: [a.at, b.at],
+                        distance_mm: d,
+                    });
+                }
+                j += 1;
+            } else {
+                // The arc between two points is at least their chord: the next point that
+                // could come within a radius of `a` lies (d − r) farther along.
+                let next = b.at + (d - largest);
+                j += 1;
+                while stations.get(j).is_some_and(|c| c.at < next) {
+                    j += 1;
+                }
+            }
+        }
+    }
+    worst
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tube(points: &[[f64; 3]], span: f64) -> Tube {
+        Tube::through(points, 3.0, [true, true], span, 0.0).unwrap()
+    }
+
+    fn all(t: &Tube) -> Vec<Station> {
+        stations(t, t.length(), |_| true)
+    }
+
+    fn arc(radius: f64, turns: f64, pitch: f64) -> Vec<[f64; 3]> {
+        let n = (turns * 400.0) as usize;
+        (0..=n)
+            .map(|i| {
+                let a = i as f64 / 400.0 * std::f64::consts::TAU;
+                [
+                    radius * a.sin(),
+                    pitch * a / std::f64::consts::TAU,
+                    radius * (1.0 - a.cos()),
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn shapes_a_tube_can_take_do_not_cross_themselves() {
+        let straight = tube(&[[0.0; 3], [0.0, 0.0, 200.0]], 15.0);
+        assert_eq!(self_crossing(&all(&straight)), None);
+        // Three quarters of a circle of three radii, and a helix whose turns lie two
+        // diameters apart.
+        for points in [arc(9.0, 0.75, 0.0), arc(20.0, 2.5, 12.0)] {
+            let t = tube(&points, 5.0);
+            assert_eq!(self_crossing(&all(&t)), None);
+        }
+    }
+
+    #[test]
+    fn a_fold_and_a_loop_through_the_tube_cross_it() {
+        // Out 100 mm, a U-turn, back 40 mm two millimetres beside itself (radius 3).
+        let mut fold: Vec<[f64; 3]> = (0..=100).map(|i| [0.0, 0.0, i as f64]).collect();
+        fold.extend((0..=40).map(|i| [2.0, 0.0, 100.0 - i as f64]));
+        let t = tube(&fold, 15.0);
+        let c = self_crossing(&all(&t)).expect("the fold passes through the tube");
+        assert!(c.distance_mm < 3.0, "{c:?}");
+        assert!(c.at_mm[1] - c.at_mm[0] >= 6.0, "{c:?}");
+        // One and a half turns of a circle whose second turn runs a millimetre from the first.
+        let t = tube(&arc(20.0, 1.5, 1.0), 5.0);
+        let c = self_crossing(&all(&t)).expect("the loop passes through the tube");
+        assert!(c.distance_mm < 1.5, "{c:?}");
+    }
+
+    #[test]
+    fn the_tightest_bend_is_curvature_times_radius() {
+        // A circle of 20 mm: 3/20 all along.
+        let t = tube(&arc(20.0, 0.5, 0.0), 5.0);
+        let kr = tightest_bend(&all(&t)).unwrap().bend;
+        assert!((kr - 0.15).abs() < 0.005, "{kr}");
+        // A tip curled back on a 1-mm circle: tighter than its radius.
+        let mut curl: Vec<[f64; 3]> = (0..=100).map(|i| [0.0, 0.0, i as f64]).collect();
+        curl.extend((1..=30).map(|i| {
+            let a = i as f64 / 30.0 * std::f64::consts::PI;
+            [1.0 - a.cos(), 0.0, 100.0 + a.sin()]
+        }));
+        let t = tube(&curl, 2.0);
+        let every = all(&t);
+        let tightest = tightest_bend(&every).unwrap();
+        assert!(tightest.bend > 1.0 && tightest.at > 95.0, "{tightest:?}");
+        // The same tube where only its first 90 mm are kept (as if the rest left the
+        // volume): no curl there.
+        let kept = stations(&t, t.length(), |p| p.z < 90.0);
+        assert!(tightest_bend(&kept).unwrap().bend < 0.01);
+    }
 }

@@ -516,7 +516,7 @@ impl TubeFitter {
         };
         let mut record = estimator.record_from_curve(fitted, volume, hull);
         let ghost = fit.ghost_mm.unwrap_or(0.0);
-        if let Some(reason) = self.verdict(fit) {
+        if let Some(reason) = self.verdict(fit, volume) {
             record.status = Status::Inconsistent { reason };
         } else if ghost > s.max_ghost_mm {
             record.status = Status::Ambiguous {
@@ -544,7 +544,7 @@ impl TubeFitter {
     }
 
     /// Why the fit does not explain the images, if it does not (the first failing check).
-    fn verdict(&self, fit: &Fit) -> Option<String> {
+    fn verdict(&self, fit: &Fit, volume: &Volume) -> Option<String> {
         let s = &self.settings;
         for c in &fit.cameras {
             let i = &c.camera;
@@ -598,6 +598,23 @@ impl TubeFitter {
                     c.unexplained_px, s.max_unexplained_px
                 ));
             }
+        }
+        // Only the part the record reports: outside the volume nothing holds the tube.
+        let stations = check::stations(&fit.tube, fit.tube.length(), |p| volume.contains(p));
+        if let Some(t) = check::tightest_bend(&stations).filter(|t| t.bend >= 1.0) {
+            return Some(format!(
+                "the fitted tube bends tighter than its radius at {:.0} mm (curvature × radius {:.2}; a tube cannot reach 1): an end curled where the images do not hold it",
+                t.at, t.bend
+            ));
+        }
+        if let Some(c) = check::self_crossing(&stations) {
+            return Some(format!(
+                "the fitted tube passes through itself: its centerline at {:.0} mm comes within {:.2} mm of itself at {:.0} mm (radius {:.2}). A part folded back along the tube hides in its own outline; this is not a shape a tube can take",
+                c.at_mm[0],
+                c.distance_mm,
+                c.at_mm[1],
+                fit.tube.largest_radius()
+            ));
         }
         None
     }

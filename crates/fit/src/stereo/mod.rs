@@ -77,7 +77,7 @@ impl TubeFitter {
                 continue;
             };
             let fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
-            if self.verdict(&fit).is_none() {
+            if self.verdict(&fit, volume).is_none() {
                 explaining.push((fit, base));
             }
         }
