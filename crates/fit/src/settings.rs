@@ -43,6 +43,11 @@ pub struct FitSettings {
     pub slide_prior: f64,
     /// Weight holding an open end in place along the tube, px/mm.
     pub end_anchor: f64,
+    /// Weight holding a capped end's last span from curling, px per mm: its third derivative
+    /// along the tube (κ² on an arc of constant curvature) as the displacement it makes over a
+    /// span is held near zero. Without it a followed tip, which only its cap's outline holds,
+    /// can curl back into its own outline frame after frame (0 turns it off).
+    pub tip_curl_prior: f64,
     /// Self-check: largest outline residual RMS in any camera, pixels.
     pub max_residual_px: f64,
     /// Self-check: largest 90th percentile of the outline residuals' size in any camera,
@@ -94,6 +99,7 @@ impl Default for FitSettings {
             extend_mm: 10.0,
             slide_prior: 0.5,
             end_anchor: 5.0,
+            tip_curl_prior: 3.0,
             max_residual_px: 0.6,
             max_p90_px: 0.25,
             min_found: 0.6,
@@ -141,6 +147,7 @@ impl FitSettings {
             ("extend_mm", self.extend_mm, 0.0, 1000.0),
             ("slide_prior", self.slide_prior, 0.0, 1e6),
             ("end_anchor", self.end_anchor, 0.0, 1e6),
+            ("tip_curl_prior", self.tip_curl_prior, 0.0, 1e6),
             ("max_ghost_mm", self.max_ghost_mm, 0.0, 1e5),
             ("max_sigma_mm", self.max_sigma_mm, 0.0, 1e3),
             ("track_margin_px", self.track_margin_px, 0.0, 1000.0),

@@ -231,6 +231,29 @@ fn priors(
             h[(col, col)] += RIDGE;
         }
     }
+    // A capped end's last span is held by little more than its cap, whose outline hardly
+    // changes as the end turns: followed frame after frame it could curl back into its own
+    // outline. Its third derivative by arc length (κ² on an arc of constant curvature: a
+    // hundredth of a millimetre over a span of a bent catheter) is held near zero, weakly,
+    // as the displacement it makes over a span.
+    let spans = (last - 2) as f64;
+    for e in 0..2 {
+        if !tube.capped[e] || settings.tip_curl_prior <= 0.0 {
+            continue;
+        }
+        let b = tube.centerline.basis(e as f64);
+        let d = tube.centerline.eval_basis(&b);
+        // d³x/ds³·h³/6 over a span h = L/spans, with s = u·L (the parameter is proportional
+        // to arc length).
+        let scale = settings.tip_curl_prior / (6.0 * spans.powi(3));
+        for c in 0..3 {
+            entries.clear();
+            for j in 0..4 {
+                entries.push((3 * (b.first + j) + c, scale * b.weights[3][j]));
+            }
+            add_row(h, g, &entries, scale * d.d3[c], 1.0);
+        }
+    }
     if !fit_radius {
         for k in 0..=tube.steps.len() {
             let col = tube.radius_column(k);
