@@ -328,43 +328,47 @@ pub(crate) struct Station {
     pub radius: f64,
     /// Curvature times radius there.
     pub bend: f64,
+    /// Whether the checks judge it (the part a record reports).
+    pub judged: bool,
 }
 
-/// `tube`'s centerline every half millimetre (`length` its length, mm), only where `keep`
-/// holds (the part a record reports: inside the working volume).
+/// `tube`'s centerline every millimetre (`length` its length, mm), judged where `judge`
+/// holds (the part a record reports: inside the working volume). A curl or a fold spans
+/// several millimetres: finer steps find nothing more.
 pub(crate) fn stations(
     tube: &Tube,
     length: f64,
-    keep: impl Fn(&Point3<f64>) -> bool,
+    judge: impl Fn(&Point3<f64>) -> bool,
 ) -> Vec<Station> {
-    let n = (length / 0.5).ceil().max(4.0) as usize;
+    let n = length.ceil().max(4.0) as usize;
     (0..=n)
-        .filter_map(|i| {
+        .map(|i| {
             let u = i as f64 / n as f64;
             let d = tube.centerline.eval(u);
             let point = Point3::from(d.value);
-            if !keep(&point) {
-                return None;
-            }
             let (d1, d2) = (Vector3::from(d.d1), Vector3::from(d.d2));
             let speed = d1.norm().max(1e-300);
             let radius = tube.radius_at(u, length);
-            Some(Station {
+            Station {
                 at: u * length,
                 point,
                 radius,
                 bend: d1.cross(&d2).norm() / speed.powi(3) * radius,
-            })
+                judged: judge(&point),
+            }
         })
         .collect()
 }
 
-/// The tightest bend among `stations`: the largest curvature times radius. At 1 or more the
-/// tube's inner side would have to fold through itself: no tube bends so tightly, and a
-/// fitted tube that does has curled an end where the images do not hold it (inside its own
-/// outline).
+/// The tightest bend among the judged `stations`: the largest curvature times radius. At 1
+/// or more the tube's inner side would have to fold through itself: no tube bends so tightly,
+/// and a fitted tube that does has curled an end where the images do not hold it (inside its
+/// own outline).
 pub(crate) fn tightest_bend(stations: &[Station]) -> Option<&Station> {
-    stations.iter().max_by(|a, b| a.bend.total_cmp(&b.bend))
+    stations
+        .iter()
+        .filter(|s| s.judged)
+        .max_by(|a, b| a.bend.total_cmp(&b.bend))
 }
 
 /// Where a tube would pass through itself: two points of its centerline at least two radii
@@ -384,29 +388,31 @@ pub(crate) struct SelfCrossing {
 /// 4/π radii apart in space, so the rule never flags a shape a tube can take.
 pub(crate) fn self_crossing(stations: &[Station]) -> Option<SelfCrossing> {
     let largest = stations.iter().map(|s| s.radius).fold(0.0, f64::max);
+    // Stations are evenly spaced along the tube.
+    let step = match stations {
+        [a, b, ..] => b.at - a.at,
+        _ => return None,
+    };
     let mut worst: Option<SelfCrossing> = None;
     for (i, a) in stations.iter().enumerate() {
         let mut j = i + 1;
         while let Some(b) = stations.get(j) {
             let r = a.radius.max(b.radius);
             let d = (b.point - a.point).norm();
-            if b.at - a.at >= 2.0 * r && d < r {
-                if worst.is_none_or(|w| d < w.distance_mm) {
-                    worst = Some(SelfCrossing {
-                        at_mm: [a.at, b.at],
-                        distance_mm: d,
-                    });
-                }
-                j += 1;
-            } else {
-                // The arc between two points is at least their chord: the next point that
-                // could come within a radius of `a` lies (d − r) farther along.
-                let next = b.at + (d - largest);
-                j += 1;
-                while stations.get(j).is_some_and(|c| c.at < next) {
-                    j += 1;
-                }
+            if b.at - a.at >= 2.0 * r
+                && d < r
+                && a.judged
+                && b.judged
+                && worst.is_none_or(|w| d < w.distance_mm)
+            {
+                worst = Some(SelfCrossing {
+                    at_mm: [a.at, b.at],
+                    distance_mm: d,
+                });
             }
+            // The arc between two points is at least their chord: no station closer along
+            // the tube than (d − largest radius) can come within a radius of `a`.
+            j += (((d - largest) / step) as usize).max(1);
         }
     }
     worst
@@ -484,6 +490,7 @@ mod tests {
         // The same tube where only its first 90 mm are kept (as if the rest left the
         // volume): no curl there.
         let kept = stations(&t, t.length(), |p| p.z < 90.0);
+        assert!(kept.iter().any(|s| s.bend > 1.0));
         assert!(tightest_bend(&kept).unwrap().bend < 0.01);
     }
 }

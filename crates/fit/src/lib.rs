@@ -40,7 +40,7 @@ pub use settings::{FitSettings, Method};
 pub use tube::Tube;
 
 use edges::EdgeImage;
-use solve::{against, measure, normal_equations};
+use solve::{against, against_all, measure, normal_equations};
 
 /// Why the fit cannot be set up or run.
 #[derive(Debug, Error)]
@@ -143,6 +143,12 @@ const CONVERGED_MM: f64 = 0.005;
 /// predicted), so chasing it further costs whole measurements for a few micrometres.
 const SETTLED_MM: f64 = 0.02;
 
+/// A tube that settled on its first boundaries within this of where it started, mm, is not
+/// measured again: on followed 120-Hz frames (first moves ~0.1 mm) leaving the second
+/// measurement out changed the centerline's error from truth by under 0.001 mm (median and
+/// worst RMS over 4 seeds × 40 frames) and saved a fifth of the fit.
+const ONE_MEASUREMENT_MM: f64 = 0.3;
+
 /// Samples around a free end needed in a camera before its end is checked apart.
 const END_SAMPLES: usize = 4;
 
@@ -225,9 +231,10 @@ impl TubeFitter {
         // them as fixed data; re-measured once it stops moving across itself.
         // The last measurement, if the tube has not moved since (then it serves the check).
         let mut settled = None;
-        'outer: for _ in 0..MEASUREMENTS {
+        'outer: for round in 0..MEASUREMENTS {
             let measured = measure(&self.cameras, &images, &tube, s);
             let mut current = measured.clone();
+            let mut moved = 0.0;
             for inner in 0.. {
                 if iterations >= s.max_iterations {
                     break 'outer;
@@ -246,6 +253,7 @@ impl TubeFitter {
                 let radii = step.rows_range(tube.radius_column(0)..).amax();
                 let across = across_tube(&tube, &step).max(radii);
                 tube.apply(&step);
+                moved += across;
                 normal = Some(eq);
                 iterations += 1;
                 if inner == 0 && across < SETTLED_MM {
@@ -254,6 +262,13 @@ impl TubeFitter {
                     break 'outer;
                 }
                 if across < CONVERGED_MM || inner + 1 >= INNER_STEPS {
+                    if round == 0 && across < CONVERGED_MM && moved < ONE_MEASUREMENT_MM {
+                        // Started close (a followed frame): the boundaries were searched
+                        // around nearly where the tube settled, and serve the check as they
+                        // are.
+                        settled = Some(against_all(&self.cameras, &tube, &measured));
+                        break 'outer;
+                    }
                     // Converged on these boundaries (or still creeping, as Huber weights make
                     // it when some boundaries were found far off): measure them again.
                     break;

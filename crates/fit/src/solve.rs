@@ -97,6 +97,34 @@ pub(crate) fn against(
         .collect()
 }
 
+/// As [`against`], keeping the samples where no boundary was found (as they were).
+pub(crate) fn against_all(
+    cameras: &[Camera],
+    tube: &Tube,
+    measured: &[Vec<Measured>],
+) -> Vec<Vec<Measured>> {
+    cameras
+        .iter()
+        .zip(measured)
+        .map(|(cam, ms)| {
+            ms.iter()
+                .filter_map(|m| {
+                    let Some((pixel, normal)) = m.edge else {
+                        return Some(*m);
+                    };
+                    let mut p = again(cam, tube, &m.point, 1.0)?;
+                    p.weight = m.point.weight;
+                    Some(Measured {
+                        point: p,
+                        residual: Some(normal.dot(&(p.pixel - pixel))),
+                        edge: m.edge,
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// Normal equations `H δ = −g` of one linearisation.
 pub(crate) struct Normal {
     pub h: DMatrix<f64>,
