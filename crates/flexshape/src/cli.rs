@@ -246,6 +246,16 @@ pub struct ModelFitArgs {
         allow_negative_numbers = true
     )]
     pub strain_accuracy: f64,
+    /// How well the sensed tips and bending bases are placed beyond their scatter (a bias),
+    /// mm (0.1: the image fit's tips and bands on the simulator). Widens the joint
+    /// identification's intervals.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 0.1,
+        allow_negative_numbers = true
+    )]
+    pub position_accuracy: f64,
 }
 
 #[derive(Debug, Args)]

@@ -89,15 +89,20 @@ pub struct SensingAccuracy {
     pub curvature_share: f64,
     /// Error of a sensed axial strain (absolute).
     pub strain: f64,
+    /// Error of a sensed tip or bending base position, mm (used by the joint
+    /// identification, which fits positions rather than configurations).
+    pub position_mm: f64,
 }
 
 impl Default for SensingAccuracy {
     /// The image fit's on the simulator: curvature bias within 0.1 % (`crates/fit/tests/
-    /// accuracy.rs`), band spacing biased by about 0.05 mm over a 155 mm section (strain 3e-4).
+    /// accuracy.rs`), band spacing biased by about 0.05 mm over a 155 mm section (strain 3e-4),
+    /// tips and bands within 0.1 mm.
     fn default() -> Self {
         SensingAccuracy {
             curvature_share: 0.001,
             strain: 3e-4,
+            position_mm: 0.1,
         }
     }
 }

@@ -13,12 +13,15 @@
 //!   squares, refused when the data do not determine them.
 //! - [`estimate_stiffness`]: the tensionless estimation of `Km` from sensed shapes and tendon
 //!   displacements (eq. 6), with the tip error of Table I.
+//! - [`identify_jointly`]: stiffnesses, registration and tendon positions fitted together to
+//!   the sensed tips (output error), from the two-step estimate.
 //!
 //! Units: mm, N, radians; curvature 1/mm; strains compression-positive.
 
 mod estimate;
 mod experiment;
 pub mod geometry;
+mod joint;
 mod mechanics;
 mod params;
 mod sensing;
@@ -30,6 +33,7 @@ pub use estimate::{
     DETERMINED_SHARE, Estimate, Held, Observation, SensingAccuracy, estimate_stiffness, tip_error,
 };
 pub use experiment::{CommandedPose, ExperimentPlan, Role, Sweep, experiment, taut_command};
+pub use joint::{JointEstimate, JointPose, identify_jointly};
 pub use mechanics::{Forward, Model};
 pub use params::{ManipulatorParams, Stiffness, Tendon};
 pub use sensing::{SensedPose, SensorFrame};

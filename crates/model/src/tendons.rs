@@ -181,19 +181,27 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
-        // Central differences: the model is smooth where no tendon changes slackness.
-        let at = self.residuals_at(&self.x)?;
-        let mut j = DMatrix::zeros(at.len(), self.x.len());
-        for k in 0..self.x.len() {
-            let h = 1e-6 * self.x[k].abs().max(1e-2);
-            let (mut up, mut down) = (self.x.clone(), self.x.clone());
-            up[k] += h;
-            down[k] -= h;
-            let d = (self.residuals_at(&up)? - self.residuals_at(&down)?) / (2.0 * h);
-            j.set_column(k, &d);
-        }
-        Some(j)
+        central_differences(&self.x, |x| self.residuals_at(x))
     }
+}
+
+/// The Jacobian of `residuals` at `x` by central differences (steps of 10⁻⁶ relative, at least
+/// 10⁻⁸): the model is smooth wherever no tendon changes slackness.
+pub(crate) fn central_differences(
+    x: &DVector<f64>,
+    residuals: impl Fn(&DVector<f64>) -> Option<DVector<f64>>,
+) -> Option<DMatrix<f64>> {
+    let rows = residuals(x)?.len();
+    let mut j = DMatrix::zeros(rows, x.len());
+    for k in 0..x.len() {
+        let h = 1e-6 * x[k].abs().max(1e-2);
+        let (mut up, mut down) = (x.clone(), x.clone());
+        up[k] += h;
+        down[k] -= h;
+        let d = (residuals(&up)? - residuals(&down)?) / (2.0 * h);
+        j.set_column(k, &d);
+    }
+    Some(j)
 }
 
 #[cfg(test)]

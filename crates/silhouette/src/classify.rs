@@ -410,7 +410,8 @@ impl Prepared {
             return strong;
         };
         let (w, h) = (strong.width(), strong.height());
-        let ring = weak.and(&strong.dilate(1)).and(&strong.not());
+        let beside = strong.dilate(1);
+        let ring = weak.and(&beside).and_not(&strong);
         let px = frame.as_raw();
         let colour = |x: usize, y: usize| {
             let i = (y * w + x) * 3;
@@ -448,11 +449,10 @@ impl Prepared {
             };
             // Pixels beside the strict foreground are its outline, which the ring above
             // decided; what is left are regions of their own.
-            let apart = shady.and(&strong.dilate(1).not());
-            let backdrop = shady.or(&strong).not();
-            out = out.or(&crate::shade::sharp_regions(
-                &apart, &backdrop, alpha, *edge,
-            ));
+            let apart = shady.and_not(&beside);
+            // The backdrop: neither foreground nor shadow-like.
+            let backdrop = |x: usize, y: usize| !shady.get(x, y) && !strong.get(x, y);
+            out = out.or(&crate::shade::sharp_regions(&apart, backdrop, alpha, *edge));
         }
         out
     }

@@ -87,7 +87,7 @@ pub(crate) fn find_markers(frame: &RgbImage, object: &BitMask, s: &MarkerSetting
         }
     });
     let mut out = tape.clone();
-    let edge = object.and(&interior.not());
+    let edge = object.and_not(&interior);
     for_each_set(&edge, |x, y| {
         // Majority of interior neighbours within 1, else within 2 pixels.
         for r in 1..=2usize {

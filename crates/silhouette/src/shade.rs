@@ -20,7 +20,7 @@ const MIN_SAMPLES: usize = 8;
 /// pixels at least half as dark as its mean are returned.
 pub(crate) fn sharp_regions(
     shady: &BitMask,
-    backdrop: &BitMask,
+    backdrop: impl Fn(usize, usize) -> bool,
     alpha: impl Fn(usize, usize) -> f32,
     edge: f32,
 ) -> BitMask {
@@ -33,12 +33,13 @@ pub(crate) fn sharp_regions(
     let (labels, areas) = label(&runs);
     let mut darkness = vec![0f32; areas.len()];
     let mut steps: Vec<Vec<f32>> = vec![Vec::new(); areas.len()];
+    let is_backdrop = backdrop;
     let backdrop = |x: isize, y: isize| -> bool {
         x >= 0
             && y >= 0
             && (x as usize) < w
             && (y as usize) < h
-            && backdrop.get(x as usize, y as usize)
+            && is_backdrop(x as usize, y as usize)
     };
     let inside = |x: isize, y: isize| x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h;
     for (r, &l) in runs.iter().zip(&labels) {

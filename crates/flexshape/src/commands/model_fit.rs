@@ -7,8 +7,8 @@ use anyhow::{Context, bail};
 use flexshape_curve::Section;
 use flexshape_model::nalgebra_types::{DVector, Point3, Vector3};
 use flexshape_model::{
-    ManipulatorParams, Model, Observation, SensedPose, SensingAccuracy, SensorFrame,
-    estimate_stiffness, estimate_tendons, tip_error,
+    JointPose, ManipulatorParams, Model, Observation, SensedPose, SensingAccuracy, SensorFrame,
+    estimate_stiffness, estimate_tendons, identify_jointly, tip_error,
 };
 use flexshape_plot::{Mark, PALETTE, Series3, orthographic_views};
 use flexshape_recording::PoseRole;
@@ -59,6 +59,105 @@ struct Report {
     tendons: Option<TendonReport>,
     /// Stiffnesses the poses do not determine, held at their nominal values.
     held: Vec<HeldReport>,
+    /// The joint (output-error) identification beside the two-step estimate above.
+    joint: JointReport,
+}
+
+/// Stiffnesses, registration (and with `--tendons` tendon positions) fitted together to the
+/// sensed tips, from the two-step estimate.
+#[derive(Debug, Serialize)]
+struct JointReport {
+    /// `[Kx, Kz, Ka0, Ka1]` (nominal where not fitted; empty when refused).
+    estimated: Vec<f64>,
+    /// Which were fitted.
+    estimated_from_data: [bool; 4],
+    /// Standard errors from the residuals' scatter.
+    standard_error: [f64; 4],
+    /// Errors from the sensing accuracy carried through the fit.
+    sensing_error: [f64; 4],
+    /// Both together.
+    total_error: [f64; 4],
+    /// Mean and largest tip error, % of L1.
+    tip_error_percent: [f64; 2],
+    /// RMS residual, mm.
+    rms_mm: f64,
+    /// How far it turned the two-step registration, degrees.
+    registration_change_deg: f64,
+    /// Column-scaled Jacobian condition.
+    condition: f64,
+    /// With `--tendons`: `[dx, dz]` per tendon and their standard errors, mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tendons: Option<Vec<[f64; 4]>>,
+    /// Held or undetermined stiffnesses.
+    held: Vec<HeldReport>,
+    /// Why it could not run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    refused: Option<String>,
+}
+
+impl JointReport {
+    fn new(
+        start: &ManipulatorParams,
+        frame: &SensorFrame,
+        data: &[&Pose],
+        with_tendons: bool,
+        accuracy: &SensingAccuracy,
+    ) -> Self {
+        let poses: Vec<JointPose> = data
+            .iter()
+            .map(|p| JointPose {
+                y: p.y.clone(),
+                sensed: p.sensed.clone(),
+            })
+            .collect();
+        match identify_jointly(start, frame, &poses, with_tendons, accuracy) {
+            Ok(j) => JointReport {
+                estimated: j.params.stiffness.diagonal().to_vec(),
+                estimated_from_data: j.estimated,
+                standard_error: j.standard_error,
+                sensing_error: j.sensing_error,
+                total_error: j.total_error,
+                tip_error_percent: [j.tip_error_percent, j.max_tip_error_percent],
+                rms_mm: j.rms_mm,
+                registration_change_deg: j.rotation_change.to_degrees(),
+                condition: j.condition,
+                tendons: j.tendon_error.map(|e| {
+                    j.params
+                        .tendons
+                        .iter()
+                        .zip(e)
+                        .map(|(t, e)| [t.dx, t.dz, e[0], e[1]])
+                        .collect()
+                }),
+                held: j.held.into_iter().map(HeldReport::from).collect(),
+                refused: None,
+            },
+            Err(e) => JointReport {
+                estimated: Vec::new(),
+                estimated_from_data: [false; 4],
+                standard_error: [0.0; 4],
+                sensing_error: [0.0; 4],
+                total_error: [0.0; 4],
+                tip_error_percent: [f64::NAN; 2],
+                rms_mm: f64::NAN,
+                registration_change_deg: 0.0,
+                condition: f64::INFINITY,
+                tendons: None,
+                held: Vec::new(),
+                refused: Some(e.to_string()),
+            },
+        }
+    }
+}
+
+impl From<flexshape_model::Held> for HeldReport {
+    fn from(h: flexshape_model::Held) -> Self {
+        HeldReport {
+            parameter: h.parameter,
+            reason: h.reason,
+            remedy: h.remedy,
+        }
+    }
 }
 
 /// A stiffness held at its nominal value.
@@ -128,6 +227,7 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
     for (name, v, hi) in [
         ("--curvature-accuracy", args.curvature_accuracy, 100.0),
         ("--strain-accuracy", args.strain_accuracy, 1.0),
+        ("--position-accuracy", args.position_accuracy, 100.0),
     ] {
         if !(v.is_finite() && (0.0..=hi).contains(&v)) {
             bail!("{name} {v}: give a value from 0 to {hi}");
@@ -136,6 +236,7 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
     let accuracy = SensingAccuracy {
         curvature_share: args.curvature_accuracy / 100.0,
         strain: args.strain_accuracy,
+        position_mm: args.position_accuracy,
     };
     let (report, frame) = fit(
         &model,
@@ -325,6 +426,11 @@ fn fit(
             },
         }
     });
+    let start = ManipulatorParams {
+        stiffness: estimate.stiffness,
+        ..model.params().clone()
+    };
+    let joint = JointReport::new(&start, &frame, &data, with_tendons, accuracy);
     let m = frame.rotation.matrix();
     let report = Report {
         nominal: nominal.diagonal(),
@@ -337,11 +443,7 @@ fn fit(
             .determined(&observations, accuracy)
             .into_iter()
             .filter_map(Result::err)
-            .map(|h| HeldReport {
-                parameter: h.parameter,
-                reason: h.reason,
-                remedy: h.remedy,
-            })
+            .map(HeldReport::from)
             .collect(),
         sensitivity: estimate.sensitivity,
         serial_axial: [nominal.serial_axial(), estimate.serial_axial],
@@ -351,11 +453,8 @@ fn fit(
         held: estimate
             .held
             .iter()
-            .map(|h| HeldReport {
-                parameter: h.parameter,
-                reason: h.reason.clone(),
-                remedy: h.remedy,
-            })
+            .cloned()
+            .map(HeldReport::from)
             .collect(),
         registration_poses: articulated.len(),
         reference_pose: reference.is_some(),
@@ -366,6 +465,7 @@ fn fit(
         ],
         rotation: std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)])),
         tendons,
+        joint,
     };
     Ok((report, frame))
 }
@@ -455,7 +555,51 @@ fn print_table(r: &Report) {
             }
         }
     }
+    print_joint(&r.joint, &names);
     for s in &r.skipped {
         println!("skipped {s}");
+    }
+}
+
+/// The joint identification's block of the table.
+fn print_joint(j: &JointReport, names: &[&str; 4]) {
+    println!();
+    if let Some(why) = &j.refused {
+        println!("joint (output-error) identification: not run: {why}");
+        return;
+    }
+    println!(
+        "Joint (output-error) identification, from the estimate above: the registration turned \
+         by {:.3}°, rms {:.3} mm, condition {:.1e}",
+        j.registration_change_deg, j.rms_mm, j.condition
+    );
+    println!(
+        "{:<34} {:>12} {:>12} {:>12}",
+        "", "joint", "± std. err.", "± w/ sensing"
+    );
+    for (k, name) in names.iter().enumerate() {
+        if j.estimated_from_data[k] {
+            println!(
+                "{name:<34} {:>12.1} {:>12.1} {:>12.1}",
+                j.estimated[k], j.standard_error[k], j.total_error[k]
+            );
+        } else {
+            println!("{name:<34} {:>12.1} {:>12}", j.estimated[k], "held");
+        }
+    }
+    println!(
+        "{:<34} {:>11.2}% {:>11.2}%",
+        "Tip position error (mean, max)", j.tip_error_percent[0], j.tip_error_percent[1]
+    );
+    if let Some(t) = &j.tendons {
+        for (i, t) in t.iter().enumerate() {
+            println!(
+                "  tendon {i}: dx {:.3} ± {:.3}, dz {:.3} ± {:.3}",
+                t[0], t[2], t[1], t[3]
+            );
+        }
+    }
+    for h in &j.held {
+        println!("{}: {}; {}", h.parameter, h.reason, h.remedy);
     }
 }
