@@ -4,7 +4,8 @@
 //! their mean) and chained from the reference camera, with the spread over views reported as a
 //! consistency check.
 
-use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+use flexshape_camera::angle_between;
+use nalgebra::{Matrix3, Rotation3, Vector3};
 use serde::Serialize;
 
 use crate::CalibError;
@@ -51,13 +52,6 @@ type Relative = (Rotation3<f64>, Vector3<f64>);
 fn relative(a: &BoardPose, b: &BoardPose) -> Relative {
     let r = b.rotation * a.rotation.inverse();
     (r, b.translation - r * a.translation)
-}
-
-/// The angle between two rotations, radians: from their quaternion by `atan2`, exact where
-/// `acos` of the trace is not (it gives NaN for rotations a rounding error apart).
-fn angle_between(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
-    let q = UnitQuaternion::from_rotation_matrix(&(a.inverse() * b));
-    2.0 * q.imag().norm().atan2(q.scalar().abs())
 }
 
 /// Whether two relative poses agree within the tolerances.

@@ -20,7 +20,7 @@ pub use camera::{Camera, Projection, Ray};
 pub use distortion::{Distortion, UNDISTORT_TOLERANCE};
 pub use error::{CameraError, ProjectError, UndistortError};
 pub use intrinsics::Intrinsics;
-pub use pose::Pose;
+pub use pose::{Pose, angle_between};
 
 /// Re-exported so users of this crate name the same nalgebra types.
 pub use nalgebra;

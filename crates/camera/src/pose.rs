@@ -8,6 +8,14 @@ use crate::error::CameraError;
 /// Tolerance on `‖RᵀR − I‖∞` and `|det R − 1|` for a matrix to count as a rotation.
 pub const ROTATION_TOLERANCE: f64 = 1e-6;
 
+/// The angle between two rotations, radians: from the quaternion of `a⁻¹·b` by `atan2`, exact
+/// where `acos` of the trace is not (nalgebra's `Rotation3::angle` gives NaN for rotations a
+/// rounding error apart).
+pub fn angle_between(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
+    let q = nalgebra::UnitQuaternion::from_rotation_matrix(&(a.inverse() * b));
+    2.0 * q.imag().norm().atan2(q.scalar().abs())
+}
+
 /// World → camera transform: `x_cam = R · X_world + t`, with `t` in mm.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Pose {
@@ -110,6 +118,15 @@ impl Pose {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_angle_between_equal_rotations_is_zero_not_nan() {
+        let r = Rotation3::from_euler_angles(0.3, -1.2, 2.9);
+        assert_eq!(angle_between(&r, &r), 0.0);
+        let turned = r * Rotation3::from_axis_angle(&Vector3::z_axis(), 0.25);
+        assert!((angle_between(&r, &turned) - 0.25).abs() < 1e-12);
+        assert!((angle_between(&turned, &r) - 0.25).abs() < 1e-12);
+    }
 
     #[test]
     fn look_at_sees_target_on_axis_and_up_is_image_up() {

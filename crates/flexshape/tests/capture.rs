@@ -211,7 +211,7 @@ fn chessboards_captured_live_calibrate_the_rig() {
         (rotation, b.translation - rotation * a.translation)
     };
     let ((rt, tt), (rg, tg)) = (relative(&rig), relative(&got));
-    let angle = (rg * rt.inverse()).angle().to_degrees();
+    let angle = flexshape_camera::angle_between(&rt, &rg).to_degrees();
     let offset = (tg - tt).norm();
     println!("relative pose off by {angle:.3}° and {offset:.2} mm");
     assert!(angle < 0.2 && offset < 2.0, "{angle:.3}°, {offset:.2} mm");

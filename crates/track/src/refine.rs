@@ -249,8 +249,10 @@ pub fn refine_cameras(
                 held: i == hold,
                 before: before.summary(i),
                 after: after.summary(i),
-                rotation_rad: (camera.pose.rotation * rig_cameras[i].pose.rotation.inverse())
-                    .angle(),
+                rotation_rad: flexshape_camera::angle_between(
+                    &rig_cameras[i].pose.rotation,
+                    &camera.pose.rotation,
+                ),
                 centre_moved_mm: (camera.centre() - rig_cameras[i].centre()).norm(),
                 sigma_mm: sigma_mm[i],
                 camera,
@@ -281,7 +283,7 @@ fn largest_move(a: &[Camera], b: &[Camera]) -> f64 {
         .zip(b)
         .map(|(a, b)| {
             (a.centre() - b.centre()).norm()
-                + 600.0 * (b.pose.rotation * a.pose.rotation.inverse()).angle()
+                + 600.0 * flexshape_camera::angle_between(&a.pose.rotation, &b.pose.rotation)
         })
         .fold(0.0, f64::max)
 }
