@@ -201,6 +201,45 @@ pub enum ModelCommand {
     /// Tensionless stiffness estimation (paper, Section V): register the model frame, turn the
     /// tracked shapes into configurations and fit Km; prints a Table-I-style report.
     Fit(ModelFitArgs),
+    /// Experiment design: the intervals the paper's experiment would give this catheter at
+    /// each preload, with a sensing accuracy, and the preload that determines every stiffness.
+    Plan(ModelPlanArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ModelPlanArgs {
+    /// Model parameters (TOML): the catheter to plan for, at its nominal stiffnesses.
+    #[arg(long)]
+    pub params: PathBuf,
+    /// Workspace poses of the experiment.
+    #[arg(long, default_value_t = 26)]
+    pub poses: usize,
+    /// Largest bending angle of the workspace poses, degrees.
+    #[arg(long, default_value_t = 150.0, value_name = "DEG")]
+    pub max_bend: f64,
+    /// Largest proximal compression ε0 the catheter may take; preloads from 0.002 doubling up
+    /// to it are compared.
+    #[arg(long, default_value_t = 0.02, value_name = "STRAIN")]
+    pub max_strain: f64,
+    /// How well sensed curvatures are known beyond their scatter, percent.
+    #[arg(
+        long,
+        value_name = "PERCENT",
+        default_value_t = 0.1,
+        allow_negative_numbers = true
+    )]
+    pub curvature_accuracy: f64,
+    /// How well sensed axial strains are known beyond their scatter.
+    #[arg(
+        long,
+        value_name = "STRAIN",
+        default_value_t = 3e-4,
+        allow_negative_numbers = true
+    )]
+    pub strain_accuracy: f64,
+    /// Print the plan as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Debug, Args)]
@@ -631,6 +670,16 @@ pub struct SimulateArgs {
     /// Workspace poses of the model experiment.
     #[arg(long, default_value_t = 26, requires = "model")]
     pub poses: usize,
+    /// Proximal compression ε0 asked of every loaded pose of the model experiment (raised where
+    /// a tendon would go slack): larger preloads let the axial stiffnesses be determined (see
+    /// `flexshape model plan`).
+    #[arg(
+        long,
+        default_value_t = 0.004,
+        requires = "model",
+        value_name = "STRAIN"
+    )]
+    pub preload: f64,
     /// Instead of the sweep's scattered poses, a smooth motion filmed at this many frames per
     /// second (bending, turning and inserting; at 30 the tip moves up to about 5 mm a frame):
     /// what `track --follow` sees from a real camera.

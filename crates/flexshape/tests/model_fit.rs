@@ -262,3 +262,76 @@ fn joint_within_its_intervals(report: &serde_json::Value) {
     assert!(get("tip_error_percent", 1) < 1.0);
     assert!(joint["registration_change_deg"].as_f64().unwrap() < 0.5);
 }
+
+/// `model plan` predicts the intervals a run will report: the template catheter (steel
+/// tendons) leaves Ka0 and Ka1 undetermined at the paper's preload and names the preload that
+/// would do; simulated at 0.032 and fitted, each stiffness's interval is the one predicted
+/// (measured: Ka0 ±14 % and Ka1 ±14 % both ways).
+#[test]
+fn the_plan_predicts_the_intervals_a_run_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("params.toml");
+    std::fs::write(&params, run(&["model", "template"])).unwrap();
+    let params = params.to_str().unwrap();
+    let plan: serde_json::Value =
+        serde_json::from_str(&run(&["model", "plan", "--params", params, "--json"])).unwrap();
+    println!("{plan:#}");
+    let candidates = plan["candidates"].as_array().unwrap();
+    let preloads: Vec<f64> = candidates
+        .iter()
+        .map(|c| c["preload"].as_f64().unwrap())
+        .collect();
+    assert_eq!(preloads, [0.002, 0.004, 0.008, 0.016, 0.02]);
+    assert_eq!(plan["determined_from"][0], 0.002);
+    for j in 2..4 {
+        assert!(plan["determined_from"][j].is_null(), "{j}");
+        let needed = plan["needed"][j].as_f64().unwrap();
+        assert!((0.03..0.06).contains(&needed), "{j}: {needed}");
+    }
+    // The same plan at 0.032, then the run.
+    let plan: serde_json::Value = serde_json::from_str(&run(&[
+        "model",
+        "plan",
+        "--params",
+        params,
+        "--max-strain",
+        "0.032",
+        "--json",
+    ]))
+    .unwrap();
+    let predicted = &plan["candidates"][4]["relative_error"];
+    assert_eq!(plan["candidates"][4]["preload"], 0.032);
+    let rec = dir.path().join("rec");
+    let rec = rec.to_str().unwrap();
+    run(&[
+        "simulate",
+        "--out",
+        rec,
+        "--model",
+        params,
+        "--preload",
+        "0.032",
+    ]);
+    let shapes = dir.path().join("shapes.jsonl");
+    let shapes = shapes.to_str().unwrap();
+    run(&["track", rec, "--out", shapes]);
+    let report: serde_json::Value = serde_json::from_str(&run(&[
+        "model", "fit", "--params", params, "--data", shapes, "--json",
+    ]))
+    .unwrap();
+    for j in 0..4 {
+        let (est, total, truth) = (
+            report["estimated"][j].as_f64().unwrap(),
+            report["total_error"][j].as_f64().unwrap(),
+            report["nominal"][j].as_f64().unwrap(),
+        );
+        let (got, want) = (total / est, predicted[j].as_f64().unwrap());
+        println!(
+            "K[{j}] {est:.1} ± {:.1} %, predicted ±{:.1} % (truth {truth})",
+            got * 100.0,
+            want * 100.0
+        );
+        assert!((got / want - 1.0).abs() < 0.2, "K[{j}]");
+        assert!((est - truth).abs() <= 2.0 * total, "K[{j}]");
+    }
+}

@@ -50,7 +50,8 @@ pub struct Estimate {
     /// estimated).
     pub standard_error: [f64; 4],
     /// How strongly each estimate reacts to errors in the sensed configuration: the relative
-    /// error of `K_j` per relative error of `q_j`, `1 + (D Kt Lt⁻¹ Dᵀ L0)_jj / K_j`. Large when
+    /// error of `K_j` per relative error of `q_j`, `1 + (D Kt Lt⁻¹ Dᵀ L)_jj / K_j` (for an
+    /// axial stiffness the row's two axial terms, a strain bias being alike in both sections). Large when
     /// the tendons are stiff next to the manipulator (their stretch, which reveals the load, is
     /// then a small difference of large path lengths): a 0.3 % curvature bias becomes a
     /// 7.5 % stiffness bias at 25.
@@ -286,7 +287,16 @@ pub fn estimate_stiffness(
         }
     }
     let path_stiffness = &d * DMatrix::from_diagonal(&kt_over_lt) * d.transpose();
-    let sensitivity = std::array::from_fn(|j| 1.0 + path_stiffness[(j, j)] * l[j] / k[j]);
+    // A strain bias reaches an axial estimate through both sections' compressions (the
+    // tendons' path shortens by L0·ε0 + L1·ε1): counted for both, as if both were off alike.
+    let sensitivity = std::array::from_fn(|j| {
+        let path = if j < 2 {
+            path_stiffness[(j, j)] * l[j]
+        } else {
+            (2..4).map(|m| (path_stiffness[(j, m)] * l[m]).abs()).sum()
+        };
+        1.0 + path / k[j]
+    });
     let stiffness = Stiffness {
         kx: k[0],
         kz: k[1],

@@ -13,6 +13,8 @@
 //!   squares, refused when the data do not determine them.
 //! - [`estimate_stiffness`]: the tensionless estimation of `Km` from sensed shapes and tendon
 //!   displacements (eq. 6), with the tip error of Table I.
+//! - [`plan_experiment`]: the preload that lets every stiffness be determined, and the
+//!   intervals a sensing accuracy gives.
 //! - [`identify_jointly`]: stiffnesses, registration and tendon positions fitted together to
 //!   the sensed tips (output error), from the two-step estimate.
 //!
@@ -24,6 +26,7 @@ pub mod geometry;
 mod joint;
 mod mechanics;
 mod params;
+mod plan;
 mod sensing;
 mod tendons;
 
@@ -36,6 +39,7 @@ pub use experiment::{CommandedPose, ExperimentPlan, Role, Sweep, experiment, tau
 pub use joint::{JointEstimate, JointPose, identify_jointly};
 pub use mechanics::{Forward, Model};
 pub use params::{ManipulatorParams, Stiffness, Tendon};
+pub use plan::{ExperimentDesign, PlannedDesign, plan_experiment};
 pub use sensing::{SensedPose, SensorFrame};
 pub use tendons::{TendonEstimate, estimate_tendons};
 

@@ -10,6 +10,7 @@ mod figures;
 mod frames;
 mod model;
 mod model_fit;
+mod model_plan;
 mod report;
 mod rig_check;
 mod rig_import;
@@ -41,6 +42,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             ModelCommand::Forward(args) => model::forward(&args),
             ModelCommand::Inverse(args) => model::inverse(&args),
             ModelCommand::Fit(args) => model_fit::run(&args),
+            ModelCommand::Plan(args) => model_plan::run(&args),
         },
         Command::Validate(args) => match &args.command {
             Some(ValidateCommand::Points(a)) => validate::points(a),

@@ -28,10 +28,16 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let experiment = match &args.model {
         None => None,
         Some(path) => {
+            anyhow::ensure!(
+                args.preload.is_finite() && args.preload > 0.0 && args.preload <= 0.5,
+                "--preload {}: give a compression strain above 0 and at most 0.5",
+                args.preload
+            );
             let model = super::model::load(path)?;
             config.catheter = super::catheter_for(&config.catheter, model.params());
             let plan = ExperimentPlan {
                 poses: args.poses,
+                preload_strain: args.preload,
                 ..ExperimentPlan::default()
             };
             Some(
