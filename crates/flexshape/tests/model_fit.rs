@@ -335,3 +335,76 @@ fn the_plan_predicts_the_intervals_a_run_reports() {
         assert!((est - truth).abs() <= 2.0 * total, "K[{j}]");
     }
 }
+
+/// The coverage target over seeds: the template catheter (steel tendons) simulated
+/// with six seeds (noise, texture), tracked and fitted. In every run and for both estimates
+/// (two-step and joint) Kx, Kz are within 5 % and every stiffness's truth lies within twice
+/// its interval, or the stiffness is said to be undetermined and still within twice it; the
+/// model's tips within 1 % of L1. Measured: Kx, Kz within 0.4 %; Ka0 −23…−26 %, Ka1
+/// −30…−35 %, at most 0.4 σ of their (wide, undetermined) intervals; tips ≤ 0.06 %.
+#[test]
+fn intervals_cover_the_truth_over_seeds() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("params.toml");
+    std::fs::write(&params, run(&["model", "template"])).unwrap();
+    let params = params.to_str().unwrap();
+    let mut covered = [0usize; 2];
+    let seeds = 2..8;
+    for seed in seeds.clone() {
+        let rec = dir.path().join(format!("rec{seed}"));
+        let rec = rec.to_str().unwrap();
+        let seed = seed.to_string();
+        run(&["simulate", "--out", rec, "--model", params, "--seed", &seed]);
+        let shapes = dir.path().join(format!("shapes{seed}.jsonl"));
+        let shapes = shapes.to_str().unwrap();
+        run(&["track", rec, "--out", shapes]);
+        let report: serde_json::Value = serde_json::from_str(&run(&[
+            "model", "fit", "--params", params, "--data", shapes, "--json",
+        ]))
+        .unwrap();
+        for (k, (fit, undetermined)) in [
+            (&report, &report["undetermined"]),
+            (&report["joint"], &report["joint"]["held"]),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let mut all = true;
+            for j in 0..4 {
+                let (est, total, truth) = (
+                    fit["estimated"][j].as_f64().unwrap(),
+                    fit["total_error"][j].as_f64().unwrap(),
+                    report["nominal"][j].as_f64().unwrap(),
+                );
+                let said = undetermined
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .any(|h| h["parameter"] == ["Kx", "Kz", "Ka0", "Ka1"][j]);
+                println!(
+                    "seed {seed} {}: K[{j}] {:+.1} % ± {:.1} %{}",
+                    ["two-step", "joint"][k],
+                    100.0 * (est / truth - 1.0),
+                    100.0 * total / est,
+                    if said { " (undetermined)" } else { "" }
+                );
+                if j < 2 {
+                    assert!((est / truth - 1.0).abs() < 0.05, "seed {seed}: K[{j}]");
+                }
+                all &= (est - truth).abs() <= 2.0 * total;
+            }
+            covered[k] += usize::from(all);
+        }
+        let tips = report["joint"]["tip_error_percent"][1].as_f64().unwrap();
+        assert!(tips < 1.0, "seed {seed}: tips {tips} %");
+        assert!(report["tip_error_percent"][1].as_f64().unwrap() < 1.0);
+    }
+    let runs = seeds.len();
+    println!(
+        "covered: two-step {}/{runs}, joint {}/{runs}",
+        covered[0], covered[1]
+    );
+    for c in covered {
+        assert!(10 * c >= 9 * runs, "{covered:?} of {runs}");
+    }
+}

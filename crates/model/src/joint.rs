@@ -55,6 +55,37 @@ pub struct JointEstimate {
     pub held: Vec<Held>,
 }
 
+impl JointEstimate {
+    /// The same estimate with each stiffness's error at least `floor` (its own unit; e.g.
+    /// another estimate's from the same sensed data), the difference counted as sensing error
+    /// and the held list judged again.
+    pub fn widened(mut self, floor: &[f64; 4]) -> Self {
+        let k = self.params.stiffness.diagonal();
+        for s in 0..4 {
+            if !self.estimated[s] || !(floor[s] > self.total_error[s]) {
+                continue;
+            }
+            self.total_error[s] = floor[s];
+            self.sensing_error[s] = (floor[s].powi(2) - self.standard_error[s].powi(2))
+                .max(0.0)
+                .sqrt();
+            let relative = floor[s] / k[s];
+            if relative > DETERMINED_SHARE && !self.held.iter().any(|h| h.parameter == NAMES[s]) {
+                self.held.push(Held {
+                    parameter: NAMES[s],
+                    reason: format!(
+                        "fitted to {:.1} ± {:.0} %: no better known than the two-step estimate from the same strains",
+                        k[s],
+                        relative * 100.0
+                    ),
+                    remedy: REMEDIES[s],
+                });
+            }
+        }
+        self
+    }
+}
+
 /// One pose: its tendon displacements (mm) and what was sensed (world frame).
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointPose {
@@ -145,7 +176,8 @@ pub fn identify_jointly(
         };
         // Fitted as a logarithm: its errors are relative.
         let scatter = se(col);
-        let bias = biased.iter().map(|d| d[col].powi(2)).sum::<f64>().sqrt();
+        // The biases' signs are unknown and may align: their effects add.
+        let bias = biased.iter().map(|d| d[col].abs()).sum::<f64>();
         let relative = scatter.hypot(bias);
         standard_error[s] = scatter * k[s];
         sensing_error[s] = bias * k[s];
@@ -616,6 +648,15 @@ mod tests {
                 want[s]
             );
         }
+        // Widened to another estimate's errors where those are larger, judged again.
+        let k = joint.params.stiffness.diagonal();
+        let wide = joint.clone().widened(&[0.0, 0.2 * k[1], 1e9, 0.01 * k[3]]);
+        assert_eq!(wide.total_error[0], joint.total_error[0]);
+        assert_eq!(wide.total_error[1], 0.2 * k[1]);
+        assert_eq!(wide.total_error[2], 0.0, "Ka0 was not fitted");
+        assert_eq!(wide.total_error[3], 0.01 * k[3]);
+        let held: Vec<&str> = wide.held.iter().map(|h| h.parameter).collect();
+        assert_eq!(held, ["Ka0", "Kz"]);
         // Too few poses for the unknowns.
         let e = identify_jointly(&start, &frame, &poses[..2], false, &EXACT).unwrap_err();
         assert!(e.to_string().contains("fewer residuals"), "{e}");
