@@ -62,7 +62,7 @@ impl JointEstimate {
     pub fn widened(mut self, floor: &[f64; 4]) -> Self {
         let k = self.params.stiffness.diagonal();
         for s in 0..4 {
-            if !self.estimated[s] || !(floor[s] > self.total_error[s]) {
+            if !self.estimated[s] || floor[s].is_nan() || floor[s] <= self.total_error[s] {
                 continue;
             }
             self.total_error[s] = floor[s];
