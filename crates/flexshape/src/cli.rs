@@ -267,6 +267,11 @@ pub struct ModelFitArgs {
     /// Write the registered model frame to FILE (JSON), for `flexshape track --model-frame`.
     #[arg(long, value_name = "FILE")]
     pub save_frame: Option<PathBuf>,
+    /// A known sensor ↔ model frame (JSON, as `--save-frame` writes: from an earlier fit or
+    /// the rig's drawings) instead of registering from the poses: no registration poses are
+    /// needed. Its `reference_base` places ε0's origin (else a relaxed pose does).
+    #[arg(long, value_name = "FILE")]
+    pub frame: Option<PathBuf>,
     /// How well the sensed curvatures are known beyond their scatter (a bias), percent: it
     /// widens each stiffness's interval by what the tendons make of it.
     #[arg(

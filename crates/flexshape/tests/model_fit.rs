@@ -104,6 +104,42 @@ fn simulated_experiment_recovers_the_stiffnesses() {
     assert!(get("registration_residual_deg", 0) < 1.0);
     assert!(get("registration_residual_deg", 1) < 0.5);
 
+    // A known frame instead of registration poses (a lab's fixed base): the same estimate
+    // from the records without them.
+    let unregistered = dir.path().join("unregistered.jsonl");
+    let text = std::fs::read_to_string(shapes).unwrap();
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.contains(r#""role":"register""#))
+        .collect();
+    assert!(kept.len() > 25);
+    std::fs::write(&unregistered, kept.join("\n") + "\n").unwrap();
+    let known: serde_json::Value = serde_json::from_str(&run(&[
+        "model",
+        "fit",
+        "--params",
+        &params,
+        "--data",
+        unregistered.to_str().unwrap(),
+        "--frame",
+        frame,
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(known["registration_poses"], 0);
+    assert_eq!(known["reference_pose"], true);
+    for j in 0..2 {
+        let (a, b) = (get("estimated", j), known["estimated"][j].as_f64().unwrap());
+        assert!(
+            (a / b - 1.0).abs() < 0.005,
+            "K[{j}] {a} vs {b} with the known frame"
+        );
+    }
+    let e = fails(&[
+        "model", "fit", "--params", &params, "--data", shapes, "--frame", shapes,
+    ]);
+    assert!(e.contains("not a model frame"), "{e}");
+
     // With the saved model frame, tracking reports κx, κz as the model defines them: the
     // simulator's truth (it posed the catheter by the model's q).
     let with_frame = dir.path().join("with_frame.jsonl");

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use anyhow::{Context, bail};
 use flexshape_curve::Section;
-use flexshape_model::nalgebra_types::{DVector, Point3, Vector3};
+use flexshape_model::nalgebra_types::{DVector, Point3, Rotation3, Vector3};
 use flexshape_model::{
     JointPose, ManipulatorParams, Model, Observation, SensedPose, SensingAccuracy, SensorFrame,
     estimate_stiffness, estimate_tendons, identify_jointly, tip_error,
@@ -246,6 +246,21 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
         strain: args.strain_accuracy,
         position_mm: args.position_accuracy,
     };
+    let known = match &args.frame {
+        None => None,
+        Some(path) => {
+            let f = super::model::load_frame(path)?;
+            // Rows of an orthonormal matrix (checked when loaded).
+            let [x, y, z] = [0, 1, 2]
+                .map(|c| Vector3::new(f.rotation[0][c], f.rotation[1][c], f.rotation[2][c]));
+            Some(SensorFrame {
+                rotation: Rotation3::from_basis_unchecked(&[x, y, z]),
+                reference_base: f.reference_base.map(Point3::from),
+                axis_residual: 0.0,
+                direction_residual: 0.0,
+            })
+        }
+    };
     let (report, frame) = fit(
         &model,
         &poses,
@@ -253,6 +268,7 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
         args.tendons,
         args.plots.as_deref(),
         &accuracy,
+        known,
     )?;
     if let Some(path) = &args.save_frame {
         let m = frame.rotation.matrix();
@@ -362,7 +378,9 @@ fn fit(
     with_tendons: bool,
     plots: Option<&Path>,
     accuracy: &SensingAccuracy,
+    known: Option<SensorFrame>,
 ) -> anyhow::Result<(Report, SensorFrame)> {
+    let known_given = known.is_some();
     let is_reference = |y: &DVector<f64>, role: &Option<PoseRole>| match role {
         Some(r) => *r == PoseRole::Reference,
         None => y.iter().all(|v| *v == 0.0),
@@ -388,8 +406,16 @@ fn fit(
     } else {
         marked
     };
-    let frame = SensorFrame::register(model, reference, &articulated)
-        .context("cannot register the model frame to the sensor")?;
+    let frame = match known {
+        // A relaxed pose places ε0's origin where the file does not.
+        Some(mut f) => {
+            f.reference_base = f.reference_base.or(reference.map(|r| r.base));
+            f
+        }
+        None => SensorFrame::register(model, reference, &articulated)
+            .context("cannot register the model frame to the sensor")?,
+    };
+    let registered = if known_given { 0 } else { articulated.len() };
     let observations: Vec<Observation> = data
         .iter()
         .map(|p| frame.observation(model, &p.sensed, p.y.clone()))
@@ -472,8 +498,8 @@ fn fit(
             .cloned()
             .map(HeldReport::from)
             .collect(),
-        registration_poses: articulated.len(),
-        reference_pose: reference.is_some(),
+        registration_poses: registered,
+        reference_pose: frame.reference_base.is_some(),
         skipped,
         registration_residual_deg: [
             frame.axis_residual.to_degrees(),

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
-use flexshape_track::{ModelFrame, Processed, SummaryLine, Tally, TrackRecord, TrackSummary};
+use flexshape_track::{Processed, SummaryLine, Tally, TrackRecord, TrackSummary};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
@@ -43,7 +43,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let model_frame = args
         .model_frame
         .as_deref()
-        .map(load_model_frame)
+        .map(super::model::load_frame)
         .transpose()?;
     let mut sinks = Sinks::open(args, &input.files)?;
     let mut viewer = super::viewer::start(&args.viewer, &pipeline)?;
@@ -165,22 +165,6 @@ fn progress(source: &dyn FrameSource) -> ProgressBar {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     )
-}
-
-/// The model frame `flexshape model fit --save-frame` wrote.
-fn load_model_frame(path: &Path) -> anyhow::Result<ModelFrame> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read the model frame {}", path.display()))?;
-    let frame: ModelFrame = serde_json::from_str(&text).with_context(|| {
-        format!(
-            "{}: not a model frame (write one with `flexshape model fit --save-frame`)",
-            path.display()
-        )
-    })?;
-    frame
-        .validate()
-        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    Ok(frame)
 }
 
 /// Where records go: the JSON Lines stream, and optionally CSV rows and PLY clouds.
