@@ -15,11 +15,14 @@
 //!   displacements (eq. 6), with the tip error of Table I.
 //! - [`plan_experiment`]: the preload that lets every stiffness be determined, and the
 //!   intervals a sensing accuracy gives.
+//! - [`TipController`]: the tip steered to targets from sensed shapes, the stiffnesses
+//!   refined online (the paper's future work).
 //! - [`identify_jointly`]: stiffnesses, registration and tendon positions fitted together to
 //!   the sensed tips (output error), from the two-step estimate.
 //!
 //! Units: mm, N, radians; curvature 1/mm; strains compression-positive.
 
+mod control;
 mod estimate;
 mod experiment;
 pub mod geometry;
@@ -32,6 +35,7 @@ mod tendons;
 
 use thiserror::Error;
 
+pub use control::{ControlSettings, TipController};
 pub use estimate::{
     DETERMINED_SHARE, Estimate, Held, Observation, SensingAccuracy, estimate_stiffness, tip_error,
 };
