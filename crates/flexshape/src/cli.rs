@@ -204,6 +204,34 @@ pub enum ModelCommand {
     /// Experiment design: the intervals the paper's experiment would give this catheter at
     /// each preload, with a sensing accuracy, and the preload that determines every stiffness.
     Plan(ModelPlanArgs),
+    /// Closed loop on the simulated rig: the catheter (its true stiffnesses off the parameter
+    /// file's by `--stiffness-error`) is rendered, sensed and steered to targets by a
+    /// controller that learns its stiffnesses online; prints the tip error per frame.
+    Steer(ModelSteerArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ModelSteerArgs {
+    /// Model parameters (TOML): what the controller believes at the start.
+    #[arg(long)]
+    pub params: PathBuf,
+    /// How far the simulated catheter's Kx and Kz are from the file's, percent.
+    #[arg(
+        long,
+        value_name = "KX,KZ",
+        default_value = "25,-20",
+        allow_negative_numbers = true
+    )]
+    pub stiffness_error: String,
+    /// Targets (tips the catheter can reach, in turning directions).
+    #[arg(long, default_value_t = 4)]
+    pub targets: usize,
+    /// Frames per target.
+    #[arg(long, default_value_t = 8)]
+    pub steps: usize,
+    /// Print one JSON line per frame and a summary line instead of the table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Debug, Args)]

@@ -231,7 +231,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         "--fps must be a positive number of frames per second"
     );
     let mut config = super::sim_config(&args.sim);
-    config.catheter = super::catheter_for(&config.catheter, model.params());
+    config.catheter = flexshape_steer::catheter_for(&config.catheter, model.params());
     let sim = Simulator::new(config).context("cannot set up the simulated rig")?;
     let backgrounds = sim
         .backgrounds()

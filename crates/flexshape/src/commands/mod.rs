@@ -11,6 +11,7 @@ mod frames;
 mod model;
 mod model_fit;
 mod model_plan;
+mod model_steer;
 mod report;
 mod rig_check;
 mod rig_import;
@@ -21,7 +22,6 @@ mod track;
 mod validate;
 mod viewer;
 
-use flexshape_model::ManipulatorParams;
 use flexshape_sim::{Catheter, RenderSettings, SimConfig, SimRigConfig};
 
 use crate::cli::{Cli, Command, ModelCommand, RigCommand, SimArgs, ValidateCommand};
@@ -43,6 +43,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             ModelCommand::Inverse(args) => model::inverse(&args),
             ModelCommand::Fit(args) => model_fit::run(&args),
             ModelCommand::Plan(args) => model_plan::run(&args),
+            ModelCommand::Steer(args) => model_steer::run(&args),
         },
         Command::Validate(args) => match &args.command {
             Some(ValidateCommand::Points(a)) => validate::points(a),
@@ -110,22 +111,6 @@ fn sim_config(args: &SimArgs) -> SimConfig {
 /// Cores available to this process (at least 1).
 fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
-}
-
-/// The simulated catheter built as the model describes it: its proximal section `L0` long
-/// (most of it below the volume) and its bending section `L1`, with the bending base where the
-/// default catheter has it, so the model's `ε0` moves the bending base as on a real rig.
-pub(crate) fn catheter_for(default: &Catheter, params: &ManipulatorParams) -> Catheter {
-    let bend_base = default.base.position + default.base.tangent() * default.proximal_length;
-    Catheter {
-        proximal_length: params.proximal_length,
-        bend_length: params.distal_length,
-        base: flexshape_curve::Frame {
-            position: bend_base - default.base.tangent() * params.proximal_length,
-            rotation: default.base.rotation,
-        },
-        ..default.clone()
-    }
 }
 
 /// A rig TOML, or a folder of OpenCV camera files (with the default volume).

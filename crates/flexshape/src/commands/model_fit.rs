@@ -12,7 +12,7 @@ use flexshape_model::{
 };
 use flexshape_plot::{Mark, PALETTE, Series3, orthographic_views};
 use flexshape_recording::PoseRole;
-use flexshape_track::{ModelFrame, TrackRecord};
+use flexshape_track::ModelFrame;
 use serde::Serialize;
 
 use crate::cli::ModelFitArgs;
@@ -215,7 +215,7 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
                 y.len()
             );
         }
-        match sensed(&record) {
+        match flexshape_steer::sensed_pose(&record) {
             Ok(s) => poses.push(Pose {
                 y: DVector::from_vec(y),
                 role: record.role,
@@ -287,32 +287,6 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
         print_table(&report);
     }
     Ok(())
-}
-
-/// What a record says about the bending section, or why it cannot be used.
-fn sensed(r: &TrackRecord) -> Result<SensedPose, String> {
-    if r.status != "ok" {
-        return Err(format!(
-            "status {}{}",
-            r.status,
-            r.reason
-                .as_deref()
-                .map(|s| format!(" ({s})"))
-                .unwrap_or_default()
-        ));
-    }
-    let (Some(fit), Some(band), Some(tip)) = (&r.arc_fit, r.bands.first(), r.tip) else {
-        return Err("no arc fit, band or tip".into());
-    };
-    let tangent = Vector3::from(fit.base_tangent);
-    let bend = Vector3::from(fit.bend_direction);
-    Ok(SensedPose {
-        base: Point3::from(band.position),
-        tangent,
-        curvature: tangent.cross(&bend) * fit.curvature,
-        bend_strain: r.compression.first().map(|c| c.strain),
-        tip: Point3::from(tip),
-    })
 }
 
 /// A commanded, sensed pose.

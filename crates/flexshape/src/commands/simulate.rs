@@ -34,7 +34,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
                 args.preload
             );
             let model = super::model::load(path)?;
-            config.catheter = super::catheter_for(&config.catheter, model.params());
+            config.catheter = flexshape_steer::catheter_for(&config.catheter, model.params());
             let plan = ExperimentPlan {
                 poses: args.poses,
                 preload_strain: args.preload,

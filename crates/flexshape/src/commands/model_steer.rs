@@ -1,0 +1,115 @@
+//! `flexshape model steer`: the closed loop on the simulated rig (library:
+//! `flexshape_steer::steer`).
+
+use std::ops::ControlFlow;
+
+use anyhow::{Context, ensure};
+use flexshape_sim::SimConfig;
+use flexshape_steer::{SteerSettings, reachable_targets, steer};
+
+use crate::cli::ModelSteerArgs;
+use crate::interrupt::Interrupt;
+
+pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
+    let model = super::model::load(&args.params)?;
+    let errors: Vec<f64> = args
+        .stiffness_error
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .ok()
+        .filter(|v: &Vec<f64>| {
+            v.len() == 2 && v.iter().all(|e| e.is_finite() && *e > -90.0 && *e < 900.0)
+        })
+        .with_context(|| {
+            format!(
+                "--stiffness-error {}: give two percentages KX,KZ above -90, e.g. 25,-20",
+                args.stiffness_error
+            )
+        })?;
+    ensure!(
+        (1..=100).contains(&args.targets),
+        "--targets {}: give 1 to 100",
+        args.targets
+    );
+    ensure!(
+        (1..=1000).contains(&args.steps),
+        "--steps {}: give 1 to 1000",
+        args.steps
+    );
+    let nominal = model.params().clone();
+    let mut truth = nominal.clone();
+    truth.stiffness.kx *= 1.0 + errors[0] / 100.0;
+    truth.stiffness.kz *= 1.0 + errors[1] / 100.0;
+    let settings = SteerSettings {
+        steps_per_target: args.steps,
+        ..SteerSettings::default()
+    };
+    let targets = reachable_targets(&truth, args.targets, settings.control.preload_strain)
+        .context("cannot find targets the catheter reaches")?;
+    let stop = Interrupt::install();
+    if !args.json {
+        println!(
+            "{:>5} {:>6} {:>14} {:>10} {:>10} {:>10} {:>10}",
+            "frame", "target", "status", "sensed mm", "true mm", "Kx used", "Kz used"
+        );
+    }
+    let (steps, learnt) = steer(
+        &SimConfig::default(),
+        &truth,
+        &nominal,
+        &targets,
+        &settings,
+        |s| {
+            if args.json {
+                if let Ok(line) = serde_json::to_string(s) {
+                    println!("{line}");
+                }
+            } else {
+                println!(
+                    "{:>5} {:>6} {:>14} {:>10} {:>10.3} {:>10.1} {:>10.1}",
+                    s.frame,
+                    s.target_index,
+                    s.status,
+                    s.sensed_error_mm.map_or("—".into(), |e| format!("{e:.3}")),
+                    s.true_error_mm,
+                    s.stiffness[0],
+                    s.stiffness[1]
+                );
+            }
+            if stop.requested() {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        },
+    )
+    .context("the closed loop stopped")?;
+    let finals: Vec<f64> = (0..targets.len())
+        .filter_map(|t| steps.iter().rfind(|s| s.target_index == t))
+        .map(|s| s.true_error_mm)
+        .collect();
+    let worst = finals.iter().copied().fold(0.0, f64::max);
+    let summary = serde_json::json!({
+        "frames": steps.len(),
+        "final_true_error_mm": finals,
+        "worst_final_true_error_mm": worst,
+        "true_stiffness": [truth.stiffness.kx, truth.stiffness.kz],
+        "learnt_stiffness": learnt.map(|k| [k.kx, k.kz]),
+    });
+    if args.json {
+        println!("{summary}");
+    } else {
+        println!(
+            "\n{} frames; tip at the end of each target within {worst:.3} mm of it (true tip); \
+             Kx, Kz learnt online: {} (truth {:.1}, {:.1}; the file said {:.1}, {:.1})",
+            steps.len(),
+            learnt.map_or("not yet".into(), |k| format!("{:.1}, {:.1}", k.kx, k.kz)),
+            truth.stiffness.kx,
+            truth.stiffness.kz,
+            nominal.stiffness.kx,
+            nominal.stiffness.kz
+        );
+    }
+    Ok(())
+}
