@@ -232,6 +232,10 @@ pub struct ModelSteerArgs {
     /// Print one JSON line per frame and a summary line instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Write the tip error over time and the convergence of the stiffnesses in use (PNG + SVG)
+    /// to this folder.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

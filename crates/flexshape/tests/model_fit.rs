@@ -454,6 +454,7 @@ fn steer_reaches_the_targets_and_learns_the_stiffnesses() {
     let params = dir.path().join("params.toml");
     std::fs::write(&params, run(&["model", "template"])).unwrap();
     let params = params.to_str().unwrap();
+    let plots = dir.path().join("plots");
     let out = run(&[
         "model",
         "steer",
@@ -464,7 +465,16 @@ fn steer_reaches_the_targets_and_learns_the_stiffnesses() {
         "--steps",
         "6",
         "--json",
+        "--plots",
+        plots.to_str().unwrap(),
     ]);
+    let img = image::open(plots.join("steer.png")).unwrap().to_rgb8();
+    let inked = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+    assert!(
+        inked * 50 > (img.width() * img.height()) as usize,
+        "{inked}"
+    );
+    assert!(plots.join("steer.svg").is_file());
     let lines: Vec<serde_json::Value> = out
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())

@@ -3,11 +3,14 @@
 //! - [`orthographic_views`]: point sets and curves in three orthogonal views at equal scale
 //!   (the paper's Figs. 3, 5–7, 10, 11).
 //! - [`histograms`]: distributions of errors, one panel per series (e.g. per axis).
+//! - [`timelines`]: quantities over frames, one panel per quantity (e.g. a closed loop's tip
+//!   error and its stiffness estimate).
 //!
 //! Coordinates in mm. Text uses the embedded DejaVu Sans (no system fonts needed).
 
 mod histogram;
 mod style;
+mod timeline;
 mod views;
 
 use std::path::{Path, PathBuf};
@@ -16,6 +19,7 @@ use thiserror::Error;
 
 pub use histogram::{HistogramSeries, histograms};
 pub use style::{Colour, Mark, PALETTE};
+pub use timeline::{TimePanel, TimeSeries, timelines};
 pub use views::{Series3, orthographic_views};
 
 /// Why a figure could not be drawn or written.

@@ -85,6 +85,9 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
         },
     )
     .context("the closed loop stopped")?;
+    if let Some(dir) = &args.plots {
+        figures(dir, &steps, [truth.stiffness.kx, truth.stiffness.kz])?;
+    }
     let finals: Vec<f64> = (0..targets.len())
         .filter_map(|t| steps.iter().rfind(|s| s.target_index == t))
         .map(|s| s.true_error_mm)
@@ -111,5 +114,47 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
             nominal.stiffness.kz
         );
     }
+    Ok(())
+}
+
+/// The tip's error over the frames (sensed and true, log scale) and the stiffnesses the
+/// controller used, relative to the truth.
+fn figures(
+    dir: &std::path::Path,
+    steps: &[flexshape_steer::SteerStep],
+    truth: [f64; 2],
+) -> anyhow::Result<()> {
+    use flexshape_plot::{PALETTE, TimePanel, TimeSeries, timelines};
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let line =
+        |label: &str, k: usize, value: &dyn Fn(&flexshape_steer::SteerStep) -> f64| TimeSeries {
+            label: label.into(),
+            points: steps.iter().map(|s| (s.frame as f64, value(s))).collect(),
+            colour: PALETTE[k],
+        };
+    let panels = [
+        TimePanel {
+            y_label: "tip error (mm)".into(),
+            series: vec![
+                line("sensed", 0, &|s| s.sensed_error_mm.unwrap_or(f64::NAN)),
+                line("true", 1, &|s| s.true_error_mm),
+            ],
+            log: true,
+        },
+        TimePanel {
+            y_label: "stiffness used − truth (%)".into(),
+            series: vec![
+                line("Kx", 2, &|s| 100.0 * (s.stiffness[0] / truth[0] - 1.0)),
+                line("Kz", 3, &|s| 100.0 * (s.stiffness[1] / truth[1] - 1.0)),
+            ],
+            log: false,
+        },
+    ];
+    timelines(
+        "Closed loop: the tip steered to targets, the stiffnesses learnt online",
+        "frame",
+        &panels,
+        &dir.join("steer"),
+    )?;
     Ok(())
 }
