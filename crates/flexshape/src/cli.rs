@@ -299,6 +299,11 @@ pub struct ModelFitArgs {
     /// Write the registered model frame to FILE (JSON), for `flexshape track --model-frame`.
     #[arg(long, value_name = "FILE")]
     pub save_frame: Option<PathBuf>,
+    /// Tendon displacements per frame from a CSV file (`frame,y0,y1,…` in mm, one line per
+    /// frame; a header line is allowed), for records that do not carry them (a lab's
+    /// recording with the actuators' log beside it).
+    #[arg(long, value_name = "CSV")]
+    pub displacements: Option<PathBuf>,
     /// A known sensor ↔ model frame (JSON, as `--save-frame` writes: from an earlier fit or
     /// the rig's drawings) instead of registering from the poses: no registration poses are
     /// needed. Its `reference_base` places ε0's origin (else a relaxed pose does).

@@ -140,6 +140,60 @@ fn simulated_experiment_recovers_the_stiffnesses() {
     ]);
     assert!(e.contains("not a model frame"), "{e}");
 
+    // Records without displacements, and the actuators' log beside them (a lab's recording):
+    // the same estimate.
+    let (mut csv, mut bare) = (String::from("frame,y0,y1,y2,y3\n"), String::new());
+    for line in text.lines() {
+        let mut v: serde_json::Value = serde_json::from_str(line).unwrap();
+        if let Some(y) = v
+            .get("tendon_displacements")
+            .and_then(|y| y.as_array())
+            .cloned()
+        {
+            let ys: Vec<String> = y.iter().map(|x| x.to_string()).collect();
+            csv += &format!("{},{}\n", v["frame"], ys.join(","));
+            v.as_object_mut().unwrap().remove("tendon_displacements");
+        }
+        bare += &(v.to_string() + "\n");
+    }
+    let (csv_path, bare_path) = (dir.path().join("y.csv"), dir.path().join("bare.jsonl"));
+    std::fs::write(&csv_path, csv).unwrap();
+    std::fs::write(&bare_path, bare).unwrap();
+    let logged: serde_json::Value = serde_json::from_str(&run(&[
+        "model",
+        "fit",
+        "--params",
+        &params,
+        "--data",
+        bare_path.to_str().unwrap(),
+        "--displacements",
+        csv_path.to_str().unwrap(),
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(logged["estimated"], report["estimated"]);
+    let e = fails(&[
+        "model",
+        "fit",
+        "--params",
+        &params,
+        "--data",
+        bare_path.to_str().unwrap(),
+    ]);
+    assert!(e.contains("--displacements"), "{e}");
+    std::fs::write(&csv_path, "frame,y0\n0,1\n").unwrap();
+    let e = fails(&[
+        "model",
+        "fit",
+        "--params",
+        &params,
+        "--data",
+        bare_path.to_str().unwrap(),
+        "--displacements",
+        csv_path.to_str().unwrap(),
+    ]);
+    assert!(e.contains("y.csv line 2") && e.contains("4 tendons"), "{e}");
+
     // With the saved model frame, tracking reports κx, κz as the model defines them: the
     // simulator's truth (it posed the catheter by the model's q).
     let with_frame = dir.path().join("with_frame.jsonl");

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use anyhow::{Context, bail};
+use anyhow::{Context, bail, ensure};
 use flexshape_curve::Section;
 use flexshape_model::nalgebra_types::{DVector, Point3, Rotation3, Vector3};
 use flexshape_model::{
@@ -200,13 +200,45 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
     let mut poses: Vec<Pose> = Vec::new();
     let mut skipped = Vec::new();
     let mut commanded = 0;
-    for (line, record) in super::figures::read_records(&args.data)? {
+    let n = model.params().tendons.len();
+    let logged: std::collections::HashMap<u64, Vec<f64>> = match &args.displacements {
+        None => Default::default(),
+        Some(path) => {
+            let rows = super::read_csv_numbers(
+                path,
+                n + 1,
+                &format!(
+                    "`frame,y0,…,y{}` ({} numbers: the model has {n} tendons)",
+                    n - 1,
+                    n + 1
+                ),
+            )?;
+            let mut map = std::collections::HashMap::new();
+            for row in rows {
+                let frame = row[0];
+                ensure!(
+                    frame >= 0.0 && frame.fract() == 0.0,
+                    "{}: frame {frame} is not a frame number",
+                    path.display()
+                );
+                ensure!(
+                    map.insert(frame as u64, row[1..].to_vec()).is_none(),
+                    "{}: frame {frame} is given twice",
+                    path.display()
+                );
+            }
+            map
+        }
+    };
+    for (line, mut record) in super::figures::read_records(&args.data)? {
         let place = || format!("{} line {line}", args.data.display());
+        if record.tendon_displacements.is_none() {
+            record.tendon_displacements = logged.get(&record.frame).cloned();
+        }
         let Some(y) = record.tendon_displacements.clone() else {
             continue;
         };
         commanded += 1;
-        let n = model.params().tendons.len();
         if y.len() != n {
             bail!(
                 "{}: frame {} has {} tendon displacements but the model has {n} tendons",
@@ -228,7 +260,8 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
     if commanded == 0 {
         bail!(
             "{}: no record carries `tendon_displacements`; track a recording that has commands/ \
-             (e.g. from `flexshape simulate --model`) or add them to each record",
+             (e.g. from `flexshape simulate --model`), or give them per frame with \
+             --displacements FILE.csv",
             args.data.display()
         );
     }

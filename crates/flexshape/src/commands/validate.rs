@@ -27,26 +27,10 @@ const PAPER_BANDS: [f64; 3] = [0.49, 0.77, 0.47];
 
 /// Points from a CSV of `x,y,z` lines; a first line that is not numeric is a header.
 fn read_points(path: &Path) -> anyhow::Result<Vec<Point3<f64>>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut points = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let v: Result<Vec<f64>, _> = line.split(',').map(|x| x.trim().parse::<f64>()).collect();
-        match v {
-            Ok(v) if v.len() == 3 => points.push(Point3::new(v[0], v[1], v[2])),
-            Err(_) if points.is_empty() && i == 0 => continue, // a header
-            _ => bail!(
-                "{} line {}: expected `x,y,z` (three numbers), found `{line}`",
-                path.display(),
-                i + 1
-            ),
-        }
-    }
-    Ok(points)
+    Ok(super::read_csv_numbers(path, 3, "`x,y,z` (three numbers)")?
+        .into_iter()
+        .map(|v| Point3::new(v[0], v[1], v[2]))
+        .collect())
 }
 
 fn rms_line(name: &str, got: [f64; 3], paper: [f64; 3]) -> String {
