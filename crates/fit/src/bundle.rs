@@ -185,7 +185,7 @@ impl TubeFitter {
                 current = tubes
                     .par_iter()
                     .zip(&measured)
-                    .map(|(tube, m)| against(&cameras, tube, m))
+                    .map(|(tube, m)| against(&cameras, tube, m, false))
                     .collect();
             }
         }

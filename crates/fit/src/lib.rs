@@ -40,7 +40,7 @@ pub use settings::{FitSettings, Method};
 pub use tube::Tube;
 
 use edges::EdgeImage;
-use solve::{against, against_all, measure, normal_equations};
+use solve::{against, measure, normal_equations};
 
 /// Why the fit cannot be set up or run.
 #[derive(Debug, Error)]
@@ -266,14 +266,14 @@ impl TubeFitter {
                         // Started close (a followed frame): the boundaries were searched
                         // around nearly where the tube settled, and serve the check as they
                         // are.
-                        settled = Some(against_all(&self.cameras, &tube, &measured));
+                        settled = Some(against(&self.cameras, &tube, &measured, true));
                         break 'outer;
                     }
                     // Converged on these boundaries (or still creeping, as Huber weights make
                     // it when some boundaries were found far off): measure them again.
                     break;
                 }
-                current = against(&self.cameras, &tube, &measured);
+                current = against(&self.cameras, &tube, &measured, false);
             }
         }
         let measured = settled.unwrap_or_else(|| measure(&self.cameras, &images, &tube, s));

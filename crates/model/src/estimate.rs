@@ -51,10 +51,10 @@ pub struct Estimate {
     pub standard_error: [f64; 4],
     /// How strongly each estimate reacts to errors in the sensed configuration: the relative
     /// error of `K_j` per relative error of `q_j`, `1 + (D Kt Lt⁻¹ Dᵀ L)_jj / K_j` (for an
-    /// axial stiffness the row's two axial terms, a strain bias being alike in both sections). Large when
-    /// the tendons are stiff next to the manipulator (their stretch, which reveals the load, is
-    /// then a small difference of large path lengths): a 0.3 % curvature bias becomes a
-    /// 7.5 % stiffness bias at 25.
+    /// axial stiffness the row's two axial terms, a strain bias being alike in both
+    /// sections). Large when the tendons are stiff next to the manipulator (their stretch,
+    /// which reveals the load, is then a small difference of large path lengths): a 0.3 %
+    /// curvature bias becomes a 7.5 % stiffness bias at 25.
     pub sensitivity: [f64; 4],
     /// Ka0 and Ka1 in series, N per unit strain.
     pub serial_axial: f64,

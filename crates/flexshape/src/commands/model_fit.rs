@@ -387,7 +387,6 @@ fn fit(
     accuracy: &SensingAccuracy,
     known: Option<SensorFrame>,
 ) -> anyhow::Result<(Report, SensorFrame)> {
-    let known_given = known.is_some();
     let is_reference = |y: &DVector<f64>, role: &Option<PoseRole>| match role {
         Some(r) => *r == PoseRole::Reference,
         None => y.iter().all(|v| *v == 0.0),
@@ -413,6 +412,11 @@ fn fit(
     } else {
         marked
     };
+    let registered = if known.is_some() {
+        0
+    } else {
+        articulated.len()
+    };
     let frame = match known {
         // A relaxed pose places ε0's origin where the file does not.
         Some(mut f) => {
@@ -422,7 +426,6 @@ fn fit(
         None => SensorFrame::register(model, reference, &articulated)
             .context("cannot register the model frame to the sensor")?,
     };
-    let registered = if known_given { 0 } else { articulated.len() };
     let observations: Vec<Observation> = data
         .iter()
         .map(|p| frame.observation(model, &p.sensed, p.y.clone()))
@@ -487,7 +490,7 @@ fn fit(
         estimated_from_data: estimate.estimated,
         standard_error: estimate.standard_error,
         sensing_error: estimate.sensing_error(&observations, accuracy),
-        total_error: estimate.total_error(&observations, accuracy),
+        total_error: two_step_error,
         undetermined: estimate
             .determined(&observations, accuracy)
             .into_iter()
