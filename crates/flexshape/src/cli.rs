@@ -281,7 +281,8 @@ pub struct ModelFitArgs {
     #[arg(long)]
     pub params: PathBuf,
     /// Tracking output (`flexshape track` JSON Lines) whose records carry
-    /// `tendon_displacements` (and optionally `role`).
+    /// `tendon_displacements` (and optionally `role`), or a recording folder, which is then
+    /// tracked first (with its `commands/`, or `--displacements`).
     #[arg(long)]
     pub data: PathBuf,
     /// Also estimate where the tendons are (the paper's future work): their `(dx, dz)` by

@@ -318,6 +318,23 @@ fn stiff_tendons_leave_the_axial_stiffnesses_undetermined_and_say_so() {
         assert!((est - truth).abs() <= 2.0 * total, "K[{j}]");
     }
     joint_within_its_intervals(&report);
+    // The whole workflow in one command: the recording folder tracked by `model fit` itself
+    // (the records in memory at full precision, the file's rounded: the same to 0.1 %).
+    let direct: serde_json::Value = serde_json::from_str(&run(&[
+        "model", "fit", "--params", params, "--data", rec, "--json",
+    ]))
+    .unwrap();
+    assert_eq!(direct["observations"], report["observations"]);
+    for j in 0..4 {
+        let (a, b) = (
+            get("estimated", j),
+            direct["estimated"][j].as_f64().unwrap(),
+        );
+        assert!(
+            (a / b - 1.0).abs() < 1e-3,
+            "K[{j}] {a} from the file, {b} from the folder"
+        );
+    }
     // And the text report says what would determine them.
     let text = run(&["model", "fit", "--params", params, "--data", shapes]);
     assert!(

@@ -12,7 +12,7 @@ use flexshape_model::{
 };
 use flexshape_plot::{Mark, PALETTE, Series3, orthographic_views};
 use flexshape_recording::PoseRole;
-use flexshape_track::ModelFrame;
+use flexshape_track::{ModelFrame, TrackRecord};
 use serde::Serialize;
 
 use crate::cli::ModelFitArgs;
@@ -230,7 +230,7 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
             map
         }
     };
-    for (line, mut record) in super::figures::read_records(&args.data)? {
+    for (line, mut record) in records_of(&args.data)? {
         let place = || format!("{} line {line}", args.data.display());
         if record.tendon_displacements.is_none() {
             record.tendon_displacements = logged.get(&record.frame).cloned();
@@ -654,4 +654,57 @@ fn print_joint(j: &JointReport, names: &[&str; 4]) {
     for h in &j.held {
         println!("{}: {}; {}", h.parameter, h.reason, h.remedy);
     }
+}
+
+/// The tracking records of `data`: a JSON Lines file from `flexshape track`, or a recording
+/// folder, tracked here (the whole Table-I workflow in one command). Pairs of (line or frame
+/// index, record).
+fn records_of(data: &Path) -> anyhow::Result<Vec<(usize, TrackRecord)>> {
+    if !data.is_dir() {
+        return super::figures::read_records(data);
+    }
+    let frames = crate::cli::FramesArgs {
+        recording: Some(data.to_path_buf()),
+        images: Vec::new(),
+        masks: Vec::new(),
+        video: Vec::new(),
+        camera: Vec::new(),
+        rig: None,
+        backgrounds: None,
+        volume: None,
+        voxel: None,
+        classifier: None,
+    };
+    let mut input = super::frames::open_input(&frames)?;
+    let volume = super::frames::volume(&input.rig.volume, &frames)?;
+    let pipeline = input
+        .pipeline(&volume)
+        .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
+    let stop = crate::interrupt::Interrupt::install();
+    let mut records = Vec::new();
+    eprintln!("tracking {} …", data.display());
+    let end = flexshape_track::run(
+        input.source.as_mut(),
+        &pipeline,
+        super::cores(),
+        stop.flag(),
+        |p: flexshape_track::Processed| {
+            let record = TrackRecord::from_processed(&p);
+            records.push((records.len(), record));
+            std::ops::ControlFlow::Continue(())
+        },
+    );
+    if let Some(e) = end.input_error {
+        bail!(
+            "{}: the input broke after {} frames: {e}",
+            data.display(),
+            records.len()
+        );
+    }
+    ensure!(
+        !stop.requested(),
+        "interrupted while tracking {}",
+        data.display()
+    );
+    Ok(records)
 }
