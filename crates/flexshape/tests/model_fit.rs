@@ -278,6 +278,19 @@ fn fit_input_errors_name_the_problem() {
     // Not JSON.
     let t = fit("garbage\n");
     assert!(t.contains("line 1: not JSON"), "{t}");
+    // A folder that is not a recording: said so, with what else `--data` takes.
+    let t = fails(&[
+        "model",
+        "fit",
+        "--params",
+        &params,
+        "--data",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(
+        t.contains("read as a recording") && t.contains("JSON Lines"),
+        "{t}"
+    );
 }
 
 /// Stiff steel tendons (the template's, 40× the bending stiffness): the same sensing now

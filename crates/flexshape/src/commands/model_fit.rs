@@ -675,7 +675,13 @@ fn records_of(data: &Path) -> anyhow::Result<Vec<(usize, TrackRecord)>> {
         voxel: None,
         classifier: None,
     };
-    let mut input = super::frames::open_input(&frames)?;
+    let mut input = super::frames::open_input(&frames).with_context(|| {
+        format!(
+            "--data {}: a folder is read as a recording (give a `flexshape track` JSON Lines file \
+             otherwise)",
+            data.display()
+        )
+    })?;
     let volume = super::frames::volume(&input.rig.volume, &frames)?;
     let pipeline = input
         .pipeline(&volume)
