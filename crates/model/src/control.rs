@@ -136,6 +136,12 @@ impl TipController {
         Ok(y)
     }
 
+    /// The curvatures `[κx, κz]` (1/mm, model frame) the controller's model expects of its
+    /// last command.
+    pub fn commanded_kappa(&self) -> [f64; 2] {
+        [self.kappa.x, self.kappa.y]
+    }
+
     /// The stiffnesses the controller's model uses now.
     pub fn stiffness(&self) -> Stiffness {
         self.model.params().stiffness

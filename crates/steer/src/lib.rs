@@ -78,6 +78,10 @@ pub struct SteerStep {
     pub true_error_mm: f64,
     /// The stiffnesses the controller used for this command.
     pub stiffness: [f64; 4],
+    /// The curvatures `[κx, κz]` its model expected of the command, 1/mm.
+    pub commanded_kappa: [f64; 2],
+    /// The sensed curvatures `[κx, κz]` (the arc fit in the model frame), 1/mm.
+    pub sensed_kappa: Option<[f64; 2]>,
 }
 
 /// The simulated catheter built as the model describes it: its proximal section `L0` long
@@ -216,6 +220,8 @@ pub fn steer(
                 sensed_error_mm: sensed_tip.map(|t| (t - target).norm()),
                 true_error_mm: (true_tip - target).norm(),
                 stiffness,
+                commanded_kappa: control.commanded_kappa(),
+                sensed_kappa: observation.as_ref().map(|o| [o.q[0], o.q[1]]),
             };
             sensed = observation;
             frame += 1;

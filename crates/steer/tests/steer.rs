@@ -49,6 +49,20 @@ fn the_sensed_tip_is_steered_to_its_targets_and_the_stiffnesses_are_learnt() {
             last.true_error_mm
         );
     }
+    // What the controller's model expected of each command against what was sensed: the
+    // nominal model's first command bends the catheter 6.9 % less than it expects (measured
+    // 1.0686), the learnt model's last within 0.1 % (0.9990).
+    let kappa = |k: [f64; 2]| k[0].hypot(k[1]);
+    let (first, last) = (&steps[0], steps.last().unwrap());
+    let ratio =
+        |s: &flexshape_steer::SteerStep| kappa(s.commanded_kappa) / kappa(s.sensed_kappa.unwrap());
+    println!(
+        "expected/sensed curvature: first {:.4}, last {:.4}",
+        ratio(first),
+        ratio(last)
+    );
+    assert!((ratio(first) - 1.0).abs() > 0.03, "{first:?}");
+    assert!((ratio(last) - 1.0).abs() < 0.01, "{last:?}");
     let learnt = learnt.expect("an online estimate");
     for (got, want) in [
         (learnt.kx, truth.stiffness.kx),

@@ -117,8 +117,9 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The tip's error over the frames (sensed and true, log scale) and the stiffnesses the
-/// controller used, relative to the truth.
+/// The tip's error over the frames (sensed and true, log scale), the curvature the
+/// controller's model expected of each command against the sensed one, and the stiffnesses
+/// the controller used, relative to the truth.
 fn figures(
     dir: &std::path::Path,
     steps: &[flexshape_steer::SteerStep],
@@ -140,6 +141,19 @@ fn figures(
                 line("true", 1, &|s| s.true_error_mm),
             ],
             log: true,
+        },
+        TimePanel {
+            y_label: "curvature |κ| (1/m)".into(),
+            series: vec![
+                line("commanded (model)", 4, &|s| {
+                    1000.0 * s.commanded_kappa[0].hypot(s.commanded_kappa[1])
+                }),
+                line("sensed", 5, &|s| {
+                    s.sensed_kappa
+                        .map_or(f64::NAN, |k| 1000.0 * k[0].hypot(k[1]))
+                }),
+            ],
+            log: false,
         },
         TimePanel {
             y_label: "stiffness used − truth (%)".into(),
