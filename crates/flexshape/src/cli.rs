@@ -253,22 +253,9 @@ pub struct ModelPlanArgs {
     /// to it are compared.
     #[arg(long, default_value_t = 0.02, value_name = "STRAIN")]
     pub max_strain: f64,
-    /// How well sensed curvatures are known beyond their scatter, percent.
-    #[arg(
-        long,
-        value_name = "PERCENT",
-        default_value_t = 0.1,
-        allow_negative_numbers = true
-    )]
-    pub curvature_accuracy: f64,
-    /// How well sensed axial strains are known beyond their scatter.
-    #[arg(
-        long,
-        value_name = "STRAIN",
-        default_value_t = 3e-4,
-        allow_negative_numbers = true
-    )]
-    pub strain_accuracy: f64,
+    /// The sensing's biases the intervals are predicted from.
+    #[command(flatten)]
+    pub bias: SensingBiasArgs,
     /// Print the plan as JSON.
     #[arg(long)]
     pub json: bool,
@@ -310,6 +297,24 @@ pub struct ModelFitArgs {
     /// needed. Its `reference_base` places ε0's origin (else a relaxed pose does).
     #[arg(long, value_name = "FILE")]
     pub frame: Option<PathBuf>,
+    /// The sensing's biases, which widen each stiffness's interval.
+    #[command(flatten)]
+    pub bias: SensingBiasArgs,
+    /// How well the sensed tips and bending bases are placed beyond their scatter (a bias),
+    /// mm (0.1: the image fit's tips and bands on the simulator). Widens the joint
+    /// identification's intervals.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 0.1,
+        allow_negative_numbers = true
+    )]
+    pub position_accuracy: f64,
+}
+
+/// How well sensed configurations are known beyond their scatter (`model fit`, `model plan`).
+#[derive(Debug, Args)]
+pub struct SensingBiasArgs {
     /// How well the sensed curvatures are known beyond their scatter (a bias), percent: it
     /// widens each stiffness's interval by what the tendons make of it.
     #[arg(
@@ -328,16 +333,6 @@ pub struct ModelFitArgs {
         allow_negative_numbers = true
     )]
     pub strain_accuracy: f64,
-    /// How well the sensed tips and bending bases are placed beyond their scatter (a bias),
-    /// mm (0.1: the image fit's tips and bands on the simulator). Widens the joint
-    /// identification's intervals.
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 0.1,
-        allow_negative_numbers = true
-    )]
-    pub position_accuracy: f64,
 }
 
 #[derive(Debug, Args)]

@@ -148,3 +148,25 @@ pub fn inverse(args: &ModelArgs) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// The sensing accuracy of `bias` with tips and bases placed to `position_mm`, each value
+/// checked against its range (the option named when it is outside).
+pub fn sensing_accuracy(
+    bias: &crate::cli::SensingBiasArgs,
+    position_mm: f64,
+) -> anyhow::Result<flexshape_model::SensingAccuracy> {
+    for (name, v, hi) in [
+        ("--curvature-accuracy", bias.curvature_accuracy, 100.0),
+        ("--strain-accuracy", bias.strain_accuracy, 1.0),
+        ("--position-accuracy", position_mm, 100.0),
+    ] {
+        if !(v.is_finite() && (0.0..=hi).contains(&v)) {
+            bail!("{name} {v}: give a value from 0 to {hi}");
+        }
+    }
+    Ok(flexshape_model::SensingAccuracy {
+        curvature_share: bias.curvature_accuracy / 100.0,
+        strain: bias.strain_accuracy,
+        position_mm,
+    })
+}

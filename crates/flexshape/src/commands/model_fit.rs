@@ -265,20 +265,7 @@ pub fn run(args: &ModelFitArgs) -> anyhow::Result<()> {
             args.data.display()
         );
     }
-    for (name, v, hi) in [
-        ("--curvature-accuracy", args.curvature_accuracy, 100.0),
-        ("--strain-accuracy", args.strain_accuracy, 1.0),
-        ("--position-accuracy", args.position_accuracy, 100.0),
-    ] {
-        if !(v.is_finite() && (0.0..=hi).contains(&v)) {
-            bail!("{name} {v}: give a value from 0 to {hi}");
-        }
-    }
-    let accuracy = SensingAccuracy {
-        curvature_share: args.curvature_accuracy / 100.0,
-        strain: args.strain_accuracy,
-        position_mm: args.position_accuracy,
-    };
+    let accuracy = super::model::sensing_accuracy(&args.bias, args.position_accuracy)?;
     let known = match &args.frame {
         None => None,
         Some(path) => {

@@ -48,20 +48,8 @@ pub fn run(args: &ModelPlanArgs) -> anyhow::Result<()> {
             args.max_strain
         );
     }
-    for (name, v, hi) in [
-        ("--curvature-accuracy", args.curvature_accuracy, 100.0),
-        ("--strain-accuracy", args.strain_accuracy, 1.0),
-    ] {
-        ensure!(
-            v.is_finite() && (0.0..=hi).contains(&v),
-            "{name} {v}: give a value from 0 to {hi}"
-        );
-    }
-    let accuracy = SensingAccuracy {
-        curvature_share: args.curvature_accuracy / 100.0,
-        strain: args.strain_accuracy,
-        ..SensingAccuracy::default()
-    };
+    let accuracy =
+        super::model::sensing_accuracy(&args.bias, SensingAccuracy::default().position_mm)?;
     let mut preloads = vec![0.002];
     while preloads
         .last()
@@ -107,7 +95,7 @@ pub fn run(args: &ModelPlanArgs) -> anyhow::Result<()> {
         "The paper's experiment ({} workspace poses up to {:.0}°, one per tendon to register) on \
          this catheter, sensed with curvatures within {} % and strains within {:.1e}: predicted \
          1-σ error of each stiffness from the sensing's bias (a run's scatter adds to it)",
-        args.poses, args.max_bend, args.curvature_accuracy, args.strain_accuracy
+        args.poses, args.max_bend, args.bias.curvature_accuracy, args.bias.strain_accuracy
     );
     println!(
         "{:>9} {:>16} {:>9} {:>9} {:>9} {:>9}",
