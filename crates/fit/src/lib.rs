@@ -252,32 +252,46 @@ impl TubeFitter {
                 }
                 let radii = step.rows_range(tube.radius_column(0)..).amax();
                 let across = across_tube(&tube, &step).max(radii);
+                iterations += 1;
+                if inner > 0
+                    && round == 0
+                    && across < CONVERGED_MM
+                    && moved + across < ONE_MEASUREMENT_MM
+                {
+                    // Started close (a followed frame) and converged: the boundaries were
+                    // searched around nearly where the tube settled, and they and this
+                    // linearisation serve the check and the covariance as they are (the step
+                    // left is below the fit's resolution).
+                    settled = Some((current, Some(eq)));
+                    break 'outer;
+                }
                 tube.apply(&step);
                 moved += across;
                 normal = Some(eq);
-                iterations += 1;
                 if inner == 0 && across < SETTLED_MM {
                     // Fresh boundaries hardly moved it: converged for good.
-                    settled = Some(measured);
+                    settled = Some((measured, None));
                     break 'outer;
                 }
                 if across < CONVERGED_MM || inner + 1 >= INNER_STEPS {
-                    if round == 0 && across < CONVERGED_MM && moved < ONE_MEASUREMENT_MM {
-                        // Started close (a followed frame): the boundaries were searched
-                        // around nearly where the tube settled, and serve the check as they
-                        // are.
-                        settled = Some(against(&self.cameras, &tube, &measured, true));
-                        break 'outer;
-                    }
                     // Converged on these boundaries (or still creeping, as Huber weights make
                     // it when some boundaries were found far off): measure them again.
                     break;
                 }
-                current = against(&self.cameras, &tube, &measured, false);
+                // Unfound samples kept: should these be the last, the check counts them.
+                current = against(&self.cameras, &tube, &measured, true);
             }
         }
-        let measured = settled.unwrap_or_else(|| measure(&self.cameras, &images, &tube, s));
-        let eq = normal_equations(&tube, &start, &measured, s, fit_radius);
+        let (measured, eq) = match settled {
+            Some((measured, Some(eq))) => (measured, eq),
+            other => {
+                let measured = other
+                    .map(|(m, _)| m)
+                    .unwrap_or_else(|| measure(&self.cameras, &images, &tube, s));
+                let eq = normal_equations(&tube, &start, &measured, s, fit_radius);
+                (measured, eq)
+            }
+        };
         let dof = (eq.rows as f64 - tube.parameters() as f64).max(1.0);
         let sigma_px = (eq.cost / dof).sqrt();
         let covariance =
