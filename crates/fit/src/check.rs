@@ -179,7 +179,7 @@ pub(crate) fn render(
 }
 
 /// Draws the image of a sphere (centre, pixel, image radius; as a disc), clipped to the mask.
-fn disc(mask: &mut BitMask, (_, c, radius): (Point3<f64>, nalgebra::Vector2<f64>, f64)) {
+pub(crate) fn disc(mask: &mut BitMask, (_, c, radius): (Point3<f64>, nalgebra::Vector2<f64>, f64)) {
     let (w, h) = (mask.width() as f64, mask.height() as f64);
     let (cx, cy) = (c.x, c.y);
     if cx + radius < 0.0 || cy + radius < 0.0 || cx - radius > w - 1.0 || cy - radius > h - 1.0 {

@@ -25,6 +25,7 @@ mod settings;
 mod solve;
 mod stereo;
 mod tube;
+mod verdict;
 
 use flexshape_camera::Camera;
 use flexshape_rig::Volume;
@@ -148,9 +149,6 @@ const SETTLED_MM: f64 = 0.02;
 /// measurement out changed the centerline's error from truth by under 0.001 mm (median and
 /// worst RMS over 4 seeds × 40 frames) and saved a fifth of the fit.
 const ONE_MEASUREMENT_MM: f64 = 0.3;
-
-/// Samples around a free end needed in a camera before its end is checked apart.
-const END_SAMPLES: usize = 4;
 
 /// Gauss–Newton steps on one measurement's boundaries at most: where a moved tip left most
 /// of its cap unmeasured, fresh boundaries serve better than more steps on the few found.
@@ -570,82 +568,6 @@ impl TubeFitter {
             };
         }
         record
-    }
-
-    /// Why the fit does not explain the images, if it does not (the first failing check).
-    fn verdict(&self, fit: &Fit, volume: &Volume) -> Option<String> {
-        let s = &self.settings;
-        for c in &fit.cameras {
-            let i = &c.camera;
-            if c.samples == 0 {
-                continue;
-            }
-            let found = c.found as f64 / c.samples as f64;
-            if found < s.min_found {
-                return Some(format!(
-                    "camera {i}: the fitted outline found the image's boundary at {:.0} % of its samples (at least {:.0} % expected)",
-                    found * 100.0,
-                    s.min_found * 100.0
-                ));
-            }
-            if c.residual_px > s.max_residual_px {
-                return Some(format!(
-                    "camera {i}: outline residual {:.2} px RMS (limit {:.2}; mean {:+.2} px)",
-                    c.residual_px, s.max_residual_px, c.offset_px
-                ));
-            }
-            if c.p90_px > s.max_p90_px {
-                return Some(format!(
-                    "camera {i}: a tenth of the outline lies more than {:.2} px from the image's boundary (limit {:.2}): the shape does not explain this camera, or its calibration is off",
-                    c.p90_px, s.max_p90_px
-                ));
-            }
-            // A free end's outline: where the tip is. Its few samples hardly move the
-            // statistics of the whole outline, so a tip that stopped short passes them.
-            if c.end_samples >= END_SAMPLES {
-                let found = c.end_found as f64 / c.end_samples as f64;
-                if found < s.min_found || c.end_residual_px > s.max_residual_px {
-                    return Some(format!(
-                        "camera {i}: the outline around the tube's free end is not where the image shows it (boundary found at {}/{} samples, residual {:.2} px RMS; limits {:.0} %, {:.2} px): the tip has moved farther than the fit could follow, or is hidden",
-                        c.end_found,
-                        c.end_samples,
-                        c.end_residual_px,
-                        s.min_found * 100.0,
-                        s.max_residual_px
-                    ));
-                }
-            }
-            if c.iou < s.min_iou {
-                return Some(format!(
-                    "camera {i}: the fitted tube overlaps the silhouette by IoU {:.2} (at least {:.2} expected)",
-                    c.iou, s.min_iou
-                ));
-            }
-            if c.unexplained_px > s.max_unexplained_px {
-                return Some(format!(
-                    "camera {i}: {} silhouette pixels lie beyond the fitted tube (at most {})",
-                    c.unexplained_px, s.max_unexplained_px
-                ));
-            }
-        }
-        // Only the part the record reports: outside the volume nothing holds the tube.
-        let stations = check::stations(&fit.tube, fit.tube.length(), |p| volume.contains(p));
-        if let Some(t) = check::tightest_bend(&stations).filter(|t| t.bend >= 1.0) {
-            return Some(format!(
-                "the fitted tube bends tighter than its radius at {:.0} mm (curvature × radius {:.2}; a tube cannot reach 1): an end curled where the images do not hold it",
-                t.at, t.bend
-            ));
-        }
-        if let Some(c) = check::self_crossing(&stations) {
-            return Some(format!(
-                "the fitted tube passes through itself: its centerline at {:.0} mm comes within {:.2} mm of itself at {:.0} mm (radius {:.2}). A part folded back along the tube hides in its own outline; this is not a shape a tube can take",
-                c.at_mm[0],
-                c.distance_mm,
-                c.at_mm[1],
-                fit.tube.largest_radius()
-            ));
-        }
-        None
     }
 
     fn edge_images<'a>(&self, views: &[View<'a>]) -> Result<Vec<EdgeImage<'a>>, FitError> {

@@ -659,6 +659,24 @@ pub struct SimArgs {
     /// e.g. 0.9,0.9,0.9 for white paper).
     #[arg(long, value_name = "R,G,B", value_parser = parse_albedo)]
     pub backdrop_albedo: Option<[f64; 3]>,
+    /// Folds in the backdrop cloth: the share of the light their valleys lose, 0–1 (default 0,
+    /// a flat backdrop).
+    #[arg(
+        long,
+        value_name = "SHARE",
+        allow_negative_numbers = true,
+        default_value_t = 0.0
+    )]
+    pub fold_depth: f64,
+    /// How far the folds moved between the background capture and the frames, mm (cloth that
+    /// slid or sagged; default 0).
+    #[arg(
+        long,
+        value_name = "MM",
+        allow_negative_numbers = true,
+        default_value_t = 0.0
+    )]
+    pub fold_shift: f64,
     /// Sensor noise, standard deviation in grey levels.
     #[arg(
         long,

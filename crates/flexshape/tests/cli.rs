@@ -349,6 +349,16 @@ fn negative_numbers_reach_the_options() {
             ],
             "focal",
         ),
+        (
+            vec![
+                "simulate".into(),
+                "--out".into(),
+                out("d"),
+                "--fold-depth".into(),
+                "-0.1".into(),
+            ],
+            "fold_depth",
+        ),
         (vec!["bench".into(), "--rate".into(), "-1".into()], "--rate"),
         (
             vec![

@@ -5,10 +5,75 @@ use std::path::{Path, PathBuf};
 
 use image::{ImageBuffer, Luma, RgbImage};
 
+use crate::bitmask::BitMask;
 use crate::error::SilhouetteError;
 
 /// Spread assumed when the model comes from a single frame, grey levels.
 pub const DEFAULT_SPREAD: f32 = 2.5;
+
+/// A pixel [`BackgroundModel::absorb`] counts as changed moved by this many spreads...
+pub const CHANGED_SPREADS: f32 = 4.0;
+/// ...and at least this many grey levels.
+pub const CHANGED_LEVELS: f32 = 8.0;
+
+/// Window half-widths [`BackgroundModel::absorb`] tries in turn, pixels: the first whose window
+/// holds [`FILL_SAMPLES`] unmarked pixels gives a pixel's change.
+const FILL_RADII: [usize; 6] = [1, 2, 4, 8, 16, 32];
+/// Unmarked pixels a window needs.
+const FILL_SAMPLES: u32 = 6;
+
+/// Summed-area table of `frame − mean` (per channel) and of the count over unmarked pixels.
+struct ChangeTable {
+    width: usize,
+    height: usize,
+    /// `(width + 1) × (height + 1)`: sums over `[0, x) × [0, y)`.
+    sums: Vec<([f64; 3], u32)>,
+}
+
+impl ChangeTable {
+    fn new(mean: &[[f32; 3]], frame: &RgbImage, keep: &BitMask) -> Self {
+        let (w, h) = (keep.width(), keep.height());
+        let stride = w + 1;
+        let mut sums = vec![([0f64; 3], 0u32); stride * (h + 1)];
+        let raw = frame.as_raw();
+        for y in 0..h {
+            let mut row = ([0f64; 3], 0u32);
+            for x in 0..w {
+                if !keep.get(x, y) {
+                    let i = y * w + x;
+                    for c in 0..3 {
+                        row.0[c] += f64::from(raw[3 * i + c]) - f64::from(mean[i][c]);
+                    }
+                    row.1 += 1;
+                }
+                let above = sums[y * stride + x + 1];
+                sums[(y + 1) * stride + x + 1] = (
+                    std::array::from_fn(|c| above.0[c] + row.0[c]),
+                    above.1 + row.1,
+                );
+            }
+        }
+        ChangeTable {
+            width: w,
+            height: h,
+            sums,
+        }
+    }
+
+    /// The mean change over the unmarked pixels within `r` of `(x, y)` (a square window cut by
+    /// the image), if there are at least `min` of them.
+    fn mean_change(&self, x: usize, y: usize, r: usize, min: u32) -> Option<[f32; 3]> {
+        let stride = self.width + 1;
+        let (x0, y0) = (x.saturating_sub(r), y.saturating_sub(r));
+        let (x1, y1) = ((x + r + 1).min(self.width), (y + r + 1).min(self.height));
+        let at = |x: usize, y: usize| self.sums[y * stride + x];
+        let (a, b, c, d) = (at(x1, y1), at(x0, y1), at(x1, y0), at(x0, y0));
+        let n = a.1 + d.1 - b.1 - c.1;
+        (n >= min).then(|| {
+            std::array::from_fn(|k| ((a.0[k] + d.0[k] - b.0[k] - c.0[k]) / f64::from(n)) as f32)
+        })
+    }
+}
 
 /// Per-pixel statistics of the empty scene (0–255 scale).
 #[derive(Debug, Clone, PartialEq)]
@@ -133,6 +198,49 @@ impl BackgroundModel {
         })
     }
 
+    /// Follows a backdrop that changed since the model was made (cloth folds that moved, a
+    /// lamp moved) to how `frame` shows it, except for the pixels `keep` marks (an object in
+    /// front of it). Such changes are smooth at the scale of a few pixels, so the change
+    /// `frame − mean` is averaged over the unmarked pixels of the 3×3 window around each pixel
+    /// (a single frame's noise is not taken in), or of a window wide enough to hold
+    /// [`FILL_SAMPLES`] of them — which carries the change in under the marked pixels, where
+    /// the backdrop is hidden. The spread stays. Returns how many pixels changed by more than
+    /// [`CHANGED_SPREADS`] spreads (at least [`CHANGED_LEVELS`] grey levels) in some channel.
+    pub fn absorb(&mut self, frame: &RgbImage, keep: &BitMask) -> Result<usize, SilhouetteError> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if frame.dimensions() != (self.width, self.height)
+            || (keep.width(), keep.height()) != (w, h)
+        {
+            return Err(SilhouetteError::SizeMismatch {
+                width: frame.width(),
+                height: frame.height(),
+                expected_width: self.width,
+                expected_height: self.height,
+            });
+        }
+        let table = ChangeTable::new(&self.mean, frame, keep);
+        let mut changed = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let Some(change) = FILL_RADII
+                    .iter()
+                    .find_map(|&r| table.mean_change(x, y, r, FILL_SAMPLES))
+                else {
+                    continue;
+                };
+                let i = y * w + x;
+                let limit = (CHANGED_SPREADS * self.spread[i]).max(CHANGED_LEVELS);
+                if change.iter().any(|d| d.abs() > limit) {
+                    changed += 1;
+                }
+                for (m, d) in self.mean[i].iter_mut().zip(change) {
+                    *m = (*m + d).clamp(0.0, 255.0);
+                }
+            }
+        }
+        Ok(changed)
+    }
+
     /// Spread of pixel index `i`, grey levels.
     pub fn spread(&self, i: usize) -> f32 {
         self.spread[i]
@@ -242,6 +350,40 @@ mod tests {
         let c = RgbImage::new(5, 3);
         assert!(matches!(
             BackgroundModel::from_frames(&[RgbImage::new(4, 3), c]),
+            Err(SilhouetteError::SizeMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn absorb_follows_a_smooth_change_and_carries_it_under_what_is_kept() {
+        let mut m =
+            BackgroundModel::from_frames(&[RgbImage::from_pixel(16, 8, image::Rgb([100; 3]))])
+                .unwrap();
+        // Left of column 8 the backdrop grew 40 levels brighter; columns 8–10 are an object
+        // (kept); to the right, only ±6 levels of noise in a checkerboard.
+        let frame = RgbImage::from_fn(16, 8, |x, y| match x {
+            0..=7 => image::Rgb([140; 3]),
+            8..=10 => image::Rgb([0; 3]),
+            _ => image::Rgb([if (x + y) % 2 == 0 { 106 } else { 94 }; 3]),
+        });
+        let mut keep = BitMask::new(16, 8);
+        for y in 0..8 {
+            keep.set_span(y, 8, 10);
+        }
+        let changed = m.absorb(&frame, &keep).unwrap();
+        assert_eq!(m.mean(4 * 16 + 3), [140.0; 3]);
+        // Under the object: the change of the nearest 5×5 window's unmarked pixels, columns 7
+        // (+40) and 11 (noise about 0): about +20, never the object's colour.
+        let under = m.mean(4 * 16 + 9)[0];
+        assert!((under - 120.0).abs() < 2.0, "{under}");
+        // The noise averages out over 3×3.
+        let right = m.mean(4 * 16 + 13)[0];
+        assert!((right - 100.0).abs() < 1.0, "{right}");
+        assert_eq!(m.spread(0), DEFAULT_SPREAD);
+        // Columns 0–7 changed, some of the kept ones by what was carried in, none right of them.
+        assert!((64..=88).contains(&changed), "{changed}");
+        assert!(matches!(
+            m.absorb(&RgbImage::new(3, 2), &keep),
             Err(SilhouetteError::SizeMismatch { .. })
         ));
     }

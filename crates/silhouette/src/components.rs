@@ -144,6 +144,25 @@ pub fn keep_components(mask: &BitMask, keep: KeepComponents) -> (BitMask, usize)
     (out, wanted.iter().filter(|&&w| w).count())
 }
 
+/// The components of `mask` that share a pixel with `seeds` (same size).
+pub fn touching(mask: &BitMask, seeds: &BitMask) -> BitMask {
+    let runs = runs(mask);
+    let (labels, areas) = label(&runs);
+    let mut wanted = vec![false; areas.len()];
+    for (r, &l) in runs.iter().zip(&labels) {
+        if !wanted[l] && (r.x0..r.x1).any(|x| seeds.get(x as usize, r.y as usize)) {
+            wanted[l] = true;
+        }
+    }
+    let mut out = BitMask::new(mask.width(), mask.height());
+    for (r, l) in runs.iter().zip(labels) {
+        if wanted[l] {
+            fill_run(&mut out, r);
+        }
+    }
+    out
+}
+
 /// Sets the pixels of a run.
 pub(crate) fn fill_run(mask: &mut BitMask, r: &Run) {
     let row = mask.row_mut(r.y as usize);
@@ -165,6 +184,23 @@ pub(crate) fn fill_run(mask: &mut BitMask, r: &Run) {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn touching_keeps_the_components_a_seed_meets() {
+        let mut m = BitMask::new(70, 4);
+        m.set_span(0, 0, 2); // A: two rows, diagonal contact
+        m.set_span(1, 3, 5);
+        m.set_span(2, 66, 69); // B, across a word boundary
+        m.set_span(3, 63, 66);
+        let mut seeds = BitMask::new(70, 4);
+        seeds.set(64, 3, true);
+        let t = touching(&m, &seeds);
+        assert_eq!(t.count(), 8);
+        assert!(t.get(67, 2) && !t.get(1, 0));
+        seeds.set(4, 1, true);
+        assert_eq!(touching(&m, &seeds), m);
+        assert_eq!(touching(&m, &BitMask::new(70, 4)).count(), 0);
+    }
 
     fn flood_areas(m: &BitMask) -> Vec<usize> {
         let (w, h) = (m.width(), m.height());

@@ -17,7 +17,7 @@ mod markers;
 mod shade;
 mod silhouetter;
 
-pub use background::{BackgroundModel, DEFAULT_SPREAD};
+pub use background::{BackgroundModel, CHANGED_LEVELS, CHANGED_SPREADS, DEFAULT_SPREAD};
 pub use bitmask::BitMask;
 pub use classify::{Classifier, ColourShadow, Difference, GreenMatte, Region};
 pub use components::KeepComponents;

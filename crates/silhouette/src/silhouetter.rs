@@ -31,6 +31,11 @@ pub struct SilhouetteSettings {
     /// silhouette may cover, once it covers at least [`GROWTH_FLOOR`] of the image more; beyond
     /// it the frame is implausible (light changed, something entered the view). 0: no limit.
     pub max_foreground_growth: f64,
+    /// Whether the background may follow the backdrop where it changed since it was captured
+    /// (cloth whose folds moved, a lamp moved): when a frame's fitted tube is where the images
+    /// show it but the rest of the image does not match the background, the background takes
+    /// the frame's colours away from the tube (see the tracking pipeline).
+    pub adapt: bool,
 }
 
 /// Share of the image a silhouette may grow by, whatever its usual share, before
@@ -47,6 +52,7 @@ impl Default for SilhouetteSettings {
             markers: MarkerSettings::default(),
             max_foreground: 0.5,
             max_foreground_growth: 5.0,
+            adapt: true,
         }
     }
 }
@@ -60,6 +66,7 @@ impl SilhouetteSettings {
     /// classifier = { kind = "colour_shadow", dark_weak = 0.55 }
     /// close_radius = 1
     /// keep = { min_area = 40 }          # or keep = "largest"
+    /// adapt = true                      # the background follows a changed backdrop
     /// [processing.silhouette.per_camera.cam2]
     /// classifier = { kind = "green_matte" }
     /// ```
@@ -121,6 +128,8 @@ impl SilhouetteSettings {
             },
             max_foreground: rig.max_foreground,
             max_foreground_growth: rig.max_foreground_growth,
+            // A mask is the lab's segmentation, not a scene: nothing to follow.
+            adapt: false,
         }
     }
 

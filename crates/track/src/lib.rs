@@ -1,6 +1,7 @@
 //! Tracking: the whole sensing chain for one frame ([`Pipeline`]) and the JSON Lines records
 //! `flexshape track` writes ([`TrackRecord`], then one [`SummaryLine`]). World frame, mm.
 
+mod backdrop;
 mod pipeline;
 mod precision;
 mod record;
@@ -14,6 +15,7 @@ use flexshape_shape::ShapeError;
 use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
+pub use backdrop::BackgroundUpdate;
 pub use pipeline::{
     Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, StageTimings, Start, Tracked,
 };

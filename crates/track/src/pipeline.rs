@@ -11,6 +11,7 @@
 //! no hull, the fit warm-started. When that fit does not explain the images, the frame runs
 //! the whole chain after all.
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use flexshape_camera::Camera;
@@ -28,6 +29,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::TrackError;
+use crate::backdrop::{Backdrop, Backdrops, BackgroundUpdate, BootstrapBudget, hull_pixels};
 use crate::usual::{UsualShares, share};
 
 /// Milliseconds per stage of one frame.
@@ -82,6 +84,9 @@ pub struct Tracked {
     /// Where the fit started: the hull, or an earlier frame's shape (then nothing was carved
     /// and `occupancy` and `bands` are empty).
     pub start: Start,
+    /// Cameras whose background took this frame's colours before the frame was processed
+    /// again (see [`Pipeline::process`]).
+    pub background_updated: Vec<BackgroundUpdate>,
 }
 
 /// One frame's visual hull ([`Pipeline::hull`]).
@@ -148,20 +153,19 @@ impl Tracked {
     }
 }
 
-/// The sensing chain, set up once per rig. Its one state: each camera's usual silhouette share,
-/// learned from the first right frames it processes (see `max_foreground_growth`); a clone
-/// keeps what was learned.
+/// The sensing chain, set up once per rig. Its state: each camera's usual silhouette share,
+/// learned from the first right frames it processes (see `max_foreground_growth`), and each
+/// camera's background, which follows a changed backdrop (see [`Pipeline::process`]); a
+/// clone keeps what was learned.
 #[derive(Debug, Clone)]
 pub struct Pipeline {
     names: Vec<String>,
     cameras: Vec<Camera>,
-    silhouetters: Vec<Silhouetter>,
+    backdrops: Backdrops,
+    bootstrap: BootstrapBudget,
     carver: HierarchicalCarver,
     band_rule: BandRule,
     shape: ShapeEstimator,
-    backgrounds: Vec<BackgroundModel>,
-    /// Per camera: whether its background is in colour ([`BackgroundModel::in_colour`]).
-    colour: Vec<bool>,
     fitter: TubeFitter,
     /// The silhouette shares of the first right frames.
     usual: UsualShares,
@@ -244,7 +248,7 @@ impl Pipeline {
                 expected: rig.cameras.len(),
             });
         }
-        let silhouetters = rig
+        let backdrops = rig
             .cameras
             .iter()
             .zip(backgrounds)
@@ -255,9 +259,10 @@ impl Pipeline {
                 };
                 let settings =
                     SilhouetteSettings::from_processing(&rig.processing, &cam.name).map_err(err)?;
-                Silhouetter::new(bg, adapt(settings)).map_err(err)
+                let silhouetter = Silhouetter::new(bg, adapt(settings)).map_err(err)?;
+                Ok(Backdrop::new(bg.clone(), silhouetter))
             })
-            .collect::<Result<Vec<_>, _>>()?;
+            .collect::<Result<Vec<_>, TrackError>>()?;
         let cameras: Vec<Camera> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
         let carver = HierarchicalCarver::new(&cameras, volume)?;
         let shape = ShapeEstimator::new(ShapeSettings::from_processing(&rig.processing)?)?;
@@ -270,12 +275,11 @@ impl Pipeline {
         Ok(Pipeline {
             names,
             cameras,
-            silhouetters,
+            backdrops: Backdrops::new(backdrops),
+            bootstrap: BootstrapBudget::default(),
             carver,
             band_rule: BandRule::default(),
             shape,
-            backgrounds: backgrounds.to_vec(),
-            colour: backgrounds.iter().map(BackgroundModel::in_colour).collect(),
             fitter,
             usual: UsualShares::default(),
         })
@@ -300,12 +304,11 @@ impl Pipeline {
         Ok(Pipeline {
             names: self.names.clone(),
             cameras,
-            silhouetters: self.silhouetters.clone(),
+            backdrops: self.backdrops.clone(),
+            bootstrap: self.bootstrap.clone(),
             carver,
             band_rule: self.band_rule.clone(),
             shape: self.shape.clone(),
-            backgrounds: self.backgrounds.clone(),
-            colour: self.colour.clone(),
             fitter,
             usual: self.usual.clone(),
         })
@@ -332,8 +335,8 @@ impl Pipeline {
         let warnings = loaded
             .iter()
             .zip(&self.names)
-            .zip(&self.colour)
-            .filter(|(((_, grey), _), colour)| *grey && **colour)
+            .zip(self.backdrops.snapshot())
+            .filter(|(((_, grey), _), backdrop)| *grey && backdrop.colour)
             .map(|((_, name), _)| {
                 format!(
                     "camera {name}: the frame is greyscale but its background is in colour: marker bands and colour cues are lost and the silhouette may be wrong; give frames as the camera takes them, or make the background from greyscale frames too"
@@ -354,16 +357,27 @@ impl Pipeline {
         &self.fitter
     }
 
-    /// How the image fit sees a frame: each camera's image (rig order), background and
-    /// silhouette.
+    /// Every camera's current background model (rig order): the captured one, or what it
+    /// became where the backdrop changed since (see [`Pipeline::process`]).
+    pub fn backgrounds(&self) -> Vec<Arc<BackgroundModel>> {
+        self.backdrops
+            .snapshot()
+            .iter()
+            .map(|b| Arc::clone(&b.model))
+            .collect()
+    }
+
+    /// How the image fit sees a frame: each camera's image (rig order), background (e.g. from
+    /// [`Pipeline::backgrounds`]) and silhouette.
     pub fn views<'a>(
-        &'a self,
+        &self,
         images: &[&'a RgbImage],
         silhouettes: &'a [Silhouette],
+        backgrounds: &'a [Arc<BackgroundModel>],
     ) -> Vec<View<'a>> {
         images
             .iter()
-            .zip(&self.backgrounds)
+            .zip(backgrounds)
             .zip(silhouettes)
             .map(|((image, bg), s)| View {
                 image,
@@ -439,18 +453,19 @@ impl Pipeline {
         self.check_count(images)?;
         let t = Instant::now();
         let margin = self.fitter.settings().track_margin_px;
-        let silhouettes = self
-            .silhouetters
+        let backdrops = self.backdrops.snapshot();
+        let silhouettes = backdrops
             .par_iter()
             .zip(images)
             .zip(&self.names)
             .enumerate()
-            .map(|(i, ((s, img), name))| {
+            .map(|(i, ((b, img), name))| {
                 let region = self
                     .fitter
                     .image_region(i, &prior.tube, margin)
                     .unwrap_or(Region::ALL);
-                s.process_within(img, &region)
+                b.silhouetter
+                    .process_within(img, &region)
                     .map_err(|source| TrackError::Silhouette {
                         camera: name.clone(),
                         source,
@@ -465,7 +480,8 @@ impl Pipeline {
             return Ok(full);
         }
         let t = Instant::now();
-        let views = self.views(images, &silhouettes);
+        let backgrounds: Vec<_> = backdrops.iter().map(|b| Arc::clone(&b.model)).collect();
+        let views = self.views(images, &silhouettes, &backgrounds);
         let radius = self.shape.settings().radius_mm;
         let (shape, fit) = self.fitter.follow(
             &self.shape,
@@ -496,6 +512,7 @@ impl Pipeline {
                 ..StageTimings::default()
             },
             start: Start::Previous,
+            background_updated: Vec::new(),
         })
     }
 
@@ -505,12 +522,12 @@ impl Pipeline {
         silhouettes
             .iter()
             .zip(&self.names)
-            .zip(&self.silhouetters)
-            .find_map(|((s, name), sil)| match s.status {
+            .zip(self.backdrops.snapshot())
+            .find_map(|((s, name), b)| match s.status {
                 SilhouetteStatus::Implausible { fraction } => Some(format!(
                     "camera {name}: {:.0} % of the image is foreground (at most {:.0} %): the background model does not describe the scene (a dark or changed backdrop, changed light, a moved camera); capture the background again or choose another classifier in [processing.silhouette]",
                     fraction * 100.0,
-                    sil.settings().max_foreground * 100.0
+                    b.silhouetter.settings().max_foreground * 100.0
                 )),
                 _ => None,
             })
@@ -522,10 +539,10 @@ impl Pipeline {
         silhouettes
             .iter()
             .zip(&self.names)
-            .zip(&self.silhouetters)
+            .zip(self.backdrops.snapshot())
             .enumerate()
-            .find_map(|(i, ((s, name), sil))| {
-                let growth = sil.settings().max_foreground_growth;
+            .find_map(|(i, ((s, name), b))| {
+                let growth = b.silhouetter.settings().max_foreground_growth;
                 let usual = self.usual.of(i)?;
                 let now = share(s);
                 (growth > 0.0 && now > growth * usual && now - usual > GROWTH_FLOOR).then(|| {
@@ -579,18 +596,32 @@ impl Pipeline {
     /// objects that are not tubes (`flexshape carve`). Nothing is carved when a silhouette is
     /// implausible ([`Hull::implausible`] says why).
     pub fn hull(&self, images: &[&RgbImage]) -> Result<Hull, TrackError> {
+        self.hull_with(images, &self.backdrops.snapshot(), Pass::Usual)
+    }
+
+    fn hull_with(
+        &self,
+        images: &[&RgbImage],
+        backdrops: &[Arc<Backdrop>],
+        pass: Pass,
+    ) -> Result<Hull, TrackError> {
         self.check_count(images)?;
         let t = Instant::now();
-        let silhouettes = self
-            .silhouetters
+        let silhouettes = backdrops
             .par_iter()
             .zip(images)
             .zip(&self.names)
-            .map(|((s, img), name)| {
-                s.process(img).map_err(|source| TrackError::Silhouette {
-                    camera: name.clone(),
-                    source,
-                })
+            .map(|((b, img), name)| {
+                let silhouetter = match pass {
+                    Pass::Usual => &b.silhouetter,
+                    Pass::Bootstrap => b.bootstrap().unwrap_or(&b.silhouetter),
+                };
+                silhouetter
+                    .process(img)
+                    .map_err(|source| TrackError::Silhouette {
+                        camera: name.clone(),
+                        source,
+                    })
             })
             .collect::<Result<Vec<_>, _>>()?;
         let silhouettes_ms = ms(t);
@@ -625,13 +656,118 @@ impl Pipeline {
 
     /// One frame: one image per camera, in the rig's order, through the whole chain (the fit
     /// started from this frame's hull).
+    ///
+    /// A changed backdrop (cloth whose folds moved since the background was captured): when
+    /// the fitted tube is where the images show it ([`TubeFitter::located`]) but some camera's
+    /// image is not explained, that camera's background takes the frame's colours away from
+    /// the tube ([`TubeFitter::tube_pixels`]; cameras whose settings `adapt`) and the frame is
+    /// processed again; the record lists the cameras (`background_updated`).
+    ///
+    /// When the change is so large that the tube cannot be found at all (a backdrop grown
+    /// brighter over much of the image gives a hull with branches), the tube is looked for
+    /// once more with silhouettes that leave brightening out (colour classifier only, a few
+    /// attempts in a row at most), and the backgrounds follow if that finds it; that attempt
+    /// is never the frame's record.
     pub fn process(&self, images: &[&RgbImage]) -> Result<Tracked, TrackError> {
+        let backdrops = self.backdrops.snapshot();
+        let first = self.process_with(images, &backdrops, Pass::Usual)?;
+        if first.shape.status.is_right() {
+            self.bootstrap.reset();
+            return Ok(first);
+        }
+        let mut spent = first.timings;
+        let mut updated =
+            self.follow_backdrop(images, &first, &first.silhouettes, &backdrops, false)?;
+        if updated.is_empty() && self.bootstrap.allows() && self.adapts(&backdrops) {
+            let found = self.process_with(images, &backdrops, Pass::Bootstrap)?;
+            add_timings(&mut spent, &found.timings);
+            updated = self.follow_backdrop(images, &found, &first.silhouettes, &backdrops, true)?;
+            if updated.is_empty() {
+                self.bootstrap.failed();
+            }
+        }
+        if updated.is_empty() {
+            return Ok(Tracked {
+                timings: spent,
+                ..first
+            });
+        }
+        self.bootstrap.reset();
+        let mut again = self.process_with(images, &self.backdrops.snapshot(), Pass::Usual)?;
+        add_timings(&mut again.timings, &spent);
+        again.background_updated = updated;
+        Ok(again)
+    }
+
+    /// Whether some camera's background may follow its backdrop.
+    fn adapts(&self, backdrops: &[Arc<Backdrop>]) -> bool {
+        backdrops.iter().any(|b| b.silhouetter.settings().adapt)
+    }
+
+    /// Where `located`'s fitted tube is where the images show it: each camera's background
+    /// takes the frame's colours away from the tube and from what was carved, if the fit does
+    /// not explain the camera's image (or `every_camera`: the fit came from other silhouettes
+    /// than the frame's own, `silhouettes`). Returns the cameras whose background changed.
+    fn follow_backdrop(
+        &self,
+        images: &[&RgbImage],
+        located: &Tracked,
+        silhouettes: &[Silhouette],
+        backdrops: &[Arc<Backdrop>],
+        every_camera: bool,
+    ) -> Result<Vec<BackgroundUpdate>, TrackError> {
+        let Some(fit) = located
+            .fit
+            .as_ref()
+            .filter(|f| self.fitter.located(f, self.carver.volume()))
+        else {
+            return Ok(Vec::new());
+        };
+        let mut updated = Vec::new();
+        for (i, check) in fit.cameras.iter().enumerate() {
+            let (b, name) = (&backdrops[i], &self.names[i]);
+            let settings = b.silhouetter.settings();
+            if !settings.adapt || (!every_camera && self.fitter.explains(check)) {
+                continue;
+            }
+            let Some(tube) = self
+                .fitter
+                .tube_pixels(i, &fit.tube, &silhouettes[i].object)
+            else {
+                continue;
+            };
+            let keep = tube.or(&hull_pixels(&self.cameras[i], &located.occupancy));
+            let err = |source| TrackError::Silhouette {
+                camera: name.clone(),
+                source,
+            };
+            let mut model = (*b.model).clone();
+            let changed_px = model.absorb(images[i], &keep).map_err(err)?;
+            if changed_px == 0 {
+                continue;
+            }
+            let silhouetter = Silhouetter::new(&model, settings.clone()).map_err(err)?;
+            self.backdrops.replace(i, Backdrop::new(model, silhouetter));
+            updated.push(BackgroundUpdate {
+                camera: name.clone(),
+                changed_px,
+            });
+        }
+        Ok(updated)
+    }
+
+    fn process_with(
+        &self,
+        images: &[&RgbImage],
+        backdrops: &[Arc<Backdrop>],
+        pass: Pass,
+    ) -> Result<Tracked, TrackError> {
         let Hull {
             silhouettes,
             occupancy,
             implausible,
             timings,
-        } = self.hull(images)?;
+        } = self.hull_with(images, backdrops, pass)?;
         let (silhouettes_ms, carve_ms) = (timings.silhouettes, timings.carve);
         if let Some(reason) = implausible.or_else(|| self.hull_too_large(&occupancy)) {
             return Ok(Tracked {
@@ -642,6 +778,7 @@ impl Pipeline {
                 fit: None,
                 timings,
                 start: Start::Hull,
+                background_updated: Vec::new(),
             });
         }
         let t = Instant::now();
@@ -656,7 +793,8 @@ impl Pipeline {
         let (shape, fit) = match self.fitter.settings().method {
             Method::Hull => (hull, None),
             Method::Fit => {
-                let views = self.views(images, &silhouettes);
+                let backgrounds: Vec<_> = backdrops.iter().map(|b| Arc::clone(&b.model)).collect();
+                let views = self.views(images, &silhouettes, &backgrounds);
                 let radius = self.shape.settings().radius_mm;
                 let (shape, fit) = self.fitter.refine(
                     &self.shape,
@@ -684,7 +822,7 @@ impl Pipeline {
             }
         };
         let fit_ms = ms(t);
-        if shape.status.is_right() {
+        if shape.status.is_right() && pass == Pass::Usual {
             self.usual.learn(&silhouettes);
         }
         Ok(Tracked {
@@ -701,8 +839,28 @@ impl Pipeline {
                 fit: fit_ms,
             },
             start,
+            background_updated: Vec::new(),
         })
     }
+}
+
+/// Which silhouettes a pass through the whole chain uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Pass {
+    /// Each camera's own.
+    Usual,
+    /// Those that leave a brightened backdrop out ([`Backdrop::bootstrap`]), to find the
+    /// tube in front of a changed backdrop.
+    Bootstrap,
+}
+
+/// Adds `more`'s time per stage to `timings`.
+fn add_timings(timings: &mut StageTimings, more: &StageTimings) {
+    timings.silhouettes += more.silhouettes;
+    timings.carve += more.carve;
+    timings.bands += more.bands;
+    timings.shape += more.shape;
+    timings.fit += more.fit;
 }
 
 /// The self-check's 90th percentile of outline residuals for frames that are binary masks,

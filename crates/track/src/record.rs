@@ -7,6 +7,7 @@ use flexshape_recording::{Command, PoseRole};
 use flexshape_shape::Status;
 use serde::{Deserialize, Serialize};
 
+use crate::backdrop::BackgroundUpdate;
 use crate::pipeline::{StageTimings, Start, Tracked};
 use crate::runner::{Processed, RunEnd};
 
@@ -225,6 +226,11 @@ pub struct TrackRecord {
     /// earlier frame's shape, tracking: nothing carved, `voxels` is 0 and `ghost_mm` absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start: Option<String>,
+    /// Cameras whose background took this frame's colours away from the tube, the backdrop
+    /// having changed since the background was captured; the frame was then processed again
+    /// (absent: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub background_updated: Vec<BackgroundUpdate>,
 }
 
 /// A measured axial strain.
@@ -332,6 +338,7 @@ impl TrackRecord {
                 }
                 .into()
             }),
+            background_updated: t.background_updated.clone(),
         }
     }
 
@@ -400,6 +407,7 @@ impl TrackRecord {
             cameras: Vec::new(),
             ghost_mm: None,
             start: None,
+            background_updated: Vec::new(),
         }
     }
 }

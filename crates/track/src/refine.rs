@@ -216,10 +216,11 @@ pub fn refine_cameras(
         let (kept, tubes) = usable_frames(&tracked);
         let images: Vec<Vec<&RgbImage>> =
             kept.iter().map(|&i| frames[i].iter().collect()).collect();
+        let backgrounds = current.backgrounds();
         let views: Vec<_> = kept
             .iter()
             .zip(&images)
-            .map(|(&i, im)| current.views(im, &tracked[i].silhouettes))
+            .map(|(&i, im)| current.views(im, &tracked[i].silhouettes, &backgrounds))
             .collect();
         let bundle = current.fitter().bundle(&views, &tubes, hold, fit_radius)?;
         steps += bundle.steps;

@@ -91,6 +91,8 @@ fn sim_config(args: &SimArgs) -> SimConfig {
             backdrop_albedo: args
                 .backdrop_albedo
                 .unwrap_or(defaults.render.backdrop_albedo),
+            fold_depth: args.fold_depth,
+            fold_shift_mm: args.fold_shift,
             ..defaults.render
         },
         catheter: Catheter {

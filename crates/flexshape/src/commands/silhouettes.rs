@@ -220,7 +220,8 @@ fn fitted(
     let Some(out) = &args.out else {
         return Ok(());
     };
-    let views = pipeline.views(images, &t.silhouettes);
+    let backgrounds = pipeline.backgrounds();
+    let views = pipeline.views(images, &t.silhouettes, &backgrounds);
     let outlines = pipeline.fitter().outline_residuals(&views, &fit.tube)?;
     for (i, cam) in rig.cameras.iter().enumerate() {
         let Some(rendered) = pipeline.fitter().render(i, &fit.tube) else {

@@ -42,6 +42,21 @@ pub(crate) fn texture(u: f64, v: f64, seed: u64) -> f64 {
         + 0.015 * value_noise(u / 2.5, v / 2.5, seed ^ 2)
 }
 
+/// Distance between neighbouring folds of the backdrop cloth, mm.
+const FOLD_PERIOD: f64 = 70.0;
+
+/// Brightness factor of cloth folds at backdrop point `(u, v)` mm: soft dark valleys about
+/// 13 mm wide (half depth) and [`FOLD_PERIOD`] apart, running diagonally and wavy, losing
+/// `depth` of the light at their bottom; `shift` mm moves them across.
+pub(crate) fn folds(u: f64, v: f64, depth: f64, shift: f64, seed: u64) -> f64 {
+    if depth == 0.0 {
+        return 1.0;
+    }
+    let across = 0.8 * u + 0.6 * v + 25.0 * value_noise(u / 150.0, v / 150.0, seed ^ 3) + shift;
+    let valley = 0.5 + 0.5 * (std::f64::consts::TAU * across / FOLD_PERIOD).cos();
+    1.0 - depth * valley.powi(8)
+}
+
 /// Relative irradiance of the lamp at `lamp` on the backdrop point `p` (camera frame), scaled
 /// to 1 where the optical axis meets the backdrop; `0.3 + 0.7 ·` that keeps some ambient light.
 pub(crate) fn lamp_shading(p: &Vector3<f64>, lamp: &Vector3<f64>, depth: f64) -> f64 {
@@ -70,6 +85,31 @@ pub(crate) fn lamp_visibility(d: f64, r: f64, t: f64, lamp_radius: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn folds_lose_up_to_their_depth_and_move_with_the_shift() {
+        assert_eq!(folds(3.0, 4.0, 0.0, 10.0, 1), 1.0);
+        let samples: Vec<f64> = (0..20_000)
+            .map(|i| folds(i as f64 * 0.37, i as f64 * 0.11, 0.3, 0.0, 1))
+            .collect();
+        let (lo, hi) = samples
+            .iter()
+            .fold((2.0f64, 0.0f64), |(l, h), &v| (l.min(v), h.max(v)));
+        assert!(
+            (0.7 - 1e-12..0.71).contains(&lo) && hi <= 1.0 && hi > 0.999,
+            "{lo} {hi}"
+        );
+        // Moving the cloth by its whole period leaves it as it was; by half, a valley's
+        // bottom becomes a ridge.
+        let (u, v) = (10.0, 20.0);
+        let at = |shift: f64| folds(u, v, 0.3, shift, 1);
+        assert!((at(FOLD_PERIOD) - at(0.0)).abs() < 1e-9);
+        let bottom = (0..700)
+            .map(|k| k as f64 * 0.1)
+            .min_by(|a, b| at(*a).total_cmp(&at(*b)))
+            .unwrap();
+        assert!(at(bottom) < 0.701 && at(bottom + FOLD_PERIOD / 2.0) > 0.999);
+    }
 
     #[test]
     fn texture_is_bright_and_bounded() {

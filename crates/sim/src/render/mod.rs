@@ -48,6 +48,14 @@ pub struct RenderSettings {
     pub backdrop_albedo: Albedo,
     /// Seed of the backdrop texture and of the noise.
     pub seed: u64,
+    /// Folds in the backdrop cloth: the share of the light their valleys lose (0: a flat
+    /// backdrop), see [`RenderSettings::fold_shift_mm`].
+    #[serde(default)]
+    pub fold_depth: f64,
+    /// How far the folds moved across the backdrop between the background capture and the
+    /// frames, mm (cloth that slid or sagged; 0: the backgrounds show the frames' backdrop).
+    #[serde(default)]
+    pub fold_shift_mm: f64,
 }
 
 impl Default for RenderSettings {
@@ -62,6 +70,8 @@ impl Default for RenderSettings {
             shadow_strength: 0.45,
             backdrop_albedo: [0.70, 0.88, 0.66],
             seed: 1,
+            fold_depth: 0.0,
+            fold_shift_mm: 0.0,
         }
     }
 }
@@ -91,6 +101,12 @@ impl RenderSettings {
         }
         if !(0.0..=1.0).contains(&self.shadow_strength) {
             return bad("shadow_strength", "must lie in [0, 1]");
+        }
+        if !(0.0..=1.0).contains(&self.fold_depth) {
+            return bad("fold_depth", "must lie in [0, 1]");
+        }
+        if !self.fold_shift_mm.is_finite() {
+            return bad("fold_shift_mm", "must be a distance in mm");
         }
         Ok(())
     }
@@ -162,7 +178,9 @@ impl Renderer {
         self.views
             .par_iter()
             .enumerate()
-            .map(|(i, v)| self.render_view(v, i, scene, frame, self.settings.noise_sigma))
+            .map(|(i, v)| {
+                self.render_view(v, &v.backdrop, i, scene, frame, self.settings.noise_sigma)
+            })
             .collect()
     }
 
@@ -173,7 +191,11 @@ impl Renderer {
         self.views
             .par_iter()
             .enumerate()
-            .map(|(i, v)| self.render_view(v, i, scene, u64::MAX, sigma).image)
+            .map(|(i, v)| {
+                let backdrop = v.captured.as_ref().unwrap_or(&v.backdrop);
+                self.render_view(v, backdrop, i, scene, u64::MAX, sigma)
+                    .image
+            })
             .collect()
     }
 
@@ -238,9 +260,12 @@ impl Renderer {
         }
     }
 
+    /// `backdrop`: the lit backdrop behind the scene, per pixel (the view's, or its captured
+    /// one for backgrounds).
     fn render_view(
         &self,
         view: &CameraView,
+        backdrop: &[[f64; 3]],
         cam: usize,
         scene: &Scene,
         frame: u64,
@@ -259,7 +284,16 @@ impl Renderer {
             .enumerate()
             .for_each(|(ty, (((rgb, mask), markers), coverage))| {
                 let mut linear = vec![[0.0f64; 3]; w * TILE];
-                self.render_tile_row(view, &prep, ty, &mut linear, mask, markers, coverage);
+                self.render_tile_row(
+                    view,
+                    backdrop,
+                    &prep,
+                    ty,
+                    &mut linear,
+                    mask,
+                    markers,
+                    coverage,
+                );
                 let rows = rgb.len() / (w * 3);
                 for r in 0..rows {
                     let y = (ty * TILE + r) as u64;
@@ -295,6 +329,7 @@ impl Renderer {
     fn render_tile_row(
         &self,
         view: &CameraView,
+        backdrop: &[[f64; 3]],
         prep: &Prepared,
         ty: usize,
         linear: &mut [[f64; 3]],
@@ -320,7 +355,7 @@ impl Renderer {
                 let py = ty * TILE + r;
                 for px in tx * TILE..((tx + 1) * TILE).min(w) {
                     let idx = r * w + px;
-                    let mut bg = view.background[py * w + px];
+                    let mut bg = backdrop[py * w + px];
                     if !shadow_cands.is_empty() {
                         let [x, y] = view.normalized(px, py, 0.5, 0.5);
                         let f = self.shadow_factor(view, prep, &shadow_cands, x, y);

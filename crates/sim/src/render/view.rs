@@ -6,7 +6,7 @@ use flexshape_camera::nalgebra::{Point2, Vector2, Vector3};
 use rayon::prelude::*;
 
 use super::RenderSettings;
-use super::backdrop::{lamp_shading, texture};
+use super::backdrop::{folds, lamp_shading, texture};
 use super::cull::Rect;
 use crate::error::SimError;
 
@@ -24,7 +24,10 @@ pub(crate) struct CameraView {
     /// Bound of each tile's rays in normalized coordinates.
     pub tile_rects: Vec<Rect>,
     /// Lit, textured backdrop per pixel (linear RGB, supersampled, no shadows).
-    pub background: Vec<[f64; 3]>,
+    pub backdrop: Vec<[f64; 3]>,
+    /// The backdrop as it was when the backgrounds were captured, where it differs (folds
+    /// that moved since).
+    pub captured: Option<Vec<[f64; 3]>>,
     /// Lamp position, camera frame (mm).
     pub lamp: Vector3<f64>,
 }
@@ -81,10 +84,14 @@ impl CameraView {
             corners,
             tiles_x,
             tile_rects,
-            background: Vec::new(),
+            backdrop: Vec::new(),
+            captured: None,
             lamp,
         };
-        view.background = view.render_backdrop(settings);
+        view.backdrop = view.render_backdrop(settings, settings.fold_shift_mm);
+        if settings.fold_depth > 0.0 && settings.fold_shift_mm != 0.0 {
+            view.captured = Some(view.render_backdrop(settings, 0.0));
+        }
         Ok(view)
     }
 
@@ -125,7 +132,8 @@ impl CameraView {
         ]
     }
 
-    fn render_backdrop(&self, s: &RenderSettings) -> Vec<[f64; 3]> {
+    /// The lit backdrop per pixel, its folds moved by `fold_shift` mm.
+    fn render_backdrop(&self, s: &RenderSettings, fold_shift: f64) -> Vec<[f64; 3]> {
         // The texture's finest scale is about 2 px, so 2×2 samples already average it well.
         let n = s.supersampling.clamp(1, 2) as usize;
         let depth = s.backdrop_depth;
@@ -143,7 +151,9 @@ impl CameraView {
                                 (sy as f64 + 0.5) / n as f64,
                             );
                             let p = Vector3::new(x * depth, y * depth, depth);
-                            acc += texture(p.x, p.y, s.seed) * lamp_shading(&p, &self.lamp, depth);
+                            acc += texture(p.x, p.y, s.seed)
+                                * folds(p.x, p.y, s.fold_depth, fold_shift, s.seed)
+                                * lamp_shading(&p, &self.lamp, depth);
                         }
                     }
                     let b = acc / (n * n) as f64;

@@ -1,0 +1,159 @@
+//! Whether a fit explains the images: each camera's outline and overlap checks, the tube's own
+//! shape (no tube bends tighter than its radius or passes through itself) — and, apart, whether
+//! the tube is at least where the images show it, whatever else they show.
+
+use flexshape_rig::Volume;
+use flexshape_silhouette::BitMask;
+use flexshape_silhouette::components::touching;
+
+use crate::check::{self, CameraCheck};
+use crate::outline;
+use crate::{Fit, Tube, TubeFitter};
+
+/// Samples around a free end needed in a camera before its end is checked apart.
+const END_SAMPLES: usize = 4;
+
+/// Pixels beyond the re-rendered tube's image that still count as the tube's (its blurred
+/// edge, where the outline is measured) when the background takes a frame's colours.
+const KEEP_PX: usize = 1;
+
+/// Pixels around a capped end's image, beyond its radius and the check's distance, where a
+/// silhouette part the tube does not explain is taken for more of the tube (a missed distal
+/// part), never for backdrop.
+const END_ZONE_PX: f64 = 4.0;
+
+impl TubeFitter {
+    /// Why the fit does not explain the images, if it does not (the first failing check).
+    pub(crate) fn verdict(&self, fit: &Fit, volume: &Volume) -> Option<String> {
+        fit.cameras
+            .iter()
+            .find_map(|c| self.camera_verdict(c))
+            .or_else(|| shape_verdict(&fit.tube, volume))
+    }
+
+    /// Whether the fitted tube is where the images show it — every camera finds its outline
+    /// (sides and free ends) within the self-check's limits, and it is a shape a tube can take
+    /// — though the rest of an image may not match (outline residuals' tail, overlap,
+    /// silhouette pixels beyond the tube). Then what does not match is not the tube.
+    pub fn located(&self, fit: &Fit, volume: &Volume) -> bool {
+        fit.cameras
+            .iter()
+            .all(|c| self.outline_placed(c).is_none() && self.end_placed(c).is_none())
+            && shape_verdict(&fit.tube, volume).is_none()
+    }
+
+    /// Whether one camera's image passes every check of the fit.
+    pub fn explains(&self, check: &CameraCheck) -> bool {
+        self.camera_verdict(check).is_none()
+    }
+
+    /// The pixels of camera `camera`'s image that are the tube's as far as its background is
+    /// concerned: the re-rendered `tube` (and its open ends' continuations) with a margin, and
+    /// the parts of `silhouette` beyond it that meet a capped end (a missed distal part looks
+    /// like that). `None` for a camera outside the rig.
+    pub fn tube_pixels(&self, camera: usize, tube: &Tube, silhouette: &BitMask) -> Option<BitMask> {
+        let cam = self.cameras.get(camera)?;
+        let (body, beyond) = self.render(camera, tube)?;
+        let drawn = body.or(&beyond);
+        let unexplained = silhouette.and_not(&drawn.dilate(self.settings.explain_px));
+        let mut zones = BitMask::new(drawn.width(), drawn.height());
+        for end in [0, 1].into_iter().filter(|&e| tube.capped[e]) {
+            let (centre, _) = tube.frame(end as f64);
+            let r = tube.radius_at(end as f64, tube.length());
+            let Some((c, px, rp)) = outline::sphere(cam, centre, r) else {
+                continue;
+            };
+            let reach = rp + self.settings.explain_px as f64 + END_ZONE_PX;
+            check::disc(&mut zones, (c, px, reach));
+        }
+        Some(drawn.dilate(KEEP_PX).or(&touching(&unexplained, &zones)))
+    }
+
+    /// Why camera `c`'s image is not explained, if it is not (the first failing check).
+    fn camera_verdict(&self, c: &CameraCheck) -> Option<String> {
+        let s = &self.settings;
+        let i = &c.camera;
+        self.outline_placed(c)
+            .or_else(|| {
+                (c.p90_px > s.max_p90_px).then(|| format!(
+                    "camera {i}: a tenth of the outline lies more than {:.2} px from the image's boundary (limit {:.2}): the shape does not explain this camera, or its calibration is off",
+                    c.p90_px, s.max_p90_px
+                ))
+            })
+            .or_else(|| self.end_placed(c))
+            .or_else(|| {
+                (c.iou < s.min_iou).then(|| format!(
+                    "camera {i}: the fitted tube overlaps the silhouette by IoU {:.2} (at least {:.2} expected)",
+                    c.iou, s.min_iou
+                ))
+            })
+            .or_else(|| {
+                (c.unexplained_px > s.max_unexplained_px).then(|| format!(
+                    "camera {i}: {} silhouette pixels lie beyond the fitted tube (at most {})",
+                    c.unexplained_px, s.max_unexplained_px
+                ))
+            })
+    }
+
+    /// Why camera `c`'s outline is not where the image's boundary is, if it is not.
+    fn outline_placed(&self, c: &CameraCheck) -> Option<String> {
+        let s = &self.settings;
+        let i = &c.camera;
+        if c.samples == 0 {
+            return None;
+        }
+        let found = c.found as f64 / c.samples as f64;
+        if found < s.min_found {
+            return Some(format!(
+                "camera {i}: the fitted outline found the image's boundary at {:.0} % of its samples (at least {:.0} % expected)",
+                found * 100.0,
+                s.min_found * 100.0
+            ));
+        }
+        (c.residual_px > s.max_residual_px).then(|| {
+            format!(
+                "camera {i}: outline residual {:.2} px RMS (limit {:.2}; mean {:+.2} px)",
+                c.residual_px, s.max_residual_px, c.offset_px
+            )
+        })
+    }
+
+    /// Why camera `c`'s outline around the tube's free ends is off, if it is: where the tip
+    /// is. Its few samples hardly move the statistics of the whole outline, so a tip that
+    /// stopped short passes them.
+    fn end_placed(&self, c: &CameraCheck) -> Option<String> {
+        let s = &self.settings;
+        if c.samples == 0 || c.end_samples < END_SAMPLES {
+            return None;
+        }
+        let found = c.end_found as f64 / c.end_samples as f64;
+        (found < s.min_found || c.end_residual_px > s.max_residual_px).then(|| format!(
+            "camera {}: the outline around the tube's free end is not where the image shows it (boundary found at {}/{} samples, residual {:.2} px RMS; limits {:.0} %, {:.2} px): the tip has moved farther than the fit could follow, or is hidden",
+            c.camera,
+            c.end_found,
+            c.end_samples,
+            c.end_residual_px,
+            s.min_found * 100.0,
+            s.max_residual_px
+        ))
+    }
+}
+
+/// Why `tube` is no shape a tube can take, if it is not (within `volume`: outside it nothing
+/// holds the tube, and the record does not report it).
+fn shape_verdict(tube: &Tube, volume: &Volume) -> Option<String> {
+    let stations = check::stations(tube, tube.length(), |p| volume.contains(p));
+    if let Some(t) = check::tightest_bend(&stations).filter(|t| t.bend >= 1.0) {
+        return Some(format!(
+            "the fitted tube bends tighter than its radius at {:.0} mm (curvature × radius {:.2}; a tube cannot reach 1): an end curled where the images do not hold it",
+            t.at, t.bend
+        ));
+    }
+    check::self_crossing(&stations).map(|c| format!(
+        "the fitted tube passes through itself: its centerline at {:.0} mm comes within {:.2} mm of itself at {:.0} mm (radius {:.2}). A part folded back along the tube hides in its own outline; this is not a shape a tube can take",
+        c.at_mm[0],
+        c.distance_mm,
+        c.at_mm[1],
+        tube.largest_radius()
+    ))
+}

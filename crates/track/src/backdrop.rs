@@ -1,0 +1,254 @@
+//! Each camera's background model and the silhouetter prepared for it, kept as snapshots: a
+//! frame works on the snapshot it took while a frame that found the backdrop changed puts a
+//! new one in its place (see [`crate::Pipeline::process`]). Frames on other workers go on with
+//! the snapshot they hold.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, OnceLock, RwLock};
+
+use flexshape_camera::Camera;
+use flexshape_camera::nalgebra::Point3;
+use flexshape_carve::Occupancy;
+use flexshape_silhouette::{
+    BackgroundModel, BitMask, Classifier, ColourShadow, SilhouetteSettings, Silhouetter,
+};
+use serde::{Deserialize, Serialize};
+
+/// One camera's background and its prepared silhouetter.
+#[derive(Debug)]
+pub(crate) struct Backdrop {
+    pub model: Arc<BackgroundModel>,
+    pub silhouetter: Silhouetter,
+    /// Whether the background is in colour ([`BackgroundModel::in_colour`]).
+    pub colour: bool,
+    /// See [`Backdrop::bootstrap`]; prepared when first needed.
+    bootstrap: OnceLock<Option<Silhouetter>>,
+}
+
+impl Backdrop {
+    pub fn new(model: BackgroundModel, silhouetter: Silhouetter) -> Self {
+        Backdrop {
+            colour: model.in_colour(),
+            model: Arc::new(model),
+            silhouetter,
+            bootstrap: OnceLock::new(),
+        }
+    }
+
+    /// The silhouetter that finds the tube while the backdrop has changed too much for the
+    /// usual one: the colour classifier without its brightening test, so that a backdrop
+    /// grown brighter (folds that slid away, a lamp moved closer) without changing its
+    /// chromaticity is not foreground; the tube still is by its colour or by being darker.
+    /// `None` for the other classifiers, which have no such test.
+    pub fn bootstrap(&self) -> Option<&Silhouetter> {
+        self.bootstrap
+            .get_or_init(|| {
+                let settings = self.silhouetter.settings();
+                let Classifier::ColourShadow(c) = &settings.classifier else {
+                    return None;
+                };
+                let settings = SilhouetteSettings {
+                    classifier: Classifier::ColourShadow(ColourShadow {
+                        bright: MAX_BRIGHT,
+                        ..c.clone()
+                    }),
+                    ..settings.clone()
+                };
+                Silhouetter::new(&self.model, settings).ok()
+            })
+            .as_ref()
+    }
+}
+
+/// The brightness ratio the bootstrap silhouetter takes for foreground: the classifier's
+/// largest (no backdrop brightens a hundredfold).
+const MAX_BRIGHT: f32 = 100.0;
+
+/// Attempts to locate the tube with the bootstrap silhouettes that may fail in a row before
+/// they stop (until a frame comes out right or a background follows its backdrop): a frame
+/// that is wrong for another reason (no tube in view) would pay for a second chain each time.
+const BOOTSTRAP_ATTEMPTS: usize = 3;
+
+/// Whether the bootstrap silhouettes may be tried, counting failed attempts in a row.
+#[derive(Debug, Default)]
+pub(crate) struct BootstrapBudget {
+    failed: AtomicUsize,
+}
+
+impl Clone for BootstrapBudget {
+    fn clone(&self) -> Self {
+        BootstrapBudget {
+            failed: AtomicUsize::new(self.failed.load(Ordering::Relaxed)),
+        }
+    }
+}
+
+impl BootstrapBudget {
+    /// Whether an attempt may be made.
+    pub fn allows(&self) -> bool {
+        self.failed.load(Ordering::Relaxed) < BOOTSTRAP_ATTEMPTS
+    }
+
+    /// Counts an attempt that located nothing.
+    pub fn failed(&self) {
+        self.failed.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// A right frame or a followed backdrop: attempts may be made again.
+    pub fn reset(&self) {
+        self.failed.store(0, Ordering::Relaxed);
+    }
+}
+
+/// The cameras' current backdrops, in the rig's order.
+#[derive(Debug)]
+pub(crate) struct Backdrops {
+    cameras: Vec<RwLock<Arc<Backdrop>>>,
+}
+
+impl Clone for Backdrops {
+    /// The current snapshots; a later change to either copy leaves the other as it was.
+    fn clone(&self) -> Self {
+        Backdrops {
+            cameras: self.snapshot().into_iter().map(RwLock::new).collect(),
+        }
+    }
+}
+
+impl Backdrops {
+    pub fn new(backdrops: Vec<Backdrop>) -> Self {
+        Backdrops {
+            cameras: backdrops
+                .into_iter()
+                .map(|b| RwLock::new(Arc::new(b)))
+                .collect(),
+        }
+    }
+
+    /// Every camera's current backdrop.
+    pub fn snapshot(&self) -> Vec<Arc<Backdrop>> {
+        self.cameras
+            .iter()
+            // A worker that panicked while replacing left a whole snapshot behind.
+            .map(|c| Arc::clone(&c.read().unwrap_or_else(|e| e.into_inner())))
+            .collect()
+    }
+
+    /// Puts `backdrop` in camera `camera`'s place.
+    pub fn replace(&self, camera: usize, backdrop: Backdrop) {
+        if let Some(c) = self.cameras.get(camera) {
+            *c.write().unwrap_or_else(|e| e.into_inner()) = Arc::new(backdrop);
+        }
+    }
+}
+
+/// A camera whose background took a frame's colours: the backdrop had changed there since the
+/// background was captured.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BackgroundUpdate {
+    /// The camera's name.
+    pub camera: String,
+    /// Pixels whose colour changed by more than the model's noise
+    /// ([`flexshape_silhouette::CHANGED_SPREADS`] spreads, at least
+    /// [`flexshape_silhouette::CHANGED_LEVELS`] grey levels).
+    pub changed_px: usize,
+}
+
+/// The pixels `camera` sees carved voxels of `occupancy` in: a disc per voxel (half its
+/// diagonal across, at its depth). What every camera sees at one place is in the volume, not
+/// on a backdrop behind it: the background never takes those pixels.
+pub(crate) fn hull_pixels(camera: &Camera, occupancy: &Occupancy) -> BitMask {
+    let k = &camera.intrinsics;
+    let (w, h) = (k.width as usize, k.height as usize);
+    let mut mask = BitMask::new(w, h);
+    let half_diagonal = occupancy
+        .volume
+        .voxel_size
+        .iter()
+        .map(|s| s * s)
+        .sum::<f64>()
+        .sqrt()
+        / 2.0;
+    for c in occupancy.centres() {
+        let Ok(p) = camera.project(&Point3::from(c)) else {
+            continue;
+        };
+        if p.depth <= 0.0 {
+            continue;
+        }
+        let r = half_diagonal * k.fx.max(k.fy) / p.depth;
+        let (cx, cy) = (p.pixel.x, p.pixel.y);
+        let y0 = (cy - r).ceil().max(0.0);
+        let y1 = (cy + r).floor().min(h as f64 - 1.0);
+        let mut y = y0;
+        while y <= y1 {
+            let half = (r * r - (y - cy) * (y - cy)).max(0.0).sqrt();
+            let (x0, x1) = (
+                (cx - half).ceil().max(0.0),
+                (cx + half).floor().min(w as f64 - 1.0),
+            );
+            if x0 <= x1 {
+                mask.set_span(y as usize, x0 as usize, x1 as usize);
+            }
+            y += 1.0;
+        }
+    }
+    mask
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flexshape_camera::nalgebra::Vector3;
+    use flexshape_camera::{Distortion, Intrinsics, Pose};
+    use flexshape_rig::Volume;
+
+    #[test]
+    fn hull_pixels_cover_each_voxel_as_the_camera_sees_it() {
+        let intrinsics =
+            Intrinsics::new(640, 480, 800.0, 800.0, 320.0, 240.0, Distortion::default()).unwrap();
+        // 500 mm in front of the camera, looking along +y.
+        let camera = Camera::new(
+            intrinsics,
+            Pose::look_at(
+                Point3::new(0.0, -500.0, 0.0),
+                Point3::origin(),
+                Vector3::z(),
+            ),
+        );
+        let volume = Volume {
+            origin: [-8.0; 3],
+            voxel_size: [2.0; 3],
+            dims: [8; 3],
+        };
+        let mut occupancy = Occupancy {
+            volume,
+            voxels: Vec::new(),
+        };
+        let voxel = occupancy.index_of(&Point3::new(1.0, 1.0, 1.0)).unwrap();
+        occupancy.voxels.push(voxel);
+        let mask = hull_pixels(&camera, &occupancy);
+        // The voxel's centre (1, 1, 1) mm at depth 501 mm: pixel (321.6, 238.4); half its
+        // diagonal (√3 mm) is 2.77 px there.
+        let p = camera.project(&Point3::new(1.0, 1.0, 1.0)).unwrap().pixel;
+        assert!(
+            (p.x - 321.6).abs() < 0.01 && (p.y - 238.4).abs() < 0.01,
+            "{p:?}"
+        );
+        assert!(mask.get(322, 238) && mask.get(324, 238) && mask.get(322, 236));
+        assert!(mask.get(319, 238) && mask.get(322, 241));
+        assert!(!mask.get(325, 238) && !mask.get(322, 242) && !mask.get(318, 238));
+        assert!((20..=28).contains(&mask.count()), "{}", mask.count());
+        assert_eq!(
+            hull_pixels(
+                &camera,
+                &Occupancy {
+                    volume,
+                    voxels: Vec::new()
+                }
+            )
+            .count(),
+            0
+        );
+    }
+}
