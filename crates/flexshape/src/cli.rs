@@ -236,6 +236,10 @@ pub struct ModelSteerArgs {
     /// to this folder.
     #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
+    /// The loop live in the viewer (cameras, shape, the target, the tip's error and the
+    /// curvatures over the frames); it keeps serving after the last frame until Ctrl-C.
+    #[command(flatten)]
+    pub viewer: ViewerArgs,
 }
 
 #[derive(Debug, Args)]

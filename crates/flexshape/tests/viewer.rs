@@ -76,22 +76,19 @@ async fn text_of(c: &Client, id: &str) -> String {
     .to_string()
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn the_viewer_shows_a_live_demo_in_chromium() {
-    if !browser_or_skip() {
-        return;
-    }
-    // The demo, live, with the viewer on a free port (it prints the address).
-    let mut demo = Running(
+/// Runs `flexshape ARGS` (which start the viewer on a free port) and the viewer's address
+/// once it prints it.
+fn spawn_with_viewer(args: &[&str]) -> (Running, String) {
+    let mut child = Running(
         Command::new(env!("CARGO_BIN_EXE_flexshape"))
-            .args(["demo", "--viewer", "127.0.0.1:0", "--fps", "6"])
+            .args(args)
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
             .unwrap(),
     );
     let (tx, rx) = mpsc::channel();
-    let stderr = demo.0.stderr.take().unwrap();
+    let stderr = child.0.stderr.take().unwrap();
     std::thread::spawn(move || {
         for line in BufReader::new(stderr).lines().map_while(Result::ok) {
             let _ = tx.send(line);
@@ -100,15 +97,19 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
     let url = loop {
         let line = rx
             .recv_timeout(Duration::from_secs(60))
-            .expect("the demo prints the viewer's address");
+            .expect("the command prints the viewer's address");
         if let Some(url) = line.strip_prefix("viewer: ") {
             break url.trim().to_string();
         }
     };
     assert!(url.starts_with("http://127.0.0.1:"), "{url}");
+    (child, url)
+}
 
+/// Headless Chromium under chromedriver, with its driver process and profile folder.
+async fn browser() -> (Client, Running, tempfile::TempDir) {
     let port = free_port();
-    let _driver = Running(
+    let driver = Running(
         Command::new(CHROMEDRIVER)
             .arg(format!("--port={port}"))
             .stdout(Stdio::null())
@@ -131,7 +132,7 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
         }),
     );
     let start = Instant::now();
-    let c = loop {
+    let client = loop {
         let connector = hyper_util::client::legacy::connect::HttpConnector::new();
         match ClientBuilder::new(connector)
             .capabilities(caps.clone())
@@ -148,7 +149,57 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
             }
         }
     };
+    (client, driver, profile)
+}
 
+/// Saves a screenshot of the page as `name` in the test's folder, and checks it is not blank.
+async fn screenshot(c: &Client, name: &str) {
+    let png = c.screenshot().await.unwrap();
+    let shot = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    std::fs::write(&shot, &png).unwrap();
+    let (ink, colours) = common::ink(&shot);
+    assert!(
+        ink > 0.5 && colours > 200,
+        "screenshot {}: ink {ink:.2}, {colours} colours",
+        shot.display()
+    );
+}
+
+/// Ctrl-C to the command: it ends cleanly within 30 s; its standard output.
+fn interrupt(child: &mut Running) -> String {
+    let pid = child.0.id().to_string();
+    assert!(
+        Command::new("kill")
+            .args(["-INT", &pid])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.0.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "the command ends after Ctrl-C"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let mut out = String::new();
+    std::io::Read::read_to_string(&mut child.0.stdout.take().unwrap(), &mut out).unwrap();
+    assert!(status.success(), "{status}: {out}");
+    out
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_viewer_shows_a_live_demo_in_chromium() {
+    if !browser_or_skip() {
+        return;
+    }
+    // The demo, live, with the viewer on a free port (it prints the address).
+    let (mut demo, url) = spawn_with_viewer(&["demo", "--viewer", "127.0.0.1:0", "--fps", "6"]);
+    let (c, _driver, _profile) = browser().await;
     c.goto(&url).await.unwrap();
     let long = Duration::from_secs(60);
     wait_for(
@@ -206,42 +257,92 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
     let after = eval(&c, "return document.getElementById('view3d').toDataURL();").await;
     assert_ne!(before, after, "the 3-D view turns");
 
-    let png = c.screenshot().await.unwrap();
-    let shot = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("viewer.png");
-    std::fs::write(&shot, &png).unwrap();
-    let (ink, colours) = common::ink(&shot);
-    assert!(
-        ink > 0.5 && colours > 200,
-        "screenshot {}: ink {ink:.2}, {colours} colours",
-        shot.display()
-    );
+    screenshot(&c, "viewer.png").await;
     c.close().await.unwrap();
 
     // Ctrl-C: the demo finishes its frames in flight and prints its summary.
-    let pid = demo.0.id().to_string();
-    assert!(
-        Command::new("kill")
-            .args(["-INT", &pid])
-            .status()
-            .unwrap()
-            .success()
-    );
-    let start = Instant::now();
-    let status = loop {
-        if let Some(s) = demo.0.try_wait().unwrap() {
-            break s;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(30),
-            "the demo ends after Ctrl-C"
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    };
-    let mut out = String::new();
-    std::io::Read::read_to_string(&mut demo.0.stdout.take().unwrap(), &mut out).unwrap();
-    assert!(status.success(), "{status}: {out}");
+    let out = interrupt(&mut demo);
     assert!(
         out.contains("against truth") && out.contains("dropped"),
+        "{out}"
+    );
+}
+
+/// `model steer --viewer`: the closed loop live — the steering figures, the target drawn in
+/// the views, the tip's error and the curvatures over the frames — and the last frame kept
+/// until Ctrl-C.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_viewer_shows_the_closed_loop_in_chromium() {
+    if !browser_or_skip() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("params.toml");
+    std::fs::write(&params, common::run(&["model", "template"])).unwrap();
+    let (mut steer, url) = spawn_with_viewer(&[
+        "model",
+        "steer",
+        "--params",
+        params.to_str().unwrap(),
+        "--targets",
+        "2",
+        "--steps",
+        "6",
+        "--viewer",
+        "127.0.0.1:0",
+    ]);
+    let (c, _driver, _profile) = browser().await;
+    c.goto(&url).await.unwrap();
+    let long = Duration::from_secs(60);
+    wait_for(
+        &c,
+        "return !document.getElementById('steer-fig').hidden &&
+                !document.getElementById('steer-panel').hidden;",
+        long,
+        "the steering figures",
+    )
+    .await;
+    let steer_text = text_of(&c, "steer").await;
+    assert!(
+        steer_text.starts_with("target ")
+            && steer_text.contains("mm from it")
+            && steer_text.contains("Kx, Kz"),
+        "{steer_text}"
+    );
+    // Ink in both panels of the history, and the target's magenta in the 3-D view.
+    let count = |canvas: &str, test: &str| {
+        format!(
+            "const c = document.getElementById('{canvas}'), d = c.getContext('2d')
+               .getImageData(0, 0, c.width, c.height).data;
+             let n = 0; for (let i = 0; i < d.length; i += 4) {{
+               const r = d[i], g = d[i + 1], b = d[i + 2], a = d[i + 3]; if ({test}) n++; }}
+             return n;"
+        )
+    };
+    let blue = eval(&c, &count("steerplot", "a > 0 && b > 200 && r < 120")).await;
+    let orange = eval(
+        &c,
+        &count("steerplot", "a > 0 && r > 200 && g > 150 && b < 120"),
+    )
+    .await;
+    let target = eval(
+        &c,
+        &count("view3d", "a > 0 && r > 200 && g < 120 && b > 180"),
+    )
+    .await;
+    println!("steering plot: {blue} blue, {orange} orange px; target {target} magenta px");
+    assert!(blue.as_u64().unwrap() > 50 && orange.as_u64().unwrap() > 50);
+    assert!(target.as_u64().unwrap() > 20);
+    eval(
+        &c,
+        "document.getElementById('steer-panel').scrollIntoView(); return true;",
+    )
+    .await;
+    screenshot(&c, "viewer-steer.png").await;
+    c.close().await.unwrap();
+    let out = interrupt(&mut steer);
+    assert!(
+        out.contains("frames; tip at the end of each target"),
         "{out}"
     );
 }

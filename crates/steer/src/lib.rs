@@ -18,7 +18,8 @@ use flexshape_model::{
 };
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{Catheter, CatheterPose, SimConfig, SimError, Simulator};
-use flexshape_track::{Pipeline, TrackError, TrackRecord};
+use flexshape_track::{Pipeline, TrackError, TrackRecord, Tracked};
+use image::RgbImage;
 use serde::Serialize;
 use thiserror::Error;
 
@@ -66,6 +67,9 @@ pub struct SteerStep {
     pub target_index: usize,
     /// The target, model frame, mm.
     pub target: [f64; 3],
+    /// The target in the world frame, mm: placed at the sensed bending base (at rest when the
+    /// frame gave no shape).
+    pub target_world: [f64; 3],
     /// The commanded tendon displacements, mm.
     pub y: Vec<f64>,
     /// The sensing chain's status for the frame.
@@ -160,6 +164,18 @@ pub fn reachable_targets(
         .collect()
 }
 
+/// What the loop saw at one frame, for a live display.
+pub struct SteerFrame<'a> {
+    /// The sensing chain (its cameras and volume).
+    pub pipeline: &'a Pipeline,
+    /// The rendered images, one per camera in the rig's order.
+    pub images: Vec<RgbImage>,
+    /// What the chain made of them.
+    pub tracked: Tracked,
+    /// Its record.
+    pub record: TrackRecord,
+}
+
 /// Steers the catheter of `truth` (what the simulator poses) to each of `targets` in turn
 /// with a controller that starts from `nominal`, on the rig of `config` (its catheter's
 /// section lengths taken from `truth`). `on_step` sees every frame and may stop the loop.
@@ -170,6 +186,21 @@ pub fn steer(
     targets: &[Point3<f64>],
     settings: &SteerSettings,
     mut on_step: impl FnMut(&SteerStep) -> ControlFlow<()>,
+) -> Result<(Vec<SteerStep>, Option<Stiffness>), SteerError> {
+    steer_with_frames(config, truth, nominal, targets, settings, |step, _| {
+        on_step(step)
+    })
+}
+
+/// As [`steer`], handing `on_step` each frame's images and tracking results too (taken, not
+/// copied), e.g. for the live viewer.
+pub fn steer_with_frames(
+    config: &SimConfig,
+    truth: &ManipulatorParams,
+    nominal: &ManipulatorParams,
+    targets: &[Point3<f64>],
+    settings: &SteerSettings,
+    mut on_step: impl FnMut(&SteerStep, SteerFrame<'_>) -> ControlFlow<()>,
 ) -> Result<(Vec<SteerStep>, Option<Stiffness>), SteerError> {
     let mut config = config.clone();
     config.catheter = catheter_for(&config.catheter, truth);
@@ -202,18 +233,24 @@ pub fn steer(
             let q = real.forward(&y)?.q;
             let pose = CatheterPose::arc(&catheter, [q[0], q[1]], [q[2], q[3]], 0.0);
             let rendered = sim.render(frame, &pose)?;
-            let images: Vec<_> = rendered.views.iter().map(|v| &v.image).collect();
-            let tracked = pipeline.process(&images)?;
+            let images: Vec<RgbImage> = rendered.views.into_iter().map(|v| v.image).collect();
+            let tracked = pipeline.process(&images.iter().collect::<Vec<_>>())?;
             let record = TrackRecord::from_tracked(frame, &tracked);
-            let observation = sensed_pose(&record)
-                .ok()
-                .map(|s| frame_of.observation(&known, &s, y.clone()));
+            let posed = sensed_pose(&record).ok();
+            let base = posed
+                .as_ref()
+                .map(|s| s.base)
+                .or(frame_of.reference_base)
+                .unwrap_or_else(Point3::origin);
+            let target_world = base + frame_of.rotation * target.coords;
+            let observation = posed.map(|s| frame_of.observation(&known, &s, y.clone()));
             let sensed_tip = observation.as_ref().and_then(|o| o.tip);
             let true_tip = geometry::bend_tip(truth, &q);
             let step = SteerStep {
                 frame,
                 target_index: index,
                 target: [target.x, target.y, target.z],
+                target_world: [target_world.x, target_world.y, target_world.z],
                 y: y.iter().copied().collect(),
                 status: record.status.clone(),
                 sensed_tip: sensed_tip.map(|t| [t.x, t.y, t.z]),
@@ -225,7 +262,13 @@ pub fn steer(
             };
             sensed = observation;
             frame += 1;
-            let stop = on_step(&step).is_break();
+            let seen = SteerFrame {
+                pipeline: &pipeline,
+                images,
+                tracked,
+                record,
+            };
+            let stop = on_step(&step, seen).is_break();
             steps.push(step);
             if stop {
                 break 'targets;

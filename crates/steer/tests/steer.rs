@@ -5,7 +5,7 @@ use std::ops::ControlFlow;
 
 use flexshape_model::ManipulatorParams;
 use flexshape_sim::SimConfig;
-use flexshape_steer::{SteerSettings, reachable_targets, steer};
+use flexshape_steer::{SteerSettings, reachable_targets, steer, steer_with_frames};
 
 #[test]
 fn the_sensed_tip_is_steered_to_its_targets_and_the_stiffnesses_are_learnt() {
@@ -88,4 +88,44 @@ fn the_sensed_tip_is_steered_to_its_targets_and_the_stiffnesses_are_learnt() {
     )
     .unwrap();
     assert_eq!(few.len(), 3);
+}
+
+/// Each frame handed over with its images and record; the target placed in the world at the
+/// sensed bending base, so the sensed tip lies as far from it there as in the model frame.
+#[test]
+fn each_frame_comes_with_its_images_and_the_target_in_the_world() {
+    let nominal = ManipulatorParams::paper_like();
+    let targets = reachable_targets(&nominal, 1, 0.004).unwrap();
+    let settings = SteerSettings {
+        steps_per_target: 3,
+        ..SteerSettings::default()
+    };
+    let mut seen = 0;
+    steer_with_frames(
+        &SimConfig::default(),
+        &nominal,
+        &nominal,
+        &targets,
+        &settings,
+        |s, frame| {
+            seen += 1;
+            assert_eq!(frame.images.len(), frame.pipeline.camera_names().len());
+            assert_eq!(frame.record.frame, s.frame);
+            assert_eq!(frame.record.status, s.status);
+            let tip = frame.record.tip.unwrap();
+            let apart = (0..3)
+                .map(|i| (tip[i] - s.target_world[i]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let sensed = s.sensed_error_mm.unwrap();
+            println!(
+                "frame {}: {apart:.4} mm in the world, {sensed:.4} sensed",
+                s.frame
+            );
+            assert!((apart - sensed).abs() < 1e-6, "{apart} vs {sensed}");
+            ControlFlow::Continue(())
+        },
+    )
+    .unwrap();
+    assert_eq!(seen, 3);
 }

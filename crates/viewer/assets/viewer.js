@@ -25,6 +25,7 @@ function connect() {
       document.body.dataset.frames = String(received);
       figures(m);
       draw();
+      if (m.steering) drawSteering(m.steering);
     }
   };
 }
@@ -74,6 +75,69 @@ function figures(m) {
     $("truth-fig").hidden = false;
     $("truth").textContent = `rms ${fmt(s.truth_rms_mm, 3)} mm, tip ${fmt(s.truth_tip_mm, 2)} mm`;
   }
+  const st = m.steering;
+  $("steer-fig").hidden = !st;
+  $("steer-panel").hidden = !st;
+  if (st) {
+    const now = st.history[st.history.length - 1] || {};
+    const k = (v) => v.map((x) => fmt(x, 1)).join(", ");
+    $("steer").textContent = `target ${st.target_index + 1}/${st.targets}; tip ${fmt(now.sensed_error_mm, 2)} mm from it` +
+      (now.true_error_mm != null ? ` (true ${fmt(now.true_error_mm, 2)})` : "") +
+      `; Kx, Kz ${k(st.stiffness)}` + (st.true_stiffness ? ` (true ${k(st.true_stiffness)})` : "");
+  }
+}
+
+// The closed loop's history: tip error (log scale) above, curvatures below.
+function drawSteering(st) {
+  const c = $("steerplot"), g = c.getContext("2d");
+  g.clearRect(0, 0, c.width, c.height);
+  const h = st.history;
+  if (h.length === 0) return;
+  const [left, right] = [46, c.width - 10];
+  const f0 = h[0].frame, f1 = Math.max(h[h.length - 1].frame, f0 + 1);
+  const x = (f) => left + (f - f0) / (f1 - f0) * (right - left);
+  const panels = [[8, 118], [140, 250]];
+  g.font = "11px system-ui"; g.lineWidth = 1;
+  for (const [top, bottom] of panels) {
+    g.strokeStyle = "#3a4050"; g.strokeRect(left, top, right - left, bottom - top);
+  }
+  for (let i = 1; i < h.length; i++) {
+    if (h[i].target_index !== h[i - 1].target_index) {
+      g.strokeStyle = "#555b6a";
+      for (const [top, bottom] of panels) { g.beginPath(); g.moveTo(x(h[i].frame), top); g.lineTo(x(h[i].frame), bottom); g.stroke(); }
+    }
+  }
+  // Tip error, mm, log scale between 0.01 and the largest.
+  const errors = h.flatMap((s) => [s.sensed_error_mm, s.true_error_mm]).filter((v) => v != null && v > 0);
+  const hi = Math.log10(Math.max(1, ...errors)), lo = -2;
+  const ye = (v) => 118 - (Math.log10(Math.max(v, 0.01)) - lo) / (hi - lo) * 110;
+  g.fillStyle = "#8a90a0";
+  for (let d = lo; d <= hi; d++) g.fillText(`${Math.pow(10, d)} mm`, 2, ye(Math.pow(10, d)) + 4);
+  const line = (key, colour, y, dots) => {
+    g.strokeStyle = colour; g.fillStyle = colour; g.lineWidth = 1.5; g.beginPath();
+    let open = false;
+    for (const s of h) {
+      const v = key(s);
+      if (v == null) { open = false; continue; }
+      const [px, py] = [x(s.frame), y(v)];
+      if (dots) { g.fillRect(px - 2, py - 2, 4, 4); continue; }
+      open ? g.lineTo(px, py) : g.moveTo(px, py); open = true;
+    }
+    if (!dots) g.stroke();
+  };
+  line((s) => s.true_error_mm, "#5fd08a", ye, false);
+  line((s) => s.sensed_error_mm, "#4fa3ff", ye, false);
+  // Curvatures, 1/m.
+  const ks = h.flatMap((s) => [...s.commanded_kappa, ...(s.sensed_kappa || [])]).map((v) => v * 1000);
+  const kmax = Math.max(1, ...ks.map(Math.abs));
+  const yk = (v) => 195 - v * 1000 / kmax * 52;
+  g.fillStyle = "#8a90a0";
+  g.fillText(`${fmt(kmax, 1)}/m`, 2, yk(kmax / 1000) + 4); g.fillText("0", 2, yk(0) + 4);
+  g.fillText(`-${fmt(kmax, 1)}/m`, 2, yk(-kmax / 1000) + 4);
+  [[0, "#ffb84f"], [1, "#c08bff"]].forEach(([i, colour]) => {
+    line((s) => s.commanded_kappa[i], colour, yk, false);
+    line((s) => s.sensed_kappa ? s.sensed_kappa[i] : null, colour, yk, true);
+  });
 }
 
 // Orthographic views: [canvas id, horizontal axis, vertical axis].
@@ -140,6 +204,18 @@ function paint(g, c, px, scale, box) {
   if (r.tip) {
     const [x, y] = px(r.tip);
     g.fillStyle = "#5fd08a"; g.beginPath(); g.arc(x, y, 4.5, 0, 2 * Math.PI); g.fill();
+  }
+  if (last.steering) {
+    // The target: a ringed cross, and a dashed line to it from the sensed tip.
+    const [x, y] = px(last.steering.target);
+    g.strokeStyle = "#ff4fd8"; g.lineWidth = 2;
+    g.beginPath(); g.arc(x, y, 7, 0, 2 * Math.PI);
+    g.moveTo(x - 10, y); g.lineTo(x + 10, y); g.moveTo(x, y - 10); g.lineTo(x, y + 10); g.stroke();
+    if (r.tip) {
+      const [tx, ty] = px(r.tip);
+      g.setLineDash([4, 3]); g.lineWidth = 1;
+      g.beginPath(); g.moveTo(tx, ty); g.lineTo(x, y); g.stroke(); g.setLineDash([]);
+    }
   }
 }
 

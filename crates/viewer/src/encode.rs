@@ -28,12 +28,54 @@ pub struct Stats {
     pub truth_tip_mm: Option<f64>,
 }
 
+/// The closed loop at a frame (`flexshape model steer`), for the steering panel.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Steering {
+    /// The target, world mm.
+    pub target: [f64; 3],
+    /// Which target (from 0), of `targets`.
+    pub target_index: usize,
+    /// Targets in the run.
+    pub targets: usize,
+    /// `[Kx, Kz]` the controller used for this frame's command (the model file's units).
+    pub stiffness: [f64; 2],
+    /// The true `[Kx, Kz]`, when the catheter is simulated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub true_stiffness: Option<[f64; 2]>,
+    /// The frames so far, oldest first (the most recent [`Steering::HISTORY`]).
+    pub history: Vec<SteeringSample>,
+}
+
+impl Steering {
+    /// Frames of history a message carries: a browser that connects late or misses frames
+    /// still draws the whole recent run.
+    pub const HISTORY: usize = 400;
+}
+
+/// One frame of the closed loop's history.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct SteeringSample {
+    /// Frame number.
+    pub frame: u64,
+    /// Which target.
+    pub target_index: usize,
+    /// The sensed tip's distance from the target, mm (when the frame gave a shape).
+    pub sensed_error_mm: Option<f64>,
+    /// The true tip's, mm (simulation).
+    pub true_error_mm: Option<f64>,
+    /// `[κx, κz]` the controller's model expected of the command, 1/mm.
+    pub commanded_kappa: [f64; 2],
+    /// `[κx, κz]` sensed, 1/mm.
+    pub sensed_kappa: Option<[f64; 2]>,
+}
+
 /// One tracked frame as tracking hands it over.
 pub struct Update {
     record: TrackRecord,
     images: Vec<RgbImage>,
     tracked: Option<Tracked>,
     stats: Stats,
+    steering: Option<Steering>,
 }
 
 impl Update {
@@ -45,7 +87,14 @@ impl Update {
             images: processed.images,
             tracked: processed.result.ok(),
             stats,
+            steering: None,
         }
+    }
+
+    /// The same frame with the closed loop's state.
+    pub fn with_steering(mut self, steering: Steering) -> Self {
+        self.steering = Some(steering);
+        self
     }
 }
 
@@ -58,6 +107,8 @@ struct FrameMessage<'a> {
     kind: &'static str,
     record: &'a TrackRecord,
     stats: &'a Stats,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    steering: Option<&'a Steering>,
     /// Flat x, y, z, … of voxel centres, 0.1 mm resolution.
     cloud: Vec<f32>,
     /// Per cloud point: 0 outside bands, else the band's number.
@@ -79,6 +130,7 @@ pub(crate) fn frame_json(update: &Update) -> String {
         kind: "frame",
         record: &update.record,
         stats: &update.stats,
+        steering: update.steering.as_ref(),
         cloud,
         cloud_band,
     };

@@ -19,7 +19,7 @@ use std::sync::Arc;
 use thiserror::Error;
 use tokio::sync::watch;
 
-pub use encode::{Stats, Update};
+pub use encode::{Stats, Steering, SteeringSample, Update};
 pub use limits::Limits;
 
 /// Why the viewer could not start.

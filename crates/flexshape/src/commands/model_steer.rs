@@ -1,13 +1,18 @@
 //! `flexshape model steer`: the closed loop on the simulated rig (library:
 //! `flexshape_steer::steer`).
 
+use std::collections::VecDeque;
 use std::ops::ControlFlow;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, ensure};
 use flexshape_sim::SimConfig;
-use flexshape_steer::{SteerSettings, reachable_targets, steer};
+use flexshape_steer::{SteerFrame, SteerSettings, SteerStep, reachable_targets, steer_with_frames};
+use flexshape_track::Processed;
+use flexshape_viewer::{Steering, SteeringSample};
 
 use crate::cli::ModelSteerArgs;
+use crate::commands::viewer::{Live, start_at};
 use crate::interrupt::Interrupt;
 
 pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
@@ -54,13 +59,31 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
             "frame", "target", "status", "sensed mm", "true mm", "Kx used", "Kz used"
         );
     }
-    let (steps, learnt) = steer(
+    let true_stiffness = [truth.stiffness.kx, truth.stiffness.kz];
+    let mut live: Option<Live> = None;
+    let mut history: VecDeque<SteeringSample> = VecDeque::new();
+    let (steps, learnt) = steer_with_frames(
         &SimConfig::default(),
         &truth,
         &nominal,
         &targets,
         &settings,
-        |s| {
+        |s, seen| {
+            if let Some(addr) = &args.viewer.viewer {
+                if live.is_none() {
+                    match start_at(addr, args.viewer.allow_remote, seen.pipeline) {
+                        Ok(l) => live = Some(l),
+                        Err(e) => {
+                            eprintln!("{e:#}");
+                            return ControlFlow::Break(());
+                        }
+                    }
+                }
+                if let Some(l) = &mut live {
+                    let steering = steering_of(s, &mut history, targets.len(), true_stiffness);
+                    show(l, s, seen, steering);
+                }
+            }
             if args.json {
                 if let Ok(line) = serde_json::to_string(s) {
                     println!("{line}");
@@ -85,6 +108,10 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
         },
     )
     .context("the closed loop stopped")?;
+    ensure!(
+        args.viewer.viewer.is_none() || live.is_some() || steps.is_empty(),
+        "the viewer could not start"
+    );
     if let Some(dir) = &args.plots {
         figures(dir, &steps, [truth.stiffness.kx, truth.stiffness.kz])?;
     }
@@ -114,7 +141,66 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
             nominal.stiffness.kz
         );
     }
+    if let Some(l) = &live {
+        eprintln!("viewer: the last frame stays at {} until Ctrl-C", l.url());
+        while !stop.requested() {
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
     Ok(())
+}
+
+/// The closed loop's state for the viewer, with `step` added to the run's `history`.
+fn steering_of(
+    step: &SteerStep,
+    history: &mut VecDeque<SteeringSample>,
+    targets: usize,
+    true_stiffness: [f64; 2],
+) -> Steering {
+    history.push_back(SteeringSample {
+        frame: step.frame,
+        target_index: step.target_index,
+        sensed_error_mm: step.sensed_error_mm,
+        true_error_mm: Some(step.true_error_mm),
+        commanded_kappa: step.commanded_kappa,
+        sensed_kappa: step.sensed_kappa,
+    });
+    while history.len() > Steering::HISTORY {
+        history.pop_front();
+    }
+    Steering {
+        target: step.target_world,
+        target_index: step.target_index,
+        targets,
+        stiffness: [step.stiffness[0], step.stiffness[1]],
+        true_stiffness: Some(true_stiffness),
+        history: history.iter().cloned().collect(),
+    }
+}
+
+/// Hands one frame of the loop to the viewer.
+fn show(live: &mut Live, step: &SteerStep, seen: SteerFrame<'_>, steering: Steering) {
+    let SteerFrame {
+        images,
+        tracked,
+        record,
+        ..
+    } = seen;
+    let processed = Processed {
+        frame: step.frame,
+        name: None,
+        command: None,
+        truth: None,
+        warnings: Vec::new(),
+        images,
+        latency_ms: tracked.timings.stages().iter().map(|s| s.1).sum(),
+        result: Ok(tracked),
+        captured: Instant::now(),
+        dropped: 0,
+        capture_time: None,
+        processed_s: None,
+    };
+    live.publish_steering(processed, record, steering);
 }
 
 /// The tip's error over the frames (sensed and true, log scale), the curvature the

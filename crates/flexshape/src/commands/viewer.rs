@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use flexshape_track::{Pipeline, Processed, TrackRecord};
-use flexshape_viewer::{Scene, Stats, Update, Viewer};
+use flexshape_viewer::{Scene, Stats, Steering, Update, Viewer};
 
 use crate::cli::ViewerArgs;
 
@@ -44,9 +44,26 @@ pub fn start_at(addr: &str, allow_remote: bool, pipeline: &Pipeline) -> anyhow::
 }
 
 impl Live {
+    /// The page's address.
+    pub fn url(&self) -> &str {
+        self.viewer.url()
+    }
+
+    /// Offers a frame of the closed loop (`model steer`) with its steering state.
+    pub fn publish_steering(&mut self, p: Processed, record: TrackRecord, steering: Steering) {
+        let update = self.update(p, record, None).with_steering(steering);
+        self.viewer.publish(update);
+    }
+
     /// Offers a frame (taking its images and results) with figures; `truth` is the
     /// centerline RMS and tip error against truth, mm, when known.
     pub fn publish(&mut self, p: Processed, record: TrackRecord, truth: Option<(f64, f64)>) {
+        let update = self.update(p, record, truth);
+        self.viewer.publish(update);
+    }
+
+    /// The frame with the figures so far.
+    fn update(&mut self, p: Processed, record: TrackRecord, truth: Option<(f64, f64)>) -> Update {
         let now = Instant::now();
         self.frames += 1;
         self.recent.push_back(now);
@@ -74,6 +91,6 @@ impl Live {
             truth_rms_mm: truth.map(|t| t.0),
             truth_tip_mm: truth.map(|t| t.1),
         };
-        self.viewer.publish(Update::new(p, record, stats));
+        Update::new(p, record, stats)
     }
 }
