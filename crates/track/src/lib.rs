@@ -1,7 +1,29 @@
 //! Tracking: the whole sensing chain for one frame ([`Pipeline`]) and the JSON Lines records
 //! `flexshape track` writes ([`TrackRecord`], then one [`SummaryLine`]). World frame, mm.
+//!
+//! A recording folder tracked, following the tube from frame to frame, each frame's record
+//! printed (the crate's `examples/` also feed frames from your own cameras and read a record
+//! stream):
+//!
+//! ```no_run
+//! use std::ops::ControlFlow;
+//! use std::sync::atomic::AtomicBool;
+//!
+//! use flexshape_track::{Recording, TrackRecord, run};
+//!
+//! let mut recording = Recording::open("recording".as_ref())?;
+//! let pipeline = recording.pipeline()?.following(true)?;
+//! let stop = AtomicBool::new(false); // set it to stop early: frames taken still arrive
+//! run(&mut recording.source, &pipeline, 2, &stop, |processed| {
+//!     let record = TrackRecord::from_processed(&processed);
+//!     println!("frame {}: {} tip {:?} mm", record.frame, record.status, record.tip);
+//!     ControlFlow::Continue(())
+//! });
+//! # Ok::<(), flexshape_track::TrackError>(())
+//! ```
 
 mod backdrop;
+mod open;
 mod pipeline;
 mod precision;
 mod record;
@@ -10,12 +32,16 @@ mod runner;
 mod usual;
 
 use flexshape_carve::CarveError;
+use std::path::PathBuf;
+
 use flexshape_fit::FitError;
+use flexshape_recording::RecordingError;
 use flexshape_shape::ShapeError;
 use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
 pub use backdrop::BackgroundUpdate;
+pub use open::{Recording, TrackLine, load_backgrounds, parse_line, read_records};
 pub use pipeline::{
     Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, StageTimings, Start, Tracked,
 };
@@ -52,6 +78,35 @@ pub enum TrackError {
     /// Camera poses cannot be refined from the frames given.
     #[error("cannot refine the camera poses: {0}")]
     Refine(String),
+    /// A recording folder.
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    /// A camera's background model could not be read.
+    #[error(
+        "camera {camera}: tracking needs its background image {} (make one with `flexshape background`): {source}",
+        path.display()
+    )]
+    Background {
+        /// Camera name.
+        camera: String,
+        /// The background image.
+        path: PathBuf,
+        /// What went wrong.
+        source: SilhouetteError,
+    },
+    /// A JSON Lines file of tracking records.
+    #[error("{}{}: {problem}", path.display(), line.map(|l| format!(" line {l}")).unwrap_or_default())]
+    Records {
+        /// The file.
+        path: PathBuf,
+        /// The line (from 1), if the problem is on one.
+        line: Option<usize>,
+        /// What is wrong.
+        problem: String,
+    },
+    /// Inputs that do not go together.
+    #[error("{0}")]
+    Input(String),
     /// One item per camera was expected.
     #[error("{found} {what} for a rig of {expected} cameras")]
     CameraCount {

@@ -352,6 +352,16 @@ impl Pipeline {
         Ok(self)
     }
 
+    /// The same chain following the tube from frame to frame (`follow`, as `track --follow`)
+    /// or running the whole chain on every frame: see [`Pipeline::process_after`].
+    pub fn following(self, follow: bool) -> Result<Self, TrackError> {
+        let settings = FitSettings {
+            track: follow,
+            ..self.fit_settings().clone()
+        };
+        self.with_fit_settings(settings)
+    }
+
     /// The image fit (to re-render a fitted tube or see its outline residuals).
     pub fn fitter(&self) -> &TubeFitter {
         &self.fitter

@@ -79,12 +79,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let rig = sim.rig();
     let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume)?;
     // Tracking is measured whatever the rig's default (it is off unless asked for).
-    let following = pipeline
-        .clone()
-        .with_fit_settings(flexshape_fit::FitSettings {
-            track: true,
-            ..pipeline.fit_settings().clone()
-        })?;
+    let following = pipeline.clone().following(true)?;
     let motion = if following.tracks() {
         render(&sim, &sim.motion(args.track_frames, args.rate))
             .context("cannot render the simulated motion")?

@@ -9,30 +9,6 @@ use flexshape_plot::{HistogramSeries, Mark, PALETTE, Series3, histograms, orthog
 use flexshape_track::{TrackArcFit, TrackRecord};
 use flexshape_validate::{AccuracyReport, PoseComparison};
 
-/// The tracking records of a JSON Lines file with their line numbers (the summary line and
-/// blank lines are skipped).
-pub fn read_records(path: &Path) -> anyhow::Result<Vec<(usize, TrackRecord)>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let value: serde_json::Value = match serde_json::from_str(line) {
-            Ok(v) => v,
-            Err(e) => bail!("{} line {}: not JSON ({e})", path.display(), i + 1),
-        };
-        if value.get("summary").is_some() {
-            continue;
-        }
-        let record: TrackRecord = serde_json::from_value(value)
-            .with_context(|| format!("{} line {}: not a tracking record", path.display(), i + 1))?;
-        out.push((i + 1, record));
-    }
-    Ok(out)
-}
-
 fn series(label: impl Into<String>, points: Vec<[f64; 3]>, mark: Mark, k: usize) -> Series3 {
     Series3 {
         label: label.into(),

@@ -4,11 +4,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
-use flexshape_input::{FolderSource, FrameSource, LiveSource, RecordingSource, VideoSource};
-use flexshape_recording::RecordingReader;
+use flexshape_input::{FolderSource, FrameSource, LiveSource, VideoSource};
 use flexshape_rig::{Rig, Volume};
 use flexshape_silhouette::BackgroundModel;
-use flexshape_track::{Pipeline, TrackError};
+use flexshape_track::{Pipeline, Recording, TrackError, load_backgrounds};
 
 use crate::cli::FramesArgs;
 
@@ -90,12 +89,13 @@ pub fn open_input(args: &FramesArgs) -> anyhow::Result<Input> {
 
 fn open_input_as_given(args: &FramesArgs) -> anyhow::Result<Input> {
     if let Some(dir) = &args.recording {
-        let rec = RecordingReader::open(dir)
+        let opened = Recording::open_with(dir, args.backgrounds.as_deref())
             .with_context(|| format!("cannot open the recording {}", dir.display()))?;
-        for s in rec.skipped_files() {
+        for s in opened.skipped() {
             eprintln!("warning: {s}");
         }
-        let mut rig = rec.rig().clone();
+        let rec = opened.source.reader();
+        let mut rig = opened.rig.clone();
         let mut rig_name = rec.layout().rig().display().to_string();
         if let Some(path) = &args.rig {
             let other = super::load_rig(path)?;
@@ -110,21 +110,6 @@ fn open_input_as_given(args: &FramesArgs) -> anyhow::Result<Input> {
             }
             (rig, rig_name) = (other, path.display().to_string());
         }
-        if rec.has_masks() && args.backgrounds.is_some() {
-            bail!(
-                "{} holds masks (masks/) instead of frames: it needs no backgrounds; leave out --backgrounds",
-                dir.display()
-            );
-        }
-        let backgrounds = match &args.backgrounds {
-            _ if rec.has_masks() => None,
-            Some(dir) => Some(load_backgrounds(&rig, |name| {
-                dir.join(format!("{name}.png"))
-            })?),
-            None => Some(load_backgrounds(&rig, |name| {
-                rec.layout().background(name)
-            })?),
-        };
         let mut files = named_inputs(args);
         files.push(rec.layout().rig());
         for sub in [
@@ -140,8 +125,8 @@ fn open_input_as_given(args: &FramesArgs) -> anyhow::Result<Input> {
         return Ok(Input {
             rig,
             rig_name,
-            backgrounds,
-            source: Box::new(RecordingSource::new(rec)),
+            backgrounds: opened.backgrounds,
+            source: Box::new(opened.source),
             files,
         });
     }
@@ -229,25 +214,6 @@ fn folders(
 }
 
 /// Each camera's background model, from the image `path_of(name)`.
-fn load_backgrounds(
-    rig: &Rig,
-    path_of: impl Fn(&str) -> PathBuf,
-) -> anyhow::Result<Vec<BackgroundModel>> {
-    rig.cameras
-        .iter()
-        .map(|cam| {
-            let path = path_of(&cam.name);
-            BackgroundModel::load(&path).with_context(|| {
-                format!(
-                    "camera {}: tracking needs its background image {} (make one with `flexshape background`)",
-                    cam.name,
-                    path.display()
-                )
-            })
-        })
-        .collect()
-}
-
 /// The inputs in the rig's camera order, each camera exactly once.
 fn per_camera(
     rig: &Rig,

@@ -648,7 +648,7 @@ fn print_joint(j: &JointReport, names: &[&str; 4]) {
 /// index, record).
 fn records_of(data: &Path) -> anyhow::Result<Vec<(usize, TrackRecord)>> {
     if !data.is_dir() {
-        return super::figures::read_records(data);
+        return Ok(flexshape_track::read_records(data)?);
     }
     let frames = crate::cli::FramesArgs {
         recording: Some(data.to_path_buf()),

@@ -32,12 +32,8 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         .pipeline(&volume)
         .and_then(|p| super::with_method(p, args.method))
         .and_then(|p| {
-            let track = (args.follow || p.fit_settings().track) && args.ply.is_none();
-            let settings = flexshape_fit::FitSettings {
-                track,
-                ..p.fit_settings().clone()
-            };
-            p.with_fit_settings(settings)
+            let follow = (args.follow || p.fit_settings().track) && args.ply.is_none();
+            p.following(follow)
         })
         .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
     let model_frame = args

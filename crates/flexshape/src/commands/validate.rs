@@ -52,7 +52,7 @@ pub fn points(args: &ValidatePointsArgs) -> anyhow::Result<()> {
                 .parse()
                 .map_err(|e: String| anyhow::anyhow!("--extract {e}"))?;
             let mut points = Vec::new();
-            for (line, r) in super::figures::read_records(jsonl)? {
+            for (line, r) in flexshape_track::read_records(jsonl)? {
                 let p = extract(&r, how)
                     .map_err(|e| anyhow::anyhow!("{} line {line}: {e}", jsonl.display()))?;
                 points.push(Point3::from(p));
@@ -132,7 +132,7 @@ pub fn shape(args: &ValidateShapeArgs) -> anyhow::Result<()> {
     let known = KnownShape { centerline, marks };
     let (mut poses, mut frames, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
     let (mut sensed, mut sensed_marks) = (Vec::new(), Vec::new());
-    for (line, r) in super::figures::read_records(&args.records)? {
+    for (line, r) in flexshape_track::read_records(&args.records)? {
         let usable = matches!(r.status.as_str(), "ok" | "bands_missing") && r.centerline.len() > 2;
         if !usable {
             skipped.push(format!(
