@@ -18,7 +18,7 @@ use flexshape_model::{
 };
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{Catheter, CatheterPose, SimConfig, SimError, Simulator};
-use flexshape_track::{Pipeline, TrackError, TrackRecord, Tracked};
+use flexshape_track::{Pipeline, RecordStatus, TrackError, TrackRecord, Tracked};
 use image::RgbImage;
 use serde::Serialize;
 use thiserror::Error;
@@ -73,7 +73,7 @@ pub struct SteerStep {
     /// The commanded tendon displacements, mm.
     pub y: Vec<f64>,
     /// The sensing chain's status for the frame.
-    pub status: String,
+    pub status: RecordStatus,
     /// The sensed tip, model frame, mm (when the frame gave a shape).
     pub sensed_tip: Option<[f64; 3]>,
     /// Its distance from the target, mm.
@@ -120,7 +120,7 @@ pub fn known_frame(catheter: &Catheter) -> SensorFrame {
 /// What a tracking record says about the bending section (world frame), or why it cannot be
 /// used: a right shape with a circular-arc fit, a band at the bending base and a tip.
 pub fn sensed_pose(r: &TrackRecord) -> Result<SensedPose, String> {
-    if r.status != "ok" {
+    if !r.status.is_ok() {
         return Err(format!(
             "status {}{}",
             r.status,

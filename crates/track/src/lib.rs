@@ -29,6 +29,7 @@ mod precision;
 mod record;
 mod refine;
 mod runner;
+mod status;
 mod usual;
 
 use flexshape_carve::CarveError;
@@ -54,6 +55,7 @@ pub use refine::{
     refine_cameras,
 };
 pub use runner::{Processed, Recent, RunEnd, run};
+pub use status::RecordStatus;
 
 /// Why a frame (or the pipeline's setup) failed.
 #[derive(Debug, Error)]

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::backdrop::BackgroundUpdate;
 use crate::pipeline::{StageTimings, Start, Tracked};
 use crate::runner::{Processed, RunEnd};
+use crate::status::RecordStatus;
 
 /// A band on the centerline.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -121,7 +122,7 @@ pub struct TrackRecord {
     pub frame: u64,
     /// `ok`, `no_object`, `ambiguous`, `leaves_volume`, `inconsistent`, `bad_silhouette`,
     /// `bands_missing` or `error`.
-    pub status: String,
+    pub status: RecordStatus,
     /// Why, when the status is not `ok`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
@@ -250,23 +251,20 @@ impl TrackRecord {
     /// The record of a processed frame.
     pub fn from_tracked(frame: u64, t: &Tracked) -> Self {
         let s = &t.shape;
-        let (status, reason) = match &s.status {
-            Status::Ok => ("ok", None),
-            Status::NoObject { voxels } => ("no_object", Some(format!("{voxels} voxels carved"))),
-            Status::Ambiguous { reason } => ("ambiguous", Some(reason.clone())),
-            Status::LeavesVolume => (
-                "leaves_volume",
-                Some(
-                    "the tube leaves the volume: the tip is outside it; enlarge the volume".into(),
-                ),
-            ),
-            Status::Inconsistent { reason } => ("inconsistent", Some(reason.clone())),
-            Status::BadSilhouette { reason } => ("bad_silhouette", Some(reason.clone())),
-            Status::BandsMissing { found, expected } => (
-                "bands_missing",
-                Some(format!("{found} of {expected} bands found")),
-            ),
+        let reason = match &s.status {
+            Status::Ok => None,
+            Status::NoObject { voxels } => Some(format!("{voxels} voxels carved")),
+            Status::Ambiguous { reason }
+            | Status::Inconsistent { reason }
+            | Status::BadSilhouette { reason } => Some(reason.clone()),
+            Status::LeavesVolume => {
+                Some("the tube leaves the volume: the tip is outside it; enlarge the volume".into())
+            }
+            Status::BandsMissing { found, expected } => {
+                Some(format!("{found} of {expected} bands found"))
+            }
         };
+        let status = RecordStatus::from(&s.status);
         let has_shape = !s.points.is_empty();
         let arc_fit = s.arc_fit.as_ref().map(|f| {
             let [x, y, z] = f.axes;
@@ -286,7 +284,7 @@ impl TrackRecord {
         });
         TrackRecord {
             frame,
-            status: status.into(),
+            status,
             reason,
             centerline: s.points.clone(),
             tip: has_shape.then_some(s.tip),
@@ -381,7 +379,7 @@ impl TrackRecord {
     pub fn error(frame: u64, reason: String) -> Self {
         TrackRecord {
             frame,
-            status: "error".into(),
+            status: RecordStatus::Error,
             reason: Some(reason),
             centerline: Vec::new(),
             tip: None,
@@ -456,12 +454,12 @@ impl Tally {
     /// Counts one record.
     pub fn add(&mut self, record: &TrackRecord) {
         self.frames += 1;
-        match record.status.as_str() {
-            "ok" => self.ok += 1,
-            "error" => self.errors += 1,
+        match record.status {
+            RecordStatus::Ok => self.ok += 1,
+            RecordStatus::Error => self.errors += 1,
             _ => {}
         }
-        if record.status != "error" {
+        if record.status != RecordStatus::Error {
             self.timings.push(record.timings_ms);
         }
         if let Some(l) = record.latency_ms {

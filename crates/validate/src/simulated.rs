@@ -16,7 +16,7 @@ use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{
     BAND_ALBEDO, BODY_ALBEDO, Catheter, CatheterPose, Scene, SimConfig, Simulator, Tube,
 };
-use flexshape_track::{Pipeline, TrackRecord, Tracked};
+use flexshape_track::{Pipeline, RecordStatus, TrackRecord, Tracked};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal, StandardNormal};
@@ -188,8 +188,8 @@ pub fn accuracy_experiment(e: &Experiments) -> Result<AccuracyRun, ValidateError
             occluders: Vec::new(),
         };
         let (record, _) = bench.track(&scene, k as u64)?;
-        match (record.status.as_str(), record.tip) {
-            ("ok", Some(t)) => {
+        match (&record.status, record.tip) {
+            (RecordStatus::Ok, Some(t)) => {
                 sensed.push(Point3::from(t));
                 truth.push(tip);
             }
@@ -332,7 +332,7 @@ pub fn precision_experiment(e: &Experiments) -> Result<PrecisionRun, ValidateErr
         };
         let (record, tracked) = bench.track(&scene, k as u64)?;
         run.records.push(record.clone());
-        if record.status != "ok" {
+        if !record.status.is_ok() {
             run.skipped.push(format!(
                 "pose {k}: {} {}",
                 record.status,

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
-use flexshape_track::{Processed, SummaryLine, Tally, TrackRecord, TrackSummary};
+use flexshape_track::{Processed, RecordStatus, SummaryLine, Tally, TrackRecord, TrackSummary};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
@@ -70,7 +70,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
                     });
                 }
             }
-            if record.status == "error" {
+            if record.status == RecordStatus::Error {
                 let reason = record.reason.as_deref().unwrap_or("");
                 bar.suspend(|| eprintln!("frame {:06}: {reason}", p.frame));
             }

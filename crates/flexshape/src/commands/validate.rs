@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use flexshape_camera::nalgebra::Point3;
 use flexshape_curve::Polyline;
 use flexshape_fit::Method;
-use flexshape_track::TrackRecord;
+use flexshape_track::{RecordStatus, TrackRecord};
 use flexshape_validate::simulated::{
     AccuracyRun, Experiments, PrecisionRun, accuracy_experiment, known_object, precision_experiment,
 };
@@ -133,7 +133,8 @@ pub fn shape(args: &ValidateShapeArgs) -> anyhow::Result<()> {
     let (mut poses, mut frames, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
     let (mut sensed, mut sensed_marks) = (Vec::new(), Vec::new());
     for (line, r) in flexshape_track::read_records(&args.records)? {
-        let usable = matches!(r.status.as_str(), "ok" | "bands_missing") && r.centerline.len() > 2;
+        let usable = matches!(r.status, RecordStatus::Ok | RecordStatus::BandsMissing)
+            && r.centerline.len() > 2;
         if !usable {
             skipped.push(format!(
                 "line {line} (frame {}): status {}",
@@ -227,7 +228,7 @@ fn write_data(dir: &Path, acc: &AccuracyRun, pre: &PrecisionRun) -> anyhow::Resu
     let with_tip: Vec<TrackRecord> = acc
         .records
         .iter()
-        .filter(|r| r.status == "ok" && r.tip.is_some())
+        .filter(|r| r.status.is_ok() && r.tip.is_some())
         .cloned()
         .collect();
     write("stylus_tracks.jsonl", jsonl(&with_tip)?)?;
