@@ -493,30 +493,34 @@ impl TubeFitter {
         Ok((record, Some(fit)))
     }
 
-    /// The region of camera `camera`'s image within `margin_px` of `tube`'s image (its ends'
-    /// continuations left out), or `None` when the camera does not see the tube or is not in
-    /// the rig.
-    pub fn image_region(&self, camera: usize, tube: &Tube, margin_px: f64) -> Option<Region> {
-        let cam = self.cameras.get(camera)?;
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for (c, r) in outline::sphere_centres(tube, tube.length()) {
-            let Some((_, px, rp)) = outline::sphere(cam, c, r) else {
-                continue;
-            };
-            for k in 0..2 {
-                lo[k] = lo[k].min(px[k] - rp - margin_px);
-                hi[k] = hi[k].max(px[k] + rp + margin_px);
-            }
-        }
-        let (w, h) = (cam.intrinsics.width as f64, cam.intrinsics.height as f64);
-        let (x0, y0) = (lo[0].floor().max(0.0), lo[1].floor().max(0.0));
-        let (x1, y1) = ((hi[0].ceil() + 1.0).min(w), (hi[1].ceil() + 1.0).min(h));
-        (x0 < x1 && y0 < y1).then_some(Region {
-            x0: x0 as usize,
-            y0: y0 as usize,
-            x1: x1 as usize,
-            y1: y1 as usize,
-        })
+    /// The region of each camera's image (rig order) within `margin_px` of `tube`'s image (its
+    /// ends' continuations left out), or `None` for a camera that does not see the tube.
+    pub fn image_regions(&self, tube: &Tube, margin_px: f64) -> Vec<Option<Region>> {
+        let centres = outline::sphere_centres(tube, tube.length());
+        self.cameras
+            .iter()
+            .map(|cam| {
+                let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+                for &(c, r) in &centres {
+                    let Some((_, px, rp)) = outline::sphere(cam, c, r) else {
+                        continue;
+                    };
+                    for k in 0..2 {
+                        lo[k] = lo[k].min(px[k] - rp - margin_px);
+                        hi[k] = hi[k].max(px[k] + rp + margin_px);
+                    }
+                }
+                let (w, h) = (cam.intrinsics.width as f64, cam.intrinsics.height as f64);
+                let (x0, y0) = (lo[0].floor().max(0.0), lo[1].floor().max(0.0));
+                let (x1, y1) = ((hi[0].ceil() + 1.0).min(w), (hi[1].ceil() + 1.0).min(h));
+                (x0 < x1 && y0 < y1).then_some(Region {
+                    x0: x0 as usize,
+                    y0: y0 as usize,
+                    x1: x1 as usize,
+                    y1: y1 as usize,
+                })
+            })
+            .collect()
     }
 
     /// The record of a fitted tube: its curve sampled, bands from colour, and the statuses the

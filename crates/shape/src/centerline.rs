@@ -28,8 +28,10 @@ use crate::order::{Slices, dot};
 use crate::settings::{ShapeSettings, Smoothing, TipEnd};
 use crate::spline::{CubicSpline3, Derivatives, moving_average, polynomial_fit};
 
-/// Parameter step of the arc-length table, mm.
-const TABLE_STEP: f64 = 0.1;
+/// Parameter step of the arc-length table, mm: its chords fall short of the arc by κ²h²/24 of
+/// it, under 1e-5 of the length for bends down to 20 mm radius (0.002 mm over 224 mm); a
+/// tenth of a millimetre cost a tracked frame 0.2 ms for nothing the record shows.
+const TABLE_STEP: f64 = 0.25;
 
 /// The smooth curve under a centerline.
 #[derive(Debug, Clone)]

@@ -179,7 +179,7 @@ impl ShapeEstimator {
         let s = &self.settings;
         let length = curve.length();
         // Evenly spaced, a little closer than `sample_mm` so that no chord exceeds it (the arc
-        // table is exact to ~1e-4 mm).
+        // table is exact to ~1e-3 mm).
         let steps = (length / (0.999 * s.sample_mm)).ceil().max(1.0) as usize;
         let mut record = ShapeRecord::empty(Status::Ok);
         for i in 0..=steps {

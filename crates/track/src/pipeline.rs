@@ -464,16 +464,14 @@ impl Pipeline {
         let t = Instant::now();
         let margin = self.fitter.settings().track_margin_px;
         let backdrops = self.backdrops.snapshot();
+        let regions = self.fitter.image_regions(&prior.tube, margin);
         let silhouettes = backdrops
             .par_iter()
             .zip(images)
             .zip(&self.names)
-            .enumerate()
-            .map(|(i, ((b, img), name))| {
-                let region = self
-                    .fitter
-                    .image_region(i, &prior.tube, margin)
-                    .unwrap_or(Region::ALL);
+            .zip(&regions)
+            .map(|(((b, img), name), region)| {
+                let region = region.unwrap_or(Region::ALL);
                 b.silhouetter
                     .process_within(img, &region)
                     .map_err(|source| TrackError::Silhouette {
