@@ -39,6 +39,36 @@ pub struct BSpline3 {
     knots: Vec<f64>,
 }
 
+/// The uniform cubic B-spline's four basis functions at `t ∈ [0, 1]` across a span, and their
+/// derivatives by `u` up to `ORDER` (`per_u` spans per unit of `u`); rows above are 0.
+fn uniform_weights<const ORDER: usize>(t: f64, per_u: f64) -> [[f64; 4]; 4] {
+    let (t2, s) = (t * t, 1.0 - t);
+    let mut w = [[0.0; 4]; 4];
+    w[0] = [
+        s * s * s / 6.0,
+        (3.0 * t2 * t - 6.0 * t2 + 4.0) / 6.0,
+        (-3.0 * t2 * t + 3.0 * t2 + 3.0 * t + 1.0) / 6.0,
+        t2 * t / 6.0,
+    ];
+    if ORDER >= 1 {
+        w[1] = [
+            -s * s / 2.0 * per_u,
+            (1.5 * t2 - 2.0 * t) * per_u,
+            (-1.5 * t2 + t + 0.5) * per_u,
+            t2 / 2.0 * per_u,
+        ];
+    }
+    if ORDER >= 2 {
+        let k = per_u * per_u;
+        w[2] = [s * k, (3.0 * t - 2.0) * k, (1.0 - 3.0 * t) * k, t * k];
+    }
+    if ORDER >= 3 {
+        let k = per_u * per_u * per_u;
+        w[3] = [-k, 3.0 * k, -3.0 * k, k];
+    }
+    w
+}
+
 impl BSpline3 {
     /// The curve of these control points (at least 4, all finite).
     pub fn new(control: Vec<[f64; 3]>) -> Result<Self, CurveError> {
@@ -128,13 +158,28 @@ impl BSpline3 {
     /// the value and tangent cost about a third of all three derivatives.
     pub fn basis_to<const ORDER: usize>(&self, u: f64) -> Basis {
         const P: usize = 3;
-        let order = ORDER.min(P) as isize;
         let u = u.clamp(0.0, 1.0);
         let n = self.control.len();
         let k = &self.knots;
         let span = (P + k[P..n].partition_point(|&t| t <= u))
             .saturating_sub(1)
             .min(n - 1);
+        // Away from the clamped ends the six knots that shape this span are evenly spaced,
+        // and the basis is the uniform cubic's, in closed form.
+        if span >= P + 2 && span + P <= n {
+            return Basis {
+                first: span - P,
+                weights: uniform_weights::<ORDER>((u - k[span]) * (n - P) as f64, (n - P) as f64),
+            };
+        }
+        self.de_boor_basis::<ORDER>(u, span)
+    }
+
+    /// The basis at `u` in span `span` by the general recurrence (The NURBS Book, A2.3).
+    fn de_boor_basis<const ORDER: usize>(&self, u: f64, span: usize) -> Basis {
+        const P: usize = 3;
+        let order = ORDER.min(P) as isize;
+        let k = &self.knots;
         let mut ndu = [[0.0f64; 4]; 4];
         let mut left = [0.0f64; 4];
         let mut right = [0.0f64; 4];
@@ -220,9 +265,17 @@ impl BSpline3 {
     /// [`BSpline3::eval`]), at about a third of its cost.
     pub fn point_and_d1(&self, u: f64) -> ([f64; 3], [f64; 3]) {
         let inside = u.clamp(0.0, 1.0);
-        let at = self.eval_basis(&self.basis_to::<1>(inside));
+        let b = self.basis_to::<1>(inside);
+        let (mut value, mut d1) = ([0.0f64; 3], [0.0f64; 3]);
+        for j in 0..4 {
+            let p = self.control[b.first + j];
+            for c in 0..3 {
+                value[c] += b.weights[0][j] * p[c];
+                d1[c] += b.weights[1][j] * p[c];
+            }
+        }
         let du = u - inside;
-        (std::array::from_fn(|c| at.value[c] + at.d1[c] * du), at.d1)
+        (std::array::from_fn(|c| value[c] + d1[c] * du), d1)
     }
 
     /// Position and derivatives where `basis` was taken (from [`BSpline3::basis`] of this
@@ -249,6 +302,42 @@ impl BSpline3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_closed_form_away_from_the_ends_is_the_recurrence() {
+        let curve = BSpline3::new(
+            (0..12)
+                .map(|i| [i as f64, (i as f64).sin(), 0.3 * i as f64])
+                .collect(),
+        )
+        .unwrap();
+        let n = curve.control.len();
+        let mut fast = 0;
+        for i in 0..=1000 {
+            let u = i as f64 / 1000.0;
+            let span = (3 + curve.knots[3..n].partition_point(|&t| t <= u))
+                .saturating_sub(1)
+                .min(n - 1);
+            let (a, b) = (curve.basis(u), curve.de_boor_basis::<3>(u, span));
+            assert_eq!(a.first, b.first, "u {u}");
+            for d in 0..4 {
+                for j in 0..4 {
+                    let scale = 1.0 + b.weights[d][j].abs();
+                    assert!(
+                        (a.weights[d][j] - b.weights[d][j]).abs() < 1e-9 * scale,
+                        "u {u}, d {d}, j {j}: {} vs {}",
+                        a.weights[d][j],
+                        b.weights[d][j]
+                    );
+                }
+            }
+            let one = curve.basis_to::<1>(u);
+            assert!(one.weights[2] == [0.0; 4] && one.weights[3] == [0.0; 4]);
+            fast += usize::from((5..=n - 3).contains(&span));
+        }
+        // 5 of the 9 spans are evenly knotted.
+        assert!((540..=570).contains(&fast), "{fast}");
+    }
 
     fn wavy() -> BSpline3 {
         BSpline3::new(
