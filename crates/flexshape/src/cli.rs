@@ -659,6 +659,10 @@ pub struct SimArgs {
     /// 0.14,0.20,0.40; e.g. 0.35,0.35,0.35 for a grey tube).
     #[arg(long, value_name = "R,G,B", value_parser = parse_albedo)]
     pub body_albedo: Option<[f64; 3]>,
+    /// The body's specular highlight, STRENGTH,SHININESS (default 0.15,30, a faint sheen on
+    /// plastic; e.g. 0.9,20 for a silvery coating).
+    #[arg(long, value_name = "STRENGTH,SHININESS", value_parser = parse_gloss)]
+    pub gloss: Option<[f64; 2]>,
     /// The backdrops' diffuse reflectance, R,G,B in 0–1 (default a green cloth, 0.70,0.88,0.66;
     /// e.g. 0.9,0.9,0.9 for white paper).
     #[arg(long, value_name = "R,G,B", value_parser = parse_albedo)]
@@ -1017,6 +1021,20 @@ fn parse_threads(s: &str) -> Result<usize, String> {
 }
 
 /// `R,G,B` reflectances in 0–1.
+fn parse_gloss(s: &str) -> Result<[f64; 2], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("`{s}`: give two numbers STRENGTH,SHININESS, e.g. 0.9,20"))?;
+    match v[..] {
+        [k, n] if (0.0..=10.0).contains(&k) && (1.0..=1e4).contains(&n) => Ok([k, n]),
+        _ => Err(format!(
+            "`{s}`: give a strength from 0 to 10 and a shininess from 1 to 10000"
+        )),
+    }
+}
+
 fn parse_albedo(s: &str) -> Result<[f64; 3], String> {
     let v: Vec<f64> = s
         .split(',')

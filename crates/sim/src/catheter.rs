@@ -8,7 +8,7 @@ use flexshape_recording::{BendBase, Truth, TruthBand, TruthSection};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SimError, config_error};
-use crate::scene::{Albedo, BAND_ALBEDO, BODY_ALBEDO, Tube};
+use crate::scene::{Albedo, BAND_ALBEDO, BODY_ALBEDO, Gloss, Tube};
 
 /// Spacing of the ground-truth centerline samples, mm (the contract asks for ≤ 0.5 mm).
 pub const TRUTH_STEP: f64 = 0.25;
@@ -38,6 +38,10 @@ pub struct Catheter {
     /// Diffuse reflectance of the body, RGB in 0–1 (the bands keep theirs).
     #[serde(default = "body_albedo")]
     pub albedo: Albedo,
+    /// The body's specular highlight (default a faint sheen; strong and sharp for a metal or
+    /// silvery coating).
+    #[serde(default)]
+    pub gloss: Gloss,
 }
 
 fn body_albedo() -> Albedo {
@@ -61,6 +65,7 @@ impl Default for Catheter {
             extra_bands: Vec::new(),
             radius_steps: Vec::new(),
             albedo: BODY_ALBEDO,
+            gloss: Gloss::default(),
         }
     }
 }
@@ -170,6 +175,16 @@ impl Catheter {
         positive("band_width", self.band_width)?;
         check_steps(&self.radius_steps, (1e-3, 1e3))
             .map_err(|e| config_error("radius_steps", e.0))?;
+        let g = self.gloss;
+        if !((0.0..=10.0).contains(&g.strength) && (1.0..=1e4).contains(&g.shininess)) {
+            return Err(config_error(
+                "gloss",
+                format!(
+                    "strength {} must lie in [0, 10] and shininess {} in [1, 10⁴]",
+                    g.strength, g.shininess
+                ),
+            ));
+        }
         let total: f64 = pose.bend.iter().map(|s| s.length).sum();
         if pose.bend.is_empty() || (total - self.bend_length).abs() > 1e-6 * self.bend_length {
             return Err(config_error(
@@ -292,6 +307,7 @@ impl Catheter {
             bands: state.bands.clone(),
             albedo: self.albedo,
             band_albedo: BAND_ALBEDO,
+            gloss: self.gloss,
         })
     }
 

@@ -3,6 +3,7 @@
 
 use flexshape_camera::nalgebra::Point3;
 use flexshape_curve::{Polyline, RadiusStep, radius_at};
+use serde::{Deserialize, Serialize};
 
 /// Linear RGB reflectance in `[0, 1]`.
 pub type Albedo = [f64; 3];
@@ -32,6 +33,28 @@ pub struct Tube {
     pub albedo: Albedo,
     /// Band colour.
     pub band_albedo: Albedo,
+    /// How the surface shines where it reflects the lamp toward the camera.
+    pub gloss: Gloss,
+}
+
+/// A surface's specular highlight (Blinn–Phong): `strength · (n·h)^shininess` of white light
+/// added to the diffuse colour (linear RGB, 1 the backdrop-white level).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Gloss {
+    /// Brightness of the highlight's peak.
+    pub strength: f64,
+    /// Its sharpness (higher: smaller and sharper).
+    pub shininess: f64,
+}
+
+impl Default for Gloss {
+    /// A faint sheen, as on matt plastic.
+    fn default() -> Self {
+        Gloss {
+            strength: 0.15,
+            shininess: 30.0,
+        }
+    }
 }
 
 impl Tube {

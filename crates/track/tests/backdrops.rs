@@ -66,6 +66,44 @@ fn a_grey_tube_on_white_paper_is_not_a_shadow() {
     assert!(ok >= 7 && ok_without <= 1, "{ok} / {ok_without}");
 }
 
+/// A silvery tube (grey, with a strong sharp highlight where it reflects the lamp) over the
+/// same white paper: the highlight is brighter than the paper and colourless, the body darker
+/// and colourless, its shadow beside it. Every frame the chain calls `ok` must be right.
+#[test]
+fn a_silvery_tube_on_white_paper_is_right_or_says_so() {
+    let grey = grey_on_white();
+    let (sim, pipeline) = common::chain_of(SimConfig {
+        catheter: Catheter {
+            gloss: flexshape_sim::Gloss {
+                strength: 1.0,
+                shininess: 20.0,
+            },
+            ..grey.catheter
+        },
+        ..grey
+    });
+    let mut ok = 0;
+    for (i, pose) in sim.sweep(10).iter().enumerate() {
+        let frame = sim.render(i as u64, pose).unwrap();
+        let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+        let t = pipeline.process(&images).unwrap();
+        let record = TrackRecord::from_tracked(i as u64, &t);
+        if record.status == "ok" {
+            ok += 1;
+            let (rms, tip) = (
+                common::rms(&frame.truth, &sim, &t.shape),
+                common::tip_error(&frame.truth, &t.shape),
+            );
+            println!("frame {i}: ok, {rms:.3} mm RMS, tip {tip:.2} mm");
+            assert!(rms < 0.1 && tip < 0.4, "frame {i}: {rms} mm, tip {tip} mm");
+        } else {
+            println!("frame {i}: {} {:?}", record.status, record.reason);
+        }
+    }
+    println!("{ok} of 10 ok");
+    assert!(ok >= 4, "{ok}");
+}
+
 /// Cloth whose folds (valleys losing 30 % of the light, 70 mm apart) slid `shift` mm between
 /// the background capture and the run: where the old valleys were, the backdrop is brighter
 /// than the background, which the classifier takes for foreground along the old folds.

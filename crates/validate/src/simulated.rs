@@ -14,7 +14,7 @@ use flexshape_fit::{FitSettings, Method};
 use flexshape_register::RigidTransform;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{
-    BAND_ALBEDO, BODY_ALBEDO, Catheter, CatheterPose, Scene, SimConfig, Simulator, Tube,
+    BAND_ALBEDO, BODY_ALBEDO, Catheter, CatheterPose, Gloss, Scene, SimConfig, Simulator, Tube,
 };
 use flexshape_track::{Pipeline, RecordStatus, TrackRecord, Tracked};
 use rand::rngs::Xoshiro256PlusPlus;
@@ -184,6 +184,7 @@ pub fn accuracy_experiment(e: &Experiments) -> Result<AccuracyRun, ValidateError
                 bands: Vec::new(),
                 albedo: BODY_ALBEDO,
                 band_albedo: BAND_ALBEDO,
+                gloss: Gloss::default(),
             }],
             occluders: Vec::new(),
         };

@@ -103,6 +103,14 @@ fn sim_config(args: &SimArgs) -> SimConfig {
                 .map(|s| s.0.clone())
                 .unwrap_or_default(),
             albedo: args.body_albedo.unwrap_or(defaults.catheter.albedo),
+            gloss: args
+                .gloss
+                .map_or(defaults.catheter.gloss, |[strength, shininess]| {
+                    flexshape_sim::Gloss {
+                        strength,
+                        shininess,
+                    }
+                }),
             ..defaults.catheter
         },
         occluders: args.occluders,

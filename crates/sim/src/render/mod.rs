@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
-use crate::scene::{Albedo, Scene};
+use crate::scene::{Albedo, Gloss, Scene};
 use backdrop::lamp_visibility;
 use cull::{Rect, RectIndex, box_corners};
 use intersect::{Capsule, closest_on_segment, ray_capsule, ray_sphere, segment_distance};
@@ -456,29 +456,33 @@ impl Renderer {
         hit: &Hit,
     ) -> [f64; 3] {
         let x = d * t;
-        let (normal, albedo) = match *hit {
+        let (normal, albedo, gloss) = match *hit {
             Hit::Capsule(i) => {
                 let c = &prep.capsules[i];
                 let (q, s) = capsule_point(c, d, t);
                 let tube = &prep.scene.tubes[c.tube];
-                (
-                    (x - q) / c.radius,
-                    if tube.is_band(s) {
-                        tube.band_albedo
-                    } else {
-                        tube.albedo
-                    },
-                )
+                if tube.is_band(s) {
+                    ((x - q) / c.radius, tube.band_albedo, Gloss::default())
+                } else {
+                    ((x - q) / c.radius, tube.albedo, tube.gloss)
+                }
             }
             Hit::Sphere(j) => {
                 let (c, r, a) = &prep.spheres[j];
-                ((x - c) / *r, *a)
+                ((x - c) / *r, *a, Gloss::default())
             }
         };
         let l = (view.lamp - x).normalize();
         let diffuse = normal.dot(&l).max(0.0);
         let half = (l - d).normalize();
-        let specular = 0.15 * normal.dot(&half).max(0.0).powi(30);
+        let cos = normal.dot(&half).max(0.0);
+        // Whole exponents as integer powers: the default sheen renders as it always has.
+        let peak = if gloss.shininess.fract() == 0.0 && gloss.shininess.abs() < 1e6 {
+            cos.powi(gloss.shininess as i32)
+        } else {
+            cos.powf(gloss.shininess)
+        };
+        let specular = gloss.strength * peak;
         let k = 0.3 + 0.7 * diffuse;
         [
             albedo[0] * k + specular,
