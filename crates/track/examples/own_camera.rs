@@ -49,7 +49,7 @@ fn track() -> Result<(), Box<dyn std::error::Error>> {
             record.status,
             record.start,
             record.tip.map(|t| t.map(|v| (v * 100.0).round() / 100.0)),
-            tracked.timings.stages().iter().map(|s| s.1).sum::<f64>()
+            tracked.timings.total()
         );
     }
     Ok(())

@@ -60,6 +60,11 @@ impl Backdrop {
     }
 }
 
+/// Each backdrop's background model.
+pub(crate) fn models(backdrops: &[Arc<Backdrop>]) -> Vec<Arc<BackgroundModel>> {
+    backdrops.iter().map(|b| Arc::clone(&b.model)).collect()
+}
+
 /// The brightness ratio the bootstrap silhouetter takes for foreground: the classifier's
 /// largest (no backdrop brightens a hundredfold).
 const MAX_BRIGHT: f32 = 100.0;

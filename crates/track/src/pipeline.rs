@@ -29,7 +29,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::TrackError;
-use crate::backdrop::{Backdrop, Backdrops, BackgroundUpdate, BootstrapBudget, hull_pixels};
+use crate::backdrop::{
+    Backdrop, Backdrops, BackgroundUpdate, BootstrapBudget, hull_pixels, models,
+};
 use crate::usual::{UsualShares, share};
 
 /// Milliseconds per stage of one frame.
@@ -52,7 +54,23 @@ pub struct StageTimings {
     pub fit: f64,
 }
 
+impl std::ops::AddAssign for StageTimings {
+    /// Adds another run's time per stage (a frame run twice counts both).
+    fn add_assign(&mut self, more: StageTimings) {
+        self.silhouettes += more.silhouettes;
+        self.carve += more.carve;
+        self.bands += more.bands;
+        self.shape += more.shape;
+        self.fit += more.fit;
+    }
+}
+
 impl StageTimings {
+    /// All stages together, ms.
+    pub fn total(&self) -> f64 {
+        self.stages().iter().map(|s| s.1).sum()
+    }
+
     /// The stages' names and times, in pipeline order.
     pub fn stages(&self) -> [(&'static str, f64); 5] {
         [
@@ -370,11 +388,7 @@ impl Pipeline {
     /// Every camera's current background model (rig order): the captured one, or what it
     /// became where the backdrop changed since (see [`Pipeline::process`]).
     pub fn backgrounds(&self) -> Vec<Arc<BackgroundModel>> {
-        self.backdrops
-            .snapshot()
-            .iter()
-            .map(|b| Arc::clone(&b.model))
-            .collect()
+        models(&self.backdrops.snapshot())
     }
 
     /// How the image fit sees a frame: each camera's image (rig order), background (e.g. from
@@ -488,7 +502,7 @@ impl Pipeline {
             return Ok(full);
         }
         let t = Instant::now();
-        let backgrounds: Vec<_> = backdrops.iter().map(|b| Arc::clone(&b.model)).collect();
+        let backgrounds = models(&backdrops);
         let views = self.views(images, &silhouettes, &backgrounds);
         let radius = self.shape.settings().radius_mm;
         let (shape, fit) = self.fitter.follow(
@@ -688,7 +702,7 @@ impl Pipeline {
             self.follow_backdrop(images, &first, &first.silhouettes, &backdrops, false)?;
         if updated.is_empty() && self.bootstrap.allows() && self.adapts(&backdrops) {
             let found = self.process_with(images, &backdrops, Pass::Bootstrap)?;
-            add_timings(&mut spent, &found.timings);
+            spent += found.timings;
             updated = self.follow_backdrop(images, &found, &first.silhouettes, &backdrops, true)?;
             if updated.is_empty() {
                 self.bootstrap.failed();
@@ -702,7 +716,7 @@ impl Pipeline {
         }
         self.bootstrap.reset();
         let mut again = self.process_with(images, &self.backdrops.snapshot(), Pass::Usual)?;
-        add_timings(&mut again.timings, &spent);
+        again.timings += spent;
         again.background_updated = updated;
         Ok(again)
     }
@@ -801,7 +815,7 @@ impl Pipeline {
         let (shape, fit) = match self.fitter.settings().method {
             Method::Hull => (hull, None),
             Method::Fit => {
-                let backgrounds: Vec<_> = backdrops.iter().map(|b| Arc::clone(&b.model)).collect();
+                let backgrounds = models(backdrops);
                 let views = self.views(images, &silhouettes, &backgrounds);
                 let radius = self.shape.settings().radius_mm;
                 let (shape, fit) = self.fitter.refine(
@@ -860,15 +874,6 @@ enum Pass {
     /// Those that leave a brightened backdrop out ([`Backdrop::bootstrap`]), to find the
     /// tube in front of a changed backdrop.
     Bootstrap,
-}
-
-/// Adds `more`'s time per stage to `timings`.
-fn add_timings(timings: &mut StageTimings, more: &StageTimings) {
-    timings.silhouettes += more.silhouettes;
-    timings.carve += more.carve;
-    timings.bands += more.bands;
-    timings.shape += more.shape;
-    timings.fit += more.fit;
 }
 
 /// The self-check's 90th percentile of outline residuals for frames that are binary masks,

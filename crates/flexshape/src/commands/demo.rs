@@ -324,9 +324,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 figures.add(e);
             }
             if let Ok(t) = &p.result {
-                figures
-                    .chain_ms
-                    .push(t.timings.stages().iter().map(|s| s.1).sum());
+                figures.chain_ms.push(t.timings.total());
             }
             if args.no_viewer {
                 let bend_length = rig.sim.config().catheter.bend_length;

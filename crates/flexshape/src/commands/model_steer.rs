@@ -193,7 +193,7 @@ fn show(live: &mut Live, step: &SteerStep, seen: SteerFrame<'_>, steering: Steer
         truth: None,
         warnings: Vec::new(),
         images,
-        latency_ms: tracked.timings.stages().iter().map(|s| s.1).sum(),
+        latency_ms: tracked.timings.total(),
         result: Ok(tracked),
         captured: Instant::now(),
         dropped: 0,
