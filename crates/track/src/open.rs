@@ -105,23 +105,19 @@ pub enum TrackLine {
 /// One line of a JSON Lines tracking output: a record, the summary, or `None` for a blank
 /// line; else what is wrong with it.
 pub fn parse_line(line: &str) -> Result<Option<TrackLine>, String> {
-    if line.trim().is_empty() {
+    let Some(value) = json_of(line)? else {
         return Ok(None);
-    }
-    let value: serde_json::Value =
-        serde_json::from_str(line).map_err(|e| format!("not JSON ({e})"))?;
+    };
     if value.get("summary").is_some() {
         let s: SummaryLine =
             serde_json::from_value(value).map_err(|e| format!("not a summary ({e})"))?;
         return Ok(Some(TrackLine::Summary(Box::new(s.summary))));
     }
-    let record: TrackRecord =
-        serde_json::from_value(value).map_err(|e| format!("not a tracking record ({e})"))?;
-    Ok(Some(TrackLine::Record(Box::new(record))))
+    record_of(value).map(|r| Some(TrackLine::Record(Box::new(r))))
 }
 
 /// The tracking records of a JSON Lines file (as `flexshape track` writes it) with their line
-/// numbers; the summary line and blank lines are skipped.
+/// numbers; summary lines (whatever they hold) and blank lines are skipped.
 pub fn read_records(path: &Path) -> Result<Vec<(usize, TrackRecord)>, TrackError> {
     let bad = |line: Option<usize>, problem: String| TrackError::Records {
         path: path.to_path_buf(),
@@ -131,9 +127,24 @@ pub fn read_records(path: &Path) -> Result<Vec<(usize, TrackRecord)>, TrackError
     let text = std::fs::read_to_string(path).map_err(|e| bad(None, e.to_string()))?;
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
-        if let Some(TrackLine::Record(r)) = parse_line(line).map_err(|e| bad(Some(i + 1), e))? {
-            out.push((i + 1, *r));
+        let value = json_of(line).map_err(|e| bad(Some(i + 1), e))?;
+        if let Some(value) = value.filter(|v| v.get("summary").is_none()) {
+            out.push((i + 1, record_of(value).map_err(|e| bad(Some(i + 1), e))?));
         }
     }
     Ok(out)
+}
+
+/// A line's JSON, `None` for a blank line.
+fn json_of(line: &str) -> Result<Option<serde_json::Value>, String> {
+    if line.trim().is_empty() {
+        return Ok(None);
+    }
+    serde_json::from_str(line)
+        .map(Some)
+        .map_err(|e| format!("not JSON ({e})"))
+}
+
+fn record_of(value: serde_json::Value) -> Result<TrackRecord, String> {
+    serde_json::from_value(value).map_err(|e| format!("not a tracking record ({e})"))
 }

@@ -61,6 +61,14 @@ fn a_recording_is_tracked_and_its_records_read_back() {
     }
     assert_eq!(parse_line("  ").unwrap(), None);
 
+    // A summary line, whatever it holds, is not a record; parse_line reads it strictly.
+    std::fs::write(&jsonl, format!("{}\n{{\"summary\": {{}}}}\n", lines[0])).unwrap();
+    assert_eq!(read_records(&jsonl).unwrap().len(), 1);
+    assert!(
+        parse_line("{\"summary\": {}}")
+            .unwrap_err()
+            .starts_with("not a summary")
+    );
     // What is wrong is said with the file and the line.
     std::fs::write(&jsonl, format!("{}\n{{\"frame\": 1}}\n", lines[0])).unwrap();
     let e = read_records(&jsonl).unwrap_err().to_string();
