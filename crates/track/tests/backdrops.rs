@@ -1,11 +1,12 @@
-//! Backdrops we did not choose: a light grey tube over white paper, under a lamp that casts
-//! its soft shadow on the paper. The tube darkens the paper without changing its
-//! chromaticity, as its shadow does; the colour classifier tells them apart by the tube's
-//! sharp outline. Every frame the chain calls `ok` must be right.
+//! Backdrops and tubes we did not choose: a light grey tube over white paper, under a lamp that
+//! casts its soft shadow on the paper (the tube darkens the paper without changing its
+//! chromaticity, as its shadow does; the colour classifier tells them apart by the tube's sharp
+//! outline); a silvery one; cloth whose folds moved after the background was captured. Every
+//! frame the chain calls `ok` must be right.
 
 mod common;
 
-use flexshape_sim::{Catheter, RenderSettings, SimConfig};
+use flexshape_sim::{Catheter, CatheterPose, RenderSettings, SimConfig, Simulator};
 use flexshape_track::{Pipeline, TrackRecord};
 
 /// The grey-tube scene: body reflectance 0.5 (grey), paper 0.9, shadows.
@@ -29,39 +30,13 @@ fn grey_on_white() -> SimConfig {
 fn a_grey_tube_on_white_paper_is_not_a_shadow() {
     let (sim, pipeline) = common::chain_of(grey_on_white());
     // The same chain without the outline test: shadow-like regions never count.
-    let mut rig = sim.rig().clone();
-    rig.processing.insert(
-        "silhouette".into(),
-        toml::toml! { classifier = { kind = "colour_shadow", edge = 0.0 } }.into(),
+    let without = with_silhouette(
+        &sim,
+        toml::toml! { classifier = { kind = "colour_shadow", edge = 0.0 } },
     );
-    let backgrounds: Vec<_> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| {
-            flexshape_silhouette::BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap()
-        })
-        .collect();
-    let without = Pipeline::new(&rig, &backgrounds, &rig.volume).unwrap();
-    let (mut ok, mut ok_without) = (0, 0);
-    for (i, pose) in sim.sweep(10).iter().enumerate() {
-        let frame = sim.render(i as u64, pose).unwrap();
-        let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
-        let t = pipeline.process(&images).unwrap();
-        let record = TrackRecord::from_tracked(i as u64, &t);
-        if record.status == "ok" {
-            ok += 1;
-            let (rms, tip) = (
-                common::rms(&frame.truth, &sim, &t.shape),
-                common::tip_error(&frame.truth, &t.shape),
-            );
-            println!("frame {i}: ok, {rms:.3} mm RMS, tip {tip:.2} mm");
-            assert!(rms < 0.1 && tip < 0.4, "frame {i}: {rms} mm, tip {tip} mm");
-        } else {
-            println!("frame {i}: {} {:?}", record.status, record.reason);
-        }
-        let t = without.process(&images).unwrap();
-        ok_without += usize::from(TrackRecord::from_tracked(i as u64, &t).status == "ok");
-    }
+    let poses = sim.sweep(10);
+    let (ok, _) = run(&sim, &pipeline, &poses);
+    let (ok_without, _) = run(&sim, &without, &poses);
     println!("{ok} of 10 ok ({ok_without} without the outline test)");
     assert!(ok >= 7 && ok_without <= 1, "{ok} / {ok_without}");
 }
@@ -82,24 +57,7 @@ fn a_silvery_tube_on_white_paper_is_right_or_says_so() {
         },
         ..grey
     });
-    let mut ok = 0;
-    for (i, pose) in sim.sweep(10).iter().enumerate() {
-        let frame = sim.render(i as u64, pose).unwrap();
-        let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
-        let t = pipeline.process(&images).unwrap();
-        let record = TrackRecord::from_tracked(i as u64, &t);
-        if record.status == "ok" {
-            ok += 1;
-            let (rms, tip) = (
-                common::rms(&frame.truth, &sim, &t.shape),
-                common::tip_error(&frame.truth, &t.shape),
-            );
-            println!("frame {i}: ok, {rms:.3} mm RMS, tip {tip:.2} mm");
-            assert!(rms < 0.1 && tip < 0.4, "frame {i}: {rms} mm, tip {tip} mm");
-        } else {
-            println!("frame {i}: {} {:?}", record.status, record.reason);
-        }
-    }
+    let (ok, _) = run(&sim, &pipeline, &sim.sweep(10));
     println!("{ok} of 10 ok");
     assert!(ok >= 4, "{ok}");
 }
@@ -119,11 +77,10 @@ fn folds_moved(shift: f64) -> SimConfig {
     }
 }
 
-/// The chain for `sim` with its backgrounds as captured, never following the backdrop.
-fn without_adapting(sim: &flexshape_sim::Simulator) -> Pipeline {
+/// The chain for `sim` with `[processing.silhouette]` replaced by `table`.
+fn with_silhouette(sim: &Simulator, table: toml::Table) -> Pipeline {
     let mut rig = sim.rig().clone();
-    rig.processing
-        .insert("silhouette".into(), toml::toml! { adapt = false }.into());
+    rig.processing.insert("silhouette".into(), table.into());
     let backgrounds: Vec<_> = sim
         .backgrounds()
         .iter()
@@ -134,19 +91,15 @@ fn without_adapting(sim: &flexshape_sim::Simulator) -> Pipeline {
     Pipeline::new(&rig, &backgrounds, &rig.volume).unwrap()
 }
 
-/// Frames of `poses` through `pipeline` (whole chain each): the `ok` count, each `ok` frame
-/// checked against truth, and the frames whose background was updated.
-fn run(
-    sim: &flexshape_sim::Simulator,
-    pipeline: &Pipeline,
-    frames: usize,
-    motion: bool,
-) -> (usize, Vec<usize>) {
-    let poses = if motion {
-        sim.motion(frames, 120.0)
-    } else {
-        sim.sweep(frames)
-    };
+/// The chain for `sim` with its backgrounds as captured, never following the backdrop.
+fn without_adapting(sim: &Simulator) -> Pipeline {
+    with_silhouette(sim, toml::toml! { adapt = false })
+}
+
+/// The frames of `poses` through `pipeline` (the whole chain each): the `ok` count, each `ok`
+/// frame checked against truth (within 0.1 mm RMS and 0.4 mm at the tip), and the frames whose
+/// background was updated.
+fn run(sim: &Simulator, pipeline: &Pipeline, poses: &[CatheterPose]) -> (usize, Vec<usize>) {
     let (mut ok, mut updated) = (0, Vec::new());
     for (i, pose) in poses.iter().enumerate() {
         let frame = sim.render(i as u64, pose).unwrap();
@@ -182,15 +135,15 @@ fn run(
 fn folds_that_moved_since_the_background_was_captured_are_followed() {
     // Folds where they were at the capture: nothing to follow, no background changes.
     let (sim, pipeline) = common::chain_of(folds_moved(0.0));
-    let (ok, updated) = run(&sim, &pipeline, 3, false);
+    let (ok, updated) = run(&sim, &pipeline, &sim.sweep(3));
     assert!(
         ok == 3 && updated.is_empty(),
         "{ok}, updated at {updated:?}"
     );
     // Folds slid 10 mm; poses far apart (every frame through the whole chain).
     let (sim, pipeline) = common::chain_of(folds_moved(10.0));
-    let (ok, updated) = run(&sim, &pipeline, 6, false);
-    let (ok_fixed, _) = run(&sim, &without_adapting(&sim), 6, false);
+    let (ok, updated) = run(&sim, &pipeline, &sim.sweep(6));
+    let (ok_fixed, _) = run(&sim, &without_adapting(&sim), &sim.sweep(6));
     println!("10 mm: {ok} of 6 ok, updated at {updated:?} ({ok_fixed} as captured)");
     assert!(
         ok == 6 && !updated.is_empty() && ok_fixed <= 3,
@@ -199,8 +152,8 @@ fn folds_that_moved_since_the_background_was_captured_are_followed() {
     // Slid half their spacing (the old valleys bright stripes over a third of every image),
     // filmed at 120 Hz: the first frame's fit finds the tube, the backgrounds follow.
     let (sim, pipeline) = common::chain_of(folds_moved(35.0));
-    let (ok, updated) = run(&sim, &pipeline, 8, true);
-    let (ok_fixed, _) = run(&sim, &without_adapting(&sim), 3, true);
+    let (ok, updated) = run(&sim, &pipeline, &sim.motion(8, 120.0));
+    let (ok_fixed, _) = run(&sim, &without_adapting(&sim), &sim.motion(3, 120.0));
     println!("35 mm: {ok} of 8 ok, updated at {updated:?} ({ok_fixed} of 3 as captured)");
     assert!(
         ok == 8 && updated.first() == Some(&0) && ok_fixed == 0,
