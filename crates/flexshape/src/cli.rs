@@ -928,12 +928,14 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((n(w)?, n(h)?))
 }
 
+/// The numbers of a comma-separated list.
+fn comma_numbers(s: &str) -> Result<Vec<f64>, std::num::ParseFloatError> {
+    s.split(',').map(|p| p.trim().parse::<f64>()).collect()
+}
+
 /// Parses `XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX`.
 fn parse_box(s: &str) -> Result<[f64; 6], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
+    let v = comma_numbers(s)
         .map_err(|e| format!("expected six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm): {e}"))?;
     let b: [f64; 6] = v.try_into().map_err(|v: Vec<f64>| {
         format!(
@@ -1020,12 +1022,9 @@ fn parse_threads(s: &str) -> Result<usize, String> {
     }
 }
 
-/// `R,G,B` reflectances in 0–1.
+/// `STRENGTH,SHININESS` of a specular highlight.
 fn parse_gloss(s: &str) -> Result<[f64; 2], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
+    let v = comma_numbers(s)
         .map_err(|_| format!("`{s}`: give two numbers STRENGTH,SHININESS, e.g. 0.9,20"))?;
     match v[..] {
         [k, n] if (0.0..=10.0).contains(&k) && (1.0..=1e4).contains(&n) => Ok([k, n]),
@@ -1035,11 +1034,9 @@ fn parse_gloss(s: &str) -> Result<[f64; 2], String> {
     }
 }
 
+/// `R,G,B` reflectances in 0–1.
 fn parse_albedo(s: &str) -> Result<[f64; 3], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
+    let v = comma_numbers(s)
         .map_err(|_| format!("`{s}`: give three numbers R,G,B, e.g. 0.35,0.35,0.35"))?;
     match v[..] {
         [r, g, b] if v.iter().all(|x| (0.0..=1.0).contains(x)) => Ok([r, g, b]),

@@ -6,7 +6,6 @@ mod common;
 use std::time::{Duration, Instant};
 
 use flexshape_viewer::Viewer;
-use futures_util::StreamExt;
 use tokio_tungstenite::tungstenite::Message;
 
 #[tokio::test]
@@ -16,20 +15,14 @@ async fn a_late_browser_starts_from_the_newest_frame_and_skips_the_backlog() {
     for frame in 0..500 {
         viewer.publish(common::update(frame, image::RgbImage::new(64, 48)));
     }
-    let url = format!("ws://{}/ws", viewer.addr());
-    let (mut socket, _) = tokio_tungstenite::connect_async(url).await.unwrap();
+    let mut socket = common::connect(&viewer).await;
     let mut frames = Vec::new();
     let mut images = 0;
     let deadline = Instant::now() + Duration::from_secs(20);
     // Until the newest frame and the camera images that follow it have arrived.
     while frames.last() != Some(&499) || images == 0 {
         assert!(Instant::now() < deadline, "frames seen: {frames:?}");
-        let message = tokio::time::timeout(Duration::from_secs(10), socket.next())
-            .await
-            .expect("a message within 10 s")
-            .unwrap()
-            .unwrap();
-        match message {
+        match common::next_message(&mut socket).await {
             Message::Text(text) => {
                 let m: serde_json::Value = serde_json::from_str(&text).unwrap();
                 if m["type"] == "frame" {

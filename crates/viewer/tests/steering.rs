@@ -6,23 +6,16 @@ mod common;
 use std::time::{Duration, Instant};
 
 use flexshape_viewer::{Steering, SteeringSample, Viewer};
-use futures_util::StreamExt;
 use tokio_tungstenite::tungstenite::Message;
 
 /// The frame messages a browser connecting now receives, until one of frame `last`.
 async fn frames_until(viewer: &Viewer, last: u64) -> Vec<serde_json::Value> {
-    let url = format!("ws://{}/ws", viewer.addr());
-    let (mut socket, _) = tokio_tungstenite::connect_async(url).await.unwrap();
+    let mut socket = common::connect(viewer).await;
     let deadline = Instant::now() + Duration::from_secs(20);
     let mut frames = Vec::new();
     loop {
         assert!(Instant::now() < deadline, "no frame {last}");
-        let message = tokio::time::timeout(Duration::from_secs(10), socket.next())
-            .await
-            .expect("a message within 10 s")
-            .unwrap()
-            .unwrap();
-        if let Message::Text(text) = message {
+        if let Message::Text(text) = common::next_message(&mut socket).await {
             let m: serde_json::Value = serde_json::from_str(&text).unwrap();
             if m["type"] == "frame" {
                 let done = m["record"]["frame"] == last;

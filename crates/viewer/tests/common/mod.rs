@@ -1,10 +1,31 @@
 //! Shared by the viewer's tests.
 #![allow(dead_code)] // each test binary uses its own part
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use flexshape_track::{Processed, TrackRecord};
-use flexshape_viewer::{Scene, Stats, Update};
+use flexshape_viewer::{Scene, Stats, Update, Viewer};
+use futures_util::StreamExt;
+use tokio_tungstenite::tungstenite::Message;
+use tokio_tungstenite::{MaybeTlsStream, WebSocketStream};
+
+/// A browser's connection to the viewer's WebSocket.
+pub type Socket = WebSocketStream<MaybeTlsStream<tokio::net::TcpStream>>;
+
+/// Connects to `viewer`'s WebSocket as the page does.
+pub async fn connect(viewer: &Viewer) -> Socket {
+    let url = format!("ws://{}/ws", viewer.addr());
+    tokio_tungstenite::connect_async(url).await.unwrap().0
+}
+
+/// The next message on `socket`, within 10 s.
+pub async fn next_message(socket: &mut Socket) -> Message {
+    tokio::time::timeout(Duration::from_secs(10), socket.next())
+        .await
+        .expect("a message within 10 s")
+        .unwrap()
+        .unwrap()
+}
 
 /// One camera, the default volume.
 pub fn scene() -> Scene {
