@@ -23,6 +23,7 @@ mod extrinsics;
 pub mod homography;
 mod intrinsics;
 mod lattice;
+pub mod workflow;
 pub mod zhang;
 
 use thiserror::Error;

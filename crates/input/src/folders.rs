@@ -17,8 +17,6 @@ pub struct FolderSource {
     next: usize,
 }
 
-const EXTENSIONS: [&str; 3] = ["png", "jpg", "jpeg"];
-
 impl FolderSource {
     /// Pairs the images of `folders` (camera name, folder), in the rig's camera order; when
     /// every path is an image file instead, they make one frame.
@@ -97,7 +95,7 @@ impl FolderSource {
     /// One frame of one image file per camera, named after the first camera's file.
     fn single(files: &[(String, PathBuf)]) -> Result<Self, InputError> {
         for (camera, f) in files {
-            if !is_image(f) {
+            if !flexshape_rig::files::is_image_path(f) {
                 return Err(InputError::Cameras(format!(
                     "camera `{camera}`: {} is not a PNG or JPEG image",
                     f.display()
@@ -141,20 +139,16 @@ impl FrameSource for FolderSource {
     }
 }
 
-/// Whether the path names a PNG or JPEG file (by extension).
-fn is_image(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| EXTENSIONS.iter().any(|x| e.eq_ignore_ascii_case(x)))
-}
-
 /// The images of a folder by file stem.
 fn images_in(dir: &Path) -> Result<BTreeMap<String, PathBuf>, InputError> {
     let entries = std::fs::read_dir(dir).map_err(|e| InputError::io(dir, e))?;
     let mut images = BTreeMap::new();
     for entry in entries {
         let path = entry.map_err(|e| InputError::io(dir, e))?.path();
-        if let (true, Some(stem)) = (is_image(&path), path.file_stem().and_then(|s| s.to_str())) {
+        if let (true, Some(stem)) = (
+            flexshape_rig::files::is_image_path(&path),
+            path.file_stem().and_then(|s| s.to_str()),
+        ) {
             images.insert(stem.to_string(), path.clone());
         }
     }

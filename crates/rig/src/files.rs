@@ -14,6 +14,26 @@ pub const MAX_TEXT_BYTES: u64 = 64 << 20;
 /// Largest image side decoded, pixels.
 pub const MAX_IMAGE_SIDE: u32 = 16_384;
 
+/// Extensions of the image files flexshape reads (the formats its `image` build decodes).
+pub const IMAGE_EXTENSIONS: [&str; 3] = ["png", "jpg", "jpeg"];
+
+/// Whether `path` names an image flexshape reads, by its extension (any case).
+pub fn is_image_path(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| IMAGE_EXTENSIONS.iter().any(|x| e.eq_ignore_ascii_case(x)))
+}
+
+/// The images in a folder (by [`is_image_path`]), sorted by name.
+pub fn images_in(dir: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| is_image_path(p))
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
 /// Why a file could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum FileError {
@@ -53,6 +73,16 @@ pub enum FileError {
         /// What went wrong.
         message: String,
     },
+    /// A line of a text file does not hold what it should.
+    #[error("{} line {line}: {message}", path.display())]
+    Line {
+        /// The path.
+        path: std::path::PathBuf,
+        /// The line, from 1.
+        line: usize,
+        /// What is wrong with it.
+        message: String,
+    },
     /// The image is not the size expected.
     #[error("{}: the image is {width}×{height}, expected {expected_width}×{expected_height}", path.display())]
     Size {
@@ -78,9 +108,11 @@ impl FileError {
             | FileError::Io { path, .. }
             | FileError::TooLarge { path, .. }
             | FileError::Other { path, .. }
+            | FileError::Line { path, .. }
             | FileError::Size { path, .. } => path.display().to_string(),
         };
         text.strip_prefix(&format!("{path}: "))
+            .or_else(|| text.strip_prefix(&format!("{path} ")))
             .map_or(text.clone(), str::to_string)
     }
 }
@@ -123,6 +155,37 @@ pub fn read_text(path: &Path, what: &'static str) -> Result<String, FileError> {
         path: path.to_path_buf(),
         message: format!("not UTF-8 text (a {what} is text)"),
     })
+}
+
+/// The rows of a CSV file of numbers, each of `columns` finite numbers: blank lines and `#`
+/// comments are skipped, and a first line that is not numbers (a header). `expected` says
+/// what a line should hold (`` `x,y,z` (three numbers) ``) in the error that names the line.
+pub fn read_csv_numbers(
+    path: &Path,
+    columns: usize,
+    expected: &str,
+) -> Result<Vec<Vec<f64>>, FileError> {
+    let text = read_text(path, "CSV file")?;
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let v: Result<Vec<f64>, _> = line.split(',').map(|x| x.trim().parse::<f64>()).collect();
+        match v {
+            Ok(v) if v.len() == columns && v.iter().all(|x| x.is_finite()) => rows.push(v),
+            Err(_) if rows.is_empty() && i == 0 => continue, // a header
+            _ => {
+                return Err(FileError::Line {
+                    path: path.to_path_buf(),
+                    line: i + 1,
+                    message: format!("expected {expected}, found `{line}`"),
+                });
+            }
+        }
+    }
+    Ok(rows)
 }
 
 /// A file's bytes, at most `limit`; `what` names it in errors.

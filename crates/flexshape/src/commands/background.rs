@@ -6,16 +6,8 @@ use flexshape_silhouette::BackgroundModel;
 use crate::cli::BackgroundArgs;
 
 pub fn run(args: &BackgroundArgs) -> anyhow::Result<()> {
-    let mut files: Vec<_> = std::fs::read_dir(&args.images)
-        .with_context(|| format!("cannot read the folder {}", args.images.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.extension()
-                .and_then(|e| e.to_str())
-                .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"))
-        })
-        .collect();
-    files.sort();
+    let files = flexshape_rig::files::images_in(&args.images)
+        .with_context(|| format!("cannot read the folder {}", args.images.display()))?;
     if files.is_empty() {
         bail!(
             "{}: no PNG or JPEG images; give a folder of background frames",

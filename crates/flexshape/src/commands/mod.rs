@@ -192,34 +192,3 @@ pub(crate) fn short(x: f64) -> String {
     let s = s.trim_end_matches('0').trim_end_matches('.');
     if s == "-0" { "0".into() } else { s.into() }
 }
-
-/// The rows of a CSV file of `columns` numbers per line (blank lines and `#` comments skipped;
-/// a first line that is not numeric is a header); `expected` says what a line should hold,
-/// for the error that names the file and line.
-pub(crate) fn read_csv_numbers(
-    path: &std::path::Path,
-    columns: usize,
-    expected: &str,
-) -> anyhow::Result<Vec<Vec<f64>>> {
-    use anyhow::Context;
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut rows = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let v: Result<Vec<f64>, _> = line.split(',').map(|x| x.trim().parse::<f64>()).collect();
-        match v {
-            Ok(v) if v.len() == columns && v.iter().all(|x| x.is_finite()) => rows.push(v),
-            Err(_) if rows.is_empty() && i == 0 => continue, // a header
-            _ => anyhow::bail!(
-                "{} line {}: expected {expected}, found `{line}`",
-                path.display(),
-                i + 1
-            ),
-        }
-    }
-    Ok(rows)
-}

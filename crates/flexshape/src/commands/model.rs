@@ -19,27 +19,12 @@ pub fn template() -> anyhow::Result<()> {
 }
 
 pub fn load(path: &Path) -> anyhow::Result<Model> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let params: ManipulatorParams = toml::from_str(&text)
-        .with_context(|| format!("{}: not a model parameter file", path.display()))?;
-    Model::new(params).with_context(|| path.display().to_string())
+    Ok(flexshape_lab::identify::load_model(path)?)
 }
 
 /// The model frame `flexshape model fit --save-frame` wrote.
 pub fn load_frame(path: &Path) -> anyhow::Result<flexshape_track::ModelFrame> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read the model frame {}", path.display()))?;
-    let frame: flexshape_track::ModelFrame = serde_json::from_str(&text).with_context(|| {
-        format!(
-            "{}: not a model frame (write one with `flexshape model fit --save-frame`)",
-            path.display()
-        )
-    })?;
-    frame
-        .validate()
-        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    Ok(frame)
+    Ok(flexshape_lab::identify::load_model_frame(path)?)
 }
 
 /// The input rows: `--values` or the CSV file's lines, each a list of numbers.

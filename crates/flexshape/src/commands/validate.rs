@@ -27,10 +27,12 @@ const PAPER_BANDS: [f64; 3] = [0.49, 0.77, 0.47];
 
 /// Points from a CSV of `x,y,z` lines; a first line that is not numeric is a header.
 fn read_points(path: &Path) -> anyhow::Result<Vec<Point3<f64>>> {
-    Ok(super::read_csv_numbers(path, 3, "`x,y,z` (three numbers)")?
-        .into_iter()
-        .map(|v| Point3::new(v[0], v[1], v[2]))
-        .collect())
+    Ok(
+        flexshape_rig::files::read_csv_numbers(path, 3, "`x,y,z` (three numbers)")?
+            .into_iter()
+            .map(|v| Point3::new(v[0], v[1], v[2]))
+            .collect(),
+    )
 }
 
 fn rms_line(name: &str, got: [f64; 3], paper: [f64; 3]) -> String {

@@ -1,0 +1,111 @@
+//! A tracked shape against the simulator's truth, and figures over many frames.
+
+use flexshape_curve::Polyline;
+use flexshape_model::nalgebra_types::Point3;
+use flexshape_recording::Truth;
+use flexshape_track::{Pipeline, Tracked, quantile};
+
+/// A shape against the simulator's truth, mm (curvature in 1/mm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShapeErrors {
+    /// RMS distance from the true centerline samples in the volume to the estimated curve.
+    pub centerline_rms: f64,
+    /// Distance between the estimated and the true tip.
+    pub tip: f64,
+    /// Worst distance from a true band centre to the nearest estimated one.
+    pub band: f64,
+    /// Estimated and true curvature of the bending section, 1/mm.
+    pub curvature: Option<(f64, f64)>,
+    /// Share of the true centerline samples in the volume that lie in occupied voxels.
+    pub hull_covers: f64,
+}
+
+impl ShapeErrors {
+    /// The tracked shape's errors against `truth` (`None` without a shape or a true
+    /// centerline in the volume).
+    pub fn of(pipeline: &Pipeline, truth: &Truth, t: &Tracked) -> Option<Self> {
+        let shape = &t.shape;
+        let volume = pipeline.volume();
+        let inside: Vec<Point3<f64>> = truth
+            .centerline
+            .iter()
+            .map(|p| Point3::from(*p))
+            .filter(|p| volume.contains(p))
+            .collect();
+        if shape.points.len() < 2 || inside.is_empty() {
+            return None;
+        }
+        let curve = Polyline::new(shape.points.iter().map(|&p| Point3::from(p)).collect()).ok()?;
+        let sum2: f64 = inside.iter().map(|p| curve.closest(p).1.powi(2)).sum();
+        let band = truth
+            .bands
+            .iter()
+            .map(|b| Point3::from(b.position))
+            .filter(|p| inside.iter().any(|q| (q - p).norm() < 1.0))
+            .map(|p| {
+                shape
+                    .bands
+                    .iter()
+                    .map(|b| (Point3::from(b.position) - p).norm())
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .fold(0.0, f64::max);
+        let curvature = match (truth.kappa, &shape.arc_fit) {
+            (Some([kx, kz]), Some(fit)) => Some((fit.curvature, kx.hypot(kz))),
+            _ => None,
+        };
+        let covered = inside
+            .iter()
+            .filter(|p| t.occupancy.contains_point(p))
+            .count();
+        Some(ShapeErrors {
+            centerline_rms: (sum2 / inside.len() as f64).sqrt(),
+            tip: (Point3::from(shape.tip) - Point3::from(truth.tip)).norm(),
+            band,
+            curvature,
+            hull_covers: covered as f64 / inside.len() as f64,
+        })
+    }
+}
+
+/// Figures over the frames so far (mm; curvature relative).
+#[derive(Debug, Clone, Default)]
+pub struct DemoFigures {
+    /// Each frame's centerline RMS.
+    pub rms: Vec<f64>,
+    /// Each frame's tip error.
+    pub tip: Vec<f64>,
+    /// Worst band error.
+    pub band: f64,
+    /// Worst relative curvature error of the arc fit, where the bend is at least 1/200 mm.
+    pub curvature: f64,
+    /// Least share of the true centerline the hull held.
+    pub cover: Option<f64>,
+    /// Each frame's time through the chain, ms.
+    pub chain_ms: Vec<f64>,
+}
+
+impl DemoFigures {
+    /// Adds a frame's errors.
+    pub fn add(&mut self, e: &ShapeErrors) {
+        self.rms.push(e.centerline_rms);
+        self.tip.push(e.tip);
+        self.band = self.band.max(e.band);
+        self.cover = Some(self.cover.map_or(e.hull_covers, |c| c.min(e.hull_covers)));
+        if let Some((fit, truth)) = e.curvature
+            && truth >= 1.0 / 200.0
+        {
+            self.curvature = self.curvature.max((fit / truth - 1.0).abs());
+        }
+    }
+
+    /// The largest value (0 when none).
+    pub fn worst(v: &[f64]) -> f64 {
+        v.iter().copied().fold(0.0, f64::max)
+    }
+
+    /// The median.
+    pub fn median(v: &[f64]) -> f64 {
+        quantile(&mut v.to_vec(), 0.5)
+    }
+}

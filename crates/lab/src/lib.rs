@@ -1,0 +1,81 @@
+//! Work on a rig from your own program, as the `flexshape` commands do it:
+//!
+//! - [`identify`]: the manipulator model's stiffnesses (and tendon positions) identified from
+//!   a tracked experiment — records that carry the commanded tendon displacements — as the
+//!   paper's Table I (`flexshape model fit`).
+//! - [`demo`]: the model-driven catheter on the simulated rig, tracked and measured against
+//!   the simulator's truth (`flexshape demo`).
+//!
+//! ```no_run
+//! use flexshape_lab::identify::{Experiment, IdentifySettings, identify, load_model};
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let model = load_model("catheter.toml".as_ref())?;
+//! let records = flexshape_track::read_records("experiment.jsonl".as_ref())?;
+//! let experiment = Experiment::from_records(records, &Default::default(), &model, "experiment.jsonl".as_ref())?;
+//! let found = identify(&model, &experiment, &IdentifySettings::default())?;
+//! print!("{}", found.report.table());
+//! # Ok(())
+//! # }
+//! ```
+
+pub mod demo;
+pub mod identify;
+
+use std::path::PathBuf;
+
+use thiserror::Error;
+
+/// Why a workflow failed; each names the file, frame or step.
+#[derive(Debug, Error)]
+pub enum LabError {
+    /// Opening, tracking or reading records failed.
+    #[error(transparent)]
+    Track(#[from] flexshape_track::TrackError),
+    /// A file could not be read.
+    #[error(transparent)]
+    File(#[from] flexshape_rig::files::FileError),
+    /// A file or record does not hold what it should.
+    #[error("{place}: {reason}")]
+    Data {
+        /// The file (and line or frame).
+        place: String,
+        /// What is wrong, and what to do.
+        reason: String,
+    },
+    /// A model step failed.
+    #[error("{step}: {source}")]
+    Model {
+        /// What was being done.
+        step: String,
+        /// Why it failed.
+        source: flexshape_model::ModelError,
+    },
+    /// A file could not be written.
+    #[error("cannot write {}: {reason}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// Stopped on request.
+    #[error("interrupted while tracking {}", path.display())]
+    Interrupted {
+        /// What was being tracked.
+        path: PathBuf,
+    },
+}
+
+impl LabError {
+    fn data(place: impl std::fmt::Display, reason: impl Into<String>) -> Self {
+        LabError::Data {
+            place: place.to_string(),
+            reason: reason.into(),
+        }
+    }
+
+    fn model(step: impl Into<String>) -> impl FnOnce(flexshape_model::ModelError) -> Self {
+        let step = step.into();
+        move |source| LabError::Model { step, source }
+    }
+}
