@@ -6,8 +6,8 @@
 use std::collections::BTreeMap;
 
 use flexshape_camera::{Distortion, Intrinsics};
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{DMatrix, DVector, Dyn, Owned, Point2, Point3, Rotation3, Vector2, Vector3};
+use flexshape_lsq::{LevenbergMarquardt, Residuals, minimize};
+use nalgebra::{DMatrix, DVector, Point2, Point3, Rotation3, Vector2, Vector3};
 
 use crate::{BoardPose, CalibError, Calibration, Detection};
 
@@ -116,19 +116,17 @@ pub fn adjust_rig(
             }
         }
     }
-    let problem = Problem::new(
+    let mut problem = Problem::new(
         observations,
         cameras.len(),
         intrinsics != JointIntrinsics::Fixed,
         intrinsics == JointIntrinsics::Refined { fix_k3: true },
         DVector::from_vec(x),
     );
-    let (problem, _) = LevenbergMarquardt::new()
-        .with_xtol(1e-10)
-        .with_ftol(1e-12)
-        .minimize(problem);
+    let solver = LevenbergMarquardt::new().with_xtol(1e-10).with_ftol(1e-12);
+    problem.x = minimize(&problem, problem.x.clone(), solver).x;
     let r = problem
-        .residuals()
+        .residuals(&problem.x)
         .ok_or_else(|| CalibError::Degenerate("the rig adjustment left the valid range".into()))?;
     let x = &problem.x;
     let mut intrinsics = Vec::new();
@@ -270,28 +268,16 @@ impl Problem {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.x.copy_from(x);
+impl Residuals for Problem {
+    fn residuals(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
+        self.residuals_at(x)
     }
 
-    fn params(&self) -> DVector<f64> {
-        self.x.clone()
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        self.residuals_at(&self.x)
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
+    fn jacobian(&self, x: &DVector<f64>) -> Option<DMatrix<f64>> {
         // Central differences, block by block: a parameter moves only the observations of its
         // camera or its board.
         let rows = self.offsets[self.offsets.len() - 1];
-        let mut j = DMatrix::zeros(rows, self.x.len());
+        let mut j = DMatrix::zeros(rows, x.len());
         let most = self
             .observations
             .iter()
@@ -304,7 +290,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem {
         } else {
             9 * self.cameras
         };
-        for col in first..self.x.len() {
+        for col in first..x.len() {
             if self.fix_k3 && col < 9 * self.cameras && col % 9 == 8 {
                 continue;
             }
@@ -317,8 +303,8 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem {
                     o.board == (col - self.board_at(0)) / 6
                 }
             };
-            let h = 1e-6 * self.x[col].abs().max(1e-3);
-            let (mut up, mut down) = (self.x.clone(), self.x.clone());
+            let h = 1e-6 * x[col].abs().max(1e-3);
+            let (mut up, mut down) = (x.clone(), x.clone());
             up[col] += h;
             down[col] -= h;
             for (i, o) in self.observations.iter().enumerate() {

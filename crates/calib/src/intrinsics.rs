@@ -2,7 +2,7 @@
 //! Levenberg–Marquardt on the reprojection error, from the closed-form start.
 
 use flexshape_camera::{Distortion, Intrinsics};
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use flexshape_lsq::{LevenbergMarquardt, Residuals, minimize};
 
 use nalgebra::{DVector, Matrix3, Point2, Rotation3, Vector3};
 use serde::Serialize;
@@ -145,7 +145,7 @@ fn solve(
         x.extend(r.scaled_axis().iter());
         x.extend(t.iter());
     }
-    let problem = Problem::new(
+    let mut problem = Problem::new(
         views
             .iter()
             .enumerate()
@@ -161,16 +161,14 @@ fn solve(
         settings.fix_k3,
         DVector::from_vec(x),
     );
-    let (problem, _) = LevenbergMarquardt::new()
-        .with_xtol(1e-12)
-        .with_ftol(1e-14)
-        .minimize(problem);
+    let solver = LevenbergMarquardt::new().with_xtol(1e-12).with_ftol(1e-14);
+    problem.x = minimize(&problem, problem.x.clone(), solver).x;
     let x = problem.x.clone();
     let r = problem
-        .residuals()
+        .residuals(&problem.x)
         .ok_or_else(|| CalibError::Degenerate("the refinement left the valid range".into()))?;
     let j = problem
-        .jacobian()
+        .jacobian(&problem.x)
         .ok_or_else(|| CalibError::Degenerate("the refinement left the valid range".into()))?;
     let distortion = Distortion::from_opencv(&[x[4], x[5], x[6], x[7], x[8]])
         .map_err(|e| CalibError::Degenerate(e.to_string()))?;

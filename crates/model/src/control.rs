@@ -181,7 +181,8 @@ fn reach(
     };
     for _ in 0..20 {
         let r = tip(&k).ok_or(ModelError::NoTautSet)?;
-        let j = crate::tendons::central_differences(&k, tip).ok_or(ModelError::NoTautSet)?;
+        let j = flexshape_lsq::central_differences(&k, |_, v| 1e-6 * v.abs().max(1e-2), tip)
+            .ok_or(ModelError::NoTautSet)?;
         let step = (j.transpose() * &j)
             .try_inverse()
             .ok_or(ModelError::NoTautSet)?

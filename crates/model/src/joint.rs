@@ -12,8 +12,8 @@
 //! and the registration together changes nothing the data see).
 
 use flexshape_camera::angle_between;
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{DMatrix, DVector, Dyn, Owned, Point3, Rotation3, Vector3};
+use flexshape_lsq::{Residuals, minimize};
+use nalgebra::{DMatrix, DVector, Point3, Rotation3, Vector3};
 
 use crate::{
     DETERMINED_SHARE, Held, ManipulatorParams, Model, ModelError, SensedPose, SensingAccuracy,
@@ -119,7 +119,7 @@ pub fn identify_jointly(
         });
     }
     let free = [true, true, frame.reference_base.is_some(), true];
-    let problem = Problem::new(params, frame, poses, free, with_tendons);
+    let mut problem = Problem::new(params, frame, poses, free, with_tendons);
     let unknowns = problem.x.len();
     let rows = problem.rows();
     if rows <= unknowns {
@@ -128,13 +128,9 @@ pub fn identify_jointly(
             observations: poses.len(),
         });
     }
-    let (problem, _) = LevenbergMarquardt::new()
-        .with_stepbound(0.1)
-        .with_xtol(1e-12)
-        .with_ftol(1e-14)
-        .minimize(problem);
-    let r = problem.residuals().ok_or(ModelError::NoTautSet)?;
-    let j = problem.jacobian().ok_or(ModelError::NoTautSet)?;
+    problem.x = minimize(&problem, problem.x.clone(), crate::tendons::stiff_solver()).x;
+    let r = problem.residuals(&problem.x).ok_or(ModelError::NoTautSet)?;
+    let j = problem.jacobian(&problem.x).ok_or(ModelError::NoTautSet)?;
     let mut unit = j.clone();
     for mut c in unit.column_iter_mut() {
         let norm = c.norm();
@@ -429,25 +425,9 @@ impl<'a> Problem<'a> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.x.copy_from(x);
-    }
-
-    fn params(&self) -> DVector<f64> {
-        self.x.clone()
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        self.residuals_at(&self.x)
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        crate::tendons::central_differences(&self.x, |x| self.residuals_at(x))
+impl Residuals for Problem<'_> {
+    fn residuals(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
+        self.residuals_at(x)
     }
 }
 

@@ -9,8 +9,8 @@
 //! solution: a direction of the parameters the data do not see (e.g. tendons that no pose
 //! loads differently) makes it rank-deficient and the estimate is refused.
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{DMatrix, DVector, Dyn, Owned};
+use flexshape_lsq::{LevenbergMarquardt, Residuals, minimize};
+use nalgebra::{DMatrix, DVector};
 
 use crate::{ManipulatorParams, Model, ModelError, Observation, Stiffness};
 
@@ -71,20 +71,15 @@ pub fn estimate_tendons(
     if with_stiffness {
         start.extend(params.stiffness.diagonal().map(f64::ln));
     }
-    let problem = Problem {
+    let mut problem = Problem {
         base: params,
         data,
         with_stiffness,
         x: DVector::from_vec(start),
     };
-    let (problem, _) = LevenbergMarquardt::new()
-        .with_stepbound(0.1)
-        .with_xtol(1e-12)
-        .with_ftol(1e-14)
-        .minimize(problem);
-
-    let r = problem.residuals().ok_or(ModelError::NoTautSet)?;
-    let j = problem.jacobian().ok_or(ModelError::NoTautSet)?;
+    problem.x = minimize(&problem, problem.x.clone(), stiff_solver()).x;
+    let r = problem.residuals(&problem.x).ok_or(ModelError::NoTautSet)?;
+    let j = problem.jacobian(&problem.x).ok_or(ModelError::NoTautSet)?;
     // Columns scaled to unit length, so the condition does not depend on the parameters'
     // units (mm against log-stiffness).
     let mut unit = j.clone();
@@ -163,45 +158,19 @@ impl Problem<'_> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.x.copy_from(x);
-    }
-
-    fn params(&self) -> DVector<f64> {
-        self.x.clone()
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        self.residuals_at(&self.x)
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        central_differences(&self.x, |x| self.residuals_at(x))
+impl Residuals for Problem<'_> {
+    fn residuals(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
+        self.residuals_at(x)
     }
 }
 
-/// The Jacobian of `residuals` at `x` by central differences (steps of 10⁻⁶ relative, at least
-/// 10⁻⁸): the model is smooth wherever no tendon changes slackness.
-pub(crate) fn central_differences(
-    x: &DVector<f64>,
-    residuals: impl Fn(&DVector<f64>) -> Option<DVector<f64>>,
-) -> Option<DMatrix<f64>> {
-    let rows = residuals(x)?.len();
-    let mut j = DMatrix::zeros(rows, x.len());
-    for k in 0..x.len() {
-        let h = 1e-6 * x[k].abs().max(1e-2);
-        let (mut up, mut down) = (x.clone(), x.clone());
-        up[k] += h;
-        down[k] -= h;
-        let d = (residuals(&up)? - residuals(&down)?) / (2.0 * h);
-        j.set_column(k, &d);
-    }
-    Some(j)
+/// The solver for the model's fits: steps bounded (tensions switch tendons slack), tight
+/// tolerances.
+pub(crate) fn stiff_solver() -> LevenbergMarquardt<f64> {
+    LevenbergMarquardt::new()
+        .with_stepbound(0.1)
+        .with_xtol(1e-12)
+        .with_ftol(1e-14)
 }
 
 #[cfg(test)]

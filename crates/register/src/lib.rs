@@ -5,8 +5,7 @@
 //! reports. Units are the caller's (mm in flexshape); frames are "source" and "target":
 //! `target ≈ R·source + t`.
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Owned, Point3, Rotation3, Vector3};
+use nalgebra::{DVector, Matrix3, Point3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -238,10 +237,9 @@ pub fn refine(
         target,
         weights: w,
         base: *initial,
-        params: DVector::zeros(6),
     };
-    let (problem, _) = LevenbergMarquardt::new().minimize(problem);
-    Ok(problem.transform(&problem.params))
+    let solved = flexshape_lsq::minimize(&problem, DVector::zeros(6), flexshape_lsq::solver());
+    Ok(problem.transform(&solved.x))
 }
 
 /// Closed form then refinement: the usual way to call this crate.
@@ -259,7 +257,6 @@ struct Problem<'a> {
     target: &'a [Point3<f64>],
     weights: Vec<f64>,
     base: RigidTransform,
-    params: DVector<f64>,
 }
 
 impl Problem<'_> {
@@ -290,42 +287,19 @@ impl Problem<'_> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.params.copy_from(x);
+impl flexshape_lsq::Residuals for Problem<'_> {
+    fn residuals(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
+        Some(self.residuals_of(x))
     }
 
-    fn params(&self) -> DVector<f64> {
-        self.params.clone()
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        Some(self.residuals_of(&self.params))
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        // Central differences in the six parameters: cheap for a few hundred pairs, and exact
-        // enough for any rotation vector.
-        let mut j = DMatrix::zeros(3 * self.source.len(), 6);
-        for k in 0..6 {
-            let h = if k < 3 {
-                1e-7
-            } else {
-                1e-6 * (1.0 + self.base.translation.norm())
-            };
-            let (mut plus, mut minus) = (self.params.clone(), self.params.clone());
-            plus[k] += h;
-            minus[k] -= h;
-            j.set_column(
-                k,
-                &((self.residuals_of(&plus) - self.residuals_of(&minus)) / (2.0 * h)),
-            );
+    /// Central differences in the six parameters are cheap for a few hundred pairs, and exact
+    /// enough for any rotation vector with these steps.
+    fn step(&self, k: usize, _: f64) -> f64 {
+        if k < 3 {
+            1e-7
+        } else {
+            1e-6 * (1.0 + self.base.translation.norm())
         }
-        Some(j)
     }
 }
 

@@ -118,6 +118,24 @@ impl Rig {
         Self::parse(&text, path)
     }
 
+    /// A rig TOML, or a folder of OpenCV camera files (with the default volume), and the
+    /// files in such a folder skipped as not being camera files.
+    pub fn open(path: &Path) -> Result<(Rig, Vec<SkippedFile>), RigError> {
+        let named_toml = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        match (path.is_dir(), named_toml) {
+            (true, true) => Err(RigError::Syntax {
+                file: path.to_path_buf(),
+                message:
+                    "is a folder, not a rig file: give the rig TOML, or a folder of camera files"
+                        .to_string(),
+            }),
+            (true, false) => Self::from_calibration_dir_skipping(path, Volume::default()),
+            (false, _) => Ok((Self::load(path)?, Vec::new())),
+        }
+    }
+
     /// Parses rig TOML; camera files are resolved relative to `path`'s folder.
     pub fn parse(text: &str, path: &Path) -> Result<Rig, RigError> {
         let raw: RawRig = toml::from_str(text).map_err(|e| RigError::Syntax {

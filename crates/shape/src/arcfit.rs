@@ -4,8 +4,8 @@
 //! curve's. Also a two-piece (piecewise constant curvature) fit.
 
 use flexshape_curve::{Frame, Section};
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Owned, Point3, Rotation3, Vector3};
+use flexshape_lsq::{LevenbergMarquardt, Residuals, minimize};
+use nalgebra::{DMatrix, DVector, Matrix3, Point3, Rotation3, Vector3};
 
 use crate::centerline::Centerline;
 use crate::order::dot;
@@ -32,23 +32,23 @@ pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> 
     let s0 = curve.sample(start);
     let frame = section_frame(s0.point, s0.tangent, settings.reference_axis);
     let kappa0 = chord_curvature(&frame, data[data.len() - 1].1, length);
-    let one = Problem::new(&data, frame, vec![length], settings.free_base, &kappa0);
+    let mut one = Problem::new(&data, frame, vec![length], settings.free_base, &kappa0);
     // The residuals report the fit's quality whatever the termination reason.
-    let (one, _) = solver().minimize(one);
+    one.params = minimize(&one, one.params.clone(), solver()).x;
     let base = one.base();
     let kappa = [one.params[0], one.params[1]];
     let (mean, max) = one.residual_stats();
     let split = length * settings.two_section_split;
     let mut init = kappa.to_vec();
     init.extend_from_slice(&kappa);
-    let two = Problem::new(
+    let mut two = Problem::new(
         &data,
         frame,
         vec![split, length - split],
         settings.free_base,
         &init,
     );
-    let (two, _) = solver().minimize(two);
+    two.params = minimize(&two, two.params.clone(), solver()).x;
     let (mean2, max2) = two.residual_stats();
     let curvature = kappa[0].hypot(kappa[1]);
     let axes = base.rotation.matrix();
@@ -221,33 +221,21 @@ impl<'a> Problem<'a> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.params.copy_from(x);
+impl Residuals for Problem<'_> {
+    fn residuals(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
+        Some(self.residuals_of(x))
     }
 
-    fn params(&self) -> DVector<f64> {
-        self.params.clone()
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        Some(self.residuals_of(&self.params))
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let n = self.params.len();
-        let at = self.residuals_of(&self.params);
+    fn jacobian(&self, x: &DVector<f64>) -> Option<DMatrix<f64>> {
+        let n = x.len();
+        let at = self.residuals_of(x);
         let mut j = DMatrix::zeros(at.len(), n);
         // The curvatures: forward differences (the model is smooth, and LM needs no more
         // precision).
         let pieces = 2 * self.lengths.len();
         for k in 0..pieces {
-            let h = 1e-7 * self.params[k].abs().max(1e-2);
-            let mut moved = self.params.clone();
+            let h = 1e-7 * x[k].abs().max(1e-2);
+            let mut moved = x.clone();
             moved[k] += h;
             j.set_column(k, &((self.residuals_of(&moved) - &at) / h));
         }
@@ -256,16 +244,16 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
         }
         // The base moves the whole section rigidly: an offset moves every point by the
         // section frame's axis; a tilt turns every point's place in the tilted base frame.
-        let base = self.base();
+        let base = self.base_of(x);
         let axes = self.frame.rotation.matrix();
         let tilt_of = |p: &DVector<f64>| {
             Rotation3::from_scaled_axis(Vector3::new(p[pieces], 0.0, p[pieces + 1]))
         };
-        let tilt = tilt_of(&self.params);
+        let tilt = tilt_of(x);
         let turned: Vec<Matrix3<f64>> = (0..2)
             .map(|t| {
                 let h = 1e-7;
-                let mut moved = self.params.clone();
+                let mut moved = x.clone();
                 moved[pieces + t] += h;
                 axes * (tilt_of(&moved).matrix() - tilt.matrix()) / h
             })
@@ -332,13 +320,12 @@ mod tests {
         let frame = section_frame([1.0, 2.0, 3.0], [0.1, 1.0, 0.2], [0.0, 0.0, 1.0]);
         for lengths in [vec![80.0], vec![30.0, 50.0]] {
             let kappa = vec![0.01; 2 * lengths.len()];
-            let mut problem = Problem::new(&data, frame, lengths, true, &kappa);
-            let mut p = problem.params();
+            let problem = Problem::new(&data, frame, lengths, true, &kappa);
+            let mut p = problem.params.clone();
             let k = p.len();
             (p[k - 5], p[k - 4], p[k - 3], p[k - 2], p[k - 1]) = (0.05, -0.08, 0.4, -0.2, 0.3);
-            problem.set_params(&p);
-            let j = problem.jacobian().unwrap();
-            let at = problem.residuals().unwrap();
+            let j = problem.jacobian(&p).unwrap();
+            let at = problem.residuals(&p).unwrap();
             for c in 0..k {
                 let h = 1e-6;
                 let mut moved = p.clone();

@@ -29,6 +29,7 @@ mod precision;
 mod record;
 mod refine;
 mod runner;
+mod source;
 mod status;
 mod usual;
 
@@ -55,6 +56,7 @@ pub use refine::{
     refine_cameras,
 };
 pub use runner::{Processed, Recent, RunEnd, run};
+pub use source::{Input, SourceSpec};
 pub use status::RecordStatus;
 
 /// Why a frame (or the pipeline's setup) failed.
@@ -109,6 +111,17 @@ pub enum TrackError {
     /// Inputs that do not go together.
     #[error("{0}")]
     Input(String),
+    /// A rig file or folder.
+    #[error("{} is not a valid rig: {source}", path.display())]
+    Rig {
+        /// The rig file or folder.
+        path: PathBuf,
+        /// What is wrong.
+        source: flexshape_rig::RigError,
+    },
+    /// Opening a frame source.
+    #[error(transparent)]
+    Source(#[from] flexshape_input::InputError),
     /// One item per camera was expected.
     #[error("{found} {what} for a rig of {expected} cameras")]
     CameraCount {

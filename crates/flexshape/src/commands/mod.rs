@@ -126,29 +126,12 @@ fn cores() -> usize {
 /// A rig TOML, or a folder of OpenCV camera files (with the default volume).
 pub(crate) fn load_rig(path: &std::path::Path) -> anyhow::Result<flexshape_rig::Rig> {
     use anyhow::Context;
-    let named_toml = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    if path.is_dir() && named_toml {
-        anyhow::bail!(
-            "{} is a folder, not a rig file: give the rig TOML, or a folder of camera files",
-            path.display()
-        );
-    }
-    if path.is_dir() {
-        let (rig, skipped) = flexshape_rig::Rig::from_calibration_dir_skipping(
-            path,
-            flexshape_rig::Volume::default(),
-        )
+    let (rig, skipped) = flexshape_rig::Rig::open(path)
         .with_context(|| format!("{} is not a valid rig", path.display()))?;
-        for s in &skipped {
-            eprintln!("warning: {s}");
-        }
-        Ok(rig)
-    } else {
-        flexshape_rig::Rig::load(path)
-            .with_context(|| format!("{} is not a valid rig", path.display()))
+    for s in &skipped {
+        eprintln!("warning: {s}");
     }
+    Ok(rig)
 }
 
 /// The pipeline with its centerline method set from `--method`, if given.
