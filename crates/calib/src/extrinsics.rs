@@ -20,14 +20,9 @@ pub const TRANSLATION_TOLERANCE_MM: f64 = 10.0;
 /// See [`TRANSLATION_TOLERANCE_MM`].
 pub const TRANSLATION_TOLERANCE_SHARE: f64 = 0.05;
 
-/// A board pose in one camera: `x_cam = R·X_board + t` (mm).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BoardPose {
-    /// Rotation.
-    pub rotation: Rotation3<f64>,
-    /// Translation, mm.
-    pub translation: Vector3<f64>,
-}
+/// A board pose in one camera: `x_cam = R·X_board + t` (mm); flexshape's one rigid
+/// transform.
+pub type BoardPose = flexshape_camera::Pose;
 
 /// One camera's pose relative to the reference camera, with its consistency.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -81,16 +76,6 @@ pub fn half_turned_views(pairs: &[(BoardPose, BoardPose)], half_turn: &BoardPose
     both.iter()
         .map(|e| !agree(&best, &e[0]) && agree(&best, &e[1]))
         .collect()
-}
-
-impl BoardPose {
-    /// This pose after `first` moves the board in its own frame: `X ↦ self(first(X))`.
-    pub fn then(&self, first: &BoardPose) -> BoardPose {
-        BoardPose {
-            rotation: self.rotation * first.rotation,
-            translation: self.rotation * first.translation + self.translation,
-        }
-    }
 }
 
 /// The pose of a camera relative to the reference from the board poses both saw in the same

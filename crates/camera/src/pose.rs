@@ -1,4 +1,5 @@
-//! Rigid world → camera transform in OpenCV's convention.
+//! The one rigid transform of flexshape, in OpenCV's convention: a camera's pose (world →
+//! camera), a board's pose in a camera (board → camera), a registration (source → target).
 
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -16,7 +17,9 @@ pub fn angle_between(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
     2.0 * q.imag().norm().atan2(q.scalar().abs())
 }
 
-/// World → camera transform: `x_cam = R · X_world + t`, with `t` in mm.
+/// A rigid transform `x_to = R · x_from + t`, `t` in mm. As a camera's pose it maps world to
+/// camera (`x_cam = R · X_world + t`, OpenCV's convention), the sense the methods' names
+/// use; as a board's pose, board to camera; as a registration, source to target.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Pose {
     /// `R`: rotates world vectors into the camera frame.
@@ -104,6 +107,28 @@ impl Pose {
         self.rotation.inverse() * (p - self.translation)
     }
 
+    /// A point mapped by the transform, `R·p + t` (mm); for a camera pose, [`Pose::to_camera`].
+    pub fn apply(&self, p: &Point3<f64>) -> Point3<f64> {
+        self.rotation * p + self.translation
+    }
+
+    /// The inverse transform (camera → world for a camera pose).
+    pub fn inverse(&self) -> Self {
+        let r = self.rotation.inverse();
+        Pose {
+            rotation: r,
+            translation: -(r * self.translation),
+        }
+    }
+
+    /// This transform after `first`: `x ↦ self(first(x))`.
+    pub fn then(&self, first: &Pose) -> Pose {
+        Pose {
+            rotation: self.rotation * first.rotation,
+            translation: self.rotation * first.translation + self.translation,
+        }
+    }
+
     /// Camera centre in world coordinates, `−Rᵀ t` (mm).
     pub fn centre(&self) -> Point3<f64> {
         Point3::from(-(self.rotation.inverse() * self.translation))
@@ -118,6 +143,16 @@ impl Pose {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn inverse_and_then_compose_as_maps() {
+        let a = Pose::from_rvec_tvec(Vector3::new(0.2, -0.4, 1.1), Vector3::new(3.0, -7.0, 40.0));
+        let b = Pose::from_rvec_tvec(Vector3::new(-0.9, 0.1, 0.3), Vector3::new(-5.0, 2.0, 9.0));
+        let p = Point3::new(1.5, -2.5, 7.0);
+        assert!((a.then(&b).apply(&p) - a.apply(&b.apply(&p))).norm() < 1e-12);
+        assert!((a.inverse().apply(&a.apply(&p)) - p).norm() < 1e-12);
+        assert!((a.inverse().apply(&p) - a.to_world(&p)).norm() < 1e-12);
+    }
 
     #[test]
     fn the_angle_between_equal_rotations_is_zero_not_nan() {

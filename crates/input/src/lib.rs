@@ -12,6 +12,7 @@ mod error;
 mod ffmpeg;
 mod folders;
 mod frame;
+mod latest;
 mod live;
 mod newest;
 mod recording;

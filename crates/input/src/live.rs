@@ -9,39 +9,21 @@
 //! dropped and counted.
 
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Condvar, Mutex};
+use std::sync::Arc;
 use std::time::Instant;
 
 use image::RgbImage;
 
 use crate::ffmpeg::{Decoder, probe_size};
+use crate::latest::{Latest, Taker};
 use crate::{CaptureTime, FrameImage, FrameSet, FrameSource, InputError};
-
-/// One camera's newest frame.
-#[derive(Default)]
-struct Slot {
-    image: Option<(RgbImage, Instant)>,
-    /// Frames received so far.
-    received: u64,
-    /// Set when the camera's stream ended: `Ok` cleanly (a file played to its end).
-    ended: Option<Result<(), InputError>>,
-}
-
-struct Shared {
-    slots: Mutex<Vec<Slot>>,
-    arrived: Condvar,
-    stop: AtomicBool,
-}
 
 /// Frames from live cameras, newest first.
 pub struct LiveSource {
-    shared: Arc<Shared>,
-    /// Per camera, the `received` count of the last frame taken.
-    taken: Vec<u64>,
-    dropped: Vec<u64>,
+    /// Each camera's newest frame and when it arrived.
+    latest: Arc<Latest<(RgbImage, Instant)>>,
+    taker: Taker,
     next: u64,
-    finished: bool,
 }
 
 /// A live camera: its name, its input (a device path, a URL or a video file) and the
@@ -66,21 +48,15 @@ impl LiveSource {
             .zip(&args)
             .map(|((camera, input, size), args)| Decoder::spawn(camera, input, args, *size))
             .collect::<Result<Vec<_>, _>>()?;
-        let shared = Arc::new(Shared {
-            slots: Mutex::new((0..cameras.len()).map(|_| Slot::default()).collect()),
-            arrived: Condvar::new(),
-            stop: AtomicBool::new(false),
-        });
+        let latest = Arc::new(Latest::new(cameras.len()));
         for (i, decoder) in decoders.into_iter().enumerate() {
-            let shared = shared.clone();
+            let shared = latest.clone();
             std::thread::spawn(move || read_camera(i, decoder, &shared));
         }
         Ok(LiveSource {
-            shared,
-            taken: vec![0; cameras.len()],
-            dropped: vec![0; cameras.len()],
+            latest,
+            taker: Taker::new(cameras.len()),
             next: 0,
-            finished: false,
         })
     }
 }
@@ -115,80 +91,31 @@ fn input_args(camera: &str, input: &str, size: (u32, u32)) -> Result<Vec<String>
 }
 
 /// A camera's reader thread: keeps the newest frame in its slot.
-fn read_camera(index: usize, mut decoder: Decoder, shared: &Shared) {
-    loop {
-        if shared.stop.load(Ordering::Relaxed) {
-            return;
-        }
-        let result = decoder.read();
-        let Ok(mut slots) = shared.slots.lock() else {
-            return;
-        };
-        let slot = &mut slots[index];
-        match result {
-            Ok(Some(image)) => {
-                slot.image = Some((image, Instant::now()));
-                slot.received += 1;
-            }
-            Ok(None) => slot.ended = Some(Ok(())),
-            Err(e) => slot.ended = Some(Err(e)),
-        }
-        let ended = slot.ended.is_some();
-        drop(slots);
-        shared.arrived.notify_all();
-        if ended {
-            return;
+fn read_camera(index: usize, mut decoder: Decoder, latest: &Latest<(RgbImage, Instant)>) {
+    while !latest.stopped() {
+        match decoder.read() {
+            Ok(Some(image)) => latest.put(index, (image, Instant::now())),
+            Ok(None) => return latest.end(index, Ok(())),
+            Err(e) => return latest.end(index, Err(e)),
         }
     }
 }
 
 impl FrameSource for LiveSource {
     fn next_frame(&mut self) -> Option<Result<FrameSet, InputError>> {
-        if self.finished {
-            return None;
-        }
-        let Ok(mut slots) = self.shared.slots.lock() else {
-            self.finished = true;
-            return None;
+        let frames = match self.taker.take(&self.latest)? {
+            Ok(frames) => frames,
+            Err(e) => return Some(Err(e)),
         };
-        loop {
-            let fresh = slots
-                .iter()
-                .zip(&self.taken)
-                .all(|(s, &t)| s.received > t && s.image.is_some());
-            if fresh {
-                break;
-            }
-            // A camera that ended with no new frame ends the input.
-            if let Some(i) = (0..slots.len())
-                .find(|&i| slots[i].ended.is_some() && slots[i].received == self.taken[i])
-            {
-                self.finished = true;
-                return match slots[i].ended.take() {
-                    Some(Err(e)) => Some(Err(e)),
-                    _ => None,
-                };
-            }
-            slots = match self.shared.arrived.wait(slots) {
-                Ok(s) => s,
-                Err(_) => {
-                    self.finished = true;
-                    return None;
-                }
-            };
-        }
-        let mut images = Vec::with_capacity(slots.len());
-        let mut oldest = Instant::now();
-        for (i, slot) in slots.iter_mut().enumerate() {
-            let Some((image, at)) = slot.image.take() else {
-                continue;
-            };
-            self.dropped[i] += slot.received - self.taken[i] - 1;
-            self.taken[i] = slot.received;
-            oldest = oldest.min(at);
-            images.push(FrameImage::Decoded(image));
-        }
-        drop(slots);
+        let oldest = frames
+            .iter()
+            .map(|(_, at)| *at)
+            .min()
+            .unwrap_or_else(Instant::now);
+        let images = frames
+            .into_iter()
+            .map(|(image, _)| FrameImage::Decoded(image))
+            .collect();
         let mut set = FrameSet::new(self.next, images);
         set.captured = oldest;
         set.capture_time = CaptureTime::of_instant(oldest);
@@ -201,13 +128,13 @@ impl FrameSource for LiveSource {
     }
 
     fn dropped(&self) -> u64 {
-        self.dropped.iter().copied().max().unwrap_or(0)
+        self.taker.dropped()
     }
 }
 
 impl Drop for LiveSource {
     fn drop(&mut self) {
         // Reader threads stop after their next frame; dropping their decoders ends ffmpeg.
-        self.shared.stop.store(true, Ordering::Relaxed);
+        self.latest.stop();
     }
 }

@@ -2,31 +2,15 @@
 //! (hardware-synchronised cameras, or the simulator in the live demo). Only the newest set is
 //! kept; sets overwritten before tracking took them are counted as dropped.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Condvar, Mutex};
+use std::sync::Arc;
 
+use crate::latest::{Latest, Taker};
 use crate::{FrameSet, FrameSource, InputError};
-
-#[derive(Default)]
-struct State {
-    newest: Option<Result<FrameSet, InputError>>,
-    /// Items produced so far.
-    produced: u64,
-    /// Set when the producer is done.
-    ended: bool,
-}
-
-struct Shared {
-    state: Mutex<State>,
-    arrived: Condvar,
-    stop: AtomicBool,
-}
 
 /// Newest-wins frames from a producer thread.
 pub struct NewestSource {
-    shared: Arc<Shared>,
-    taken: u64,
-    dropped: u64,
+    latest: Arc<Latest<Result<FrameSet, InputError>>>,
+    taker: Taker,
 }
 
 impl NewestSource {
@@ -35,58 +19,32 @@ impl NewestSource {
     pub fn spawn(
         mut produce: impl FnMut() -> Option<Result<FrameSet, InputError>> + Send + 'static,
     ) -> Self {
-        let shared = Arc::new(Shared {
-            state: Mutex::new(State::default()),
-            arrived: Condvar::new(),
-            stop: AtomicBool::new(false),
-        });
-        let s = shared.clone();
+        let latest = Arc::new(Latest::new(1));
+        let shared = latest.clone();
         std::thread::spawn(move || {
-            while !s.stop.load(Ordering::Relaxed) {
-                let item = produce();
-                let Ok(mut state) = s.state.lock() else {
-                    return;
+            while !shared.stopped() {
+                let Some(item) = produce() else {
+                    return shared.end(0, Ok(()));
                 };
-                let last = match &item {
-                    None => true,
-                    Some(Err(e)) => e.ends_input(),
-                    Some(Ok(_)) => false,
-                };
-                if item.is_some() {
-                    state.newest = item;
-                    state.produced += 1;
-                }
-                state.ended = last;
-                drop(state);
-                s.arrived.notify_all();
+                let last = matches!(&item, Err(e) if e.ends_input());
+                shared.put(0, item);
                 if last {
-                    return;
+                    return shared.end(0, Ok(()));
                 }
             }
         });
         NewestSource {
-            shared,
-            taken: 0,
-            dropped: 0,
+            latest,
+            taker: Taker::new(1),
         }
     }
 }
 
 impl FrameSource for NewestSource {
     fn next_frame(&mut self) -> Option<Result<FrameSet, InputError>> {
-        let mut state = self.shared.state.lock().ok()?;
-        loop {
-            if state.produced > self.taken
-                && let Some(item) = state.newest.take()
-            {
-                self.dropped += state.produced - self.taken - 1;
-                self.taken = state.produced;
-                return Some(item);
-            }
-            if state.ended {
-                return None;
-            }
-            state = self.shared.arrived.wait(state).ok()?;
+        match self.taker.take(&self.latest)? {
+            Ok(mut items) => items.pop(),
+            Err(e) => Some(Err(e)),
         }
     }
 
@@ -95,13 +53,13 @@ impl FrameSource for NewestSource {
     }
 
     fn dropped(&self) -> u64 {
-        self.dropped
+        self.taker.dropped()
     }
 }
 
 impl Drop for NewestSource {
     fn drop(&mut self) {
-        self.shared.stop.store(true, Ordering::Relaxed);
+        self.latest.stop();
     }
 }
 

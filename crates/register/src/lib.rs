@@ -38,38 +38,9 @@ pub enum RegisterError {
     },
 }
 
-/// `target ≈ rotation · source + translation`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct RigidTransform {
-    /// Proper rotation (det +1).
-    pub rotation: Rotation3<f64>,
-    /// Translation, in the target frame's units.
-    pub translation: Vector3<f64>,
-}
-
-impl RigidTransform {
-    /// The identity.
-    pub fn identity() -> Self {
-        RigidTransform {
-            rotation: Rotation3::identity(),
-            translation: Vector3::zeros(),
-        }
-    }
-
-    /// Maps a source point into the target frame.
-    pub fn apply(&self, p: &Point3<f64>) -> Point3<f64> {
-        self.rotation * p + self.translation
-    }
-
-    /// The inverse transform.
-    pub fn inverse(&self) -> Self {
-        let r = self.rotation.inverse();
-        RigidTransform {
-            rotation: r,
-            translation: -(r * self.translation),
-        }
-    }
-}
+/// `target ≈ rotation · source + translation` (`apply`, `inverse`, `then`): flexshape's one
+/// rigid transform.
+pub type RigidTransform = flexshape_camera::Pose;
 
 /// Residuals of a registration.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -232,7 +232,7 @@ pub fn calibrate_rig(
                 for ((cal, _), k) in results.iter_mut().zip(&a.intrinsics) {
                     cal.intrinsics = k.clone();
                 }
-                poses = a.poses.iter().map(from_board_pose).collect();
+                poses = a.poses.clone();
                 joint_rms = a.rms_px.iter().map(|r| Some(*r)).collect();
             }
             Err(e) => notes.push(format!(
@@ -458,10 +458,7 @@ fn adjust(
         .map(|((calibration, views), pose)| crate::RigCamera {
             calibration,
             views,
-            pose: BoardPose {
-                rotation: pose.rotation,
-                translation: pose.translation,
-            },
+            pose: *pose,
         })
         .collect();
     let intrinsics = if settings.joint_intrinsics {
@@ -514,12 +511,5 @@ fn pose_of(rel: &RelativePose) -> Pose {
     Pose {
         rotation: Rotation3::from_matrix_unchecked(Matrix3::from_fn(|r, c| rel.rotation[r][c])),
         translation: Vector3::from(rel.translation),
-    }
-}
-
-fn from_board_pose(p: &BoardPose) -> Pose {
-    Pose {
-        rotation: p.rotation,
-        translation: p.translation,
     }
 }

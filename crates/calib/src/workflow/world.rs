@@ -76,16 +76,7 @@ impl WorldFrame {
         };
         match self {
             Self::Reference => Ok((Pose::identity(), None)),
-            Self::Board(image) => {
-                let b = view_pose(image)?;
-                Ok((
-                    Pose {
-                        rotation: b.rotation,
-                        translation: b.translation,
-                    },
-                    None,
-                ))
-            }
+            Self::Board(image) => Ok((view_pose(image)?, None)),
             Self::Points(file) => {
                 let (world, seen) = measured_points(file, board, &view_pose)?;
                 let (t, res) = flexshape_register::register(&world, &seen).map_err(|e| {
@@ -100,13 +91,7 @@ impl WorldFrame {
                     res.rms,
                     res.max
                 );
-                Ok((
-                    Pose {
-                        rotation: t.rotation,
-                        translation: t.translation,
-                    },
-                    Some(note),
-                ))
+                Ok((t, Some(note)))
             }
         }
     }
