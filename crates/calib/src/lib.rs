@@ -14,6 +14,31 @@
 //! Conventions: OpenCV's (x_cam = R·X_board + t, pixel (0, 0) the centre of the top-left
 //! pixel, distortion k1 k2 p1 p2 k3); board frame: origin at the first inner corner, x along
 //! the `cols` direction, y along `rows`, z = 0 on the board, mm.
+//!
+//! A whole rig from per-camera image folders: [`workflow::calibrate_rig`]. One camera from
+//! its views (here rendered by the simulator, with known intrinsics):
+//!
+//! ```
+//! use flexshape_calib::{Board, CalibrationSettings, calibrate, detect};
+//! use flexshape_sim::{BoardRenderer, PrintedBoard, PrintedPattern, SimConfig, Simulator};
+//!
+//! let camera = Simulator::new(SimConfig::default())?.cameras().remove(0);
+//! let board = Board::parse("9x6", 20.0)?;
+//! let printed = PrintedBoard { cols: 9, rows: 6, square: 20.0, pattern: PrintedPattern::Chessboard };
+//! let renderer = BoardRenderer::new(&camera).expect("the lens model covers the image");
+//! let mut views = Vec::new();
+//! for view in flexshape_sim::calibration_views(std::slice::from_ref(&camera), &printed, 12, 0, 7) {
+//!     let image = renderer.render(&printed, &view.pose, 2.0, 1);
+//!     if let Ok(found) = detect(&image, &board) {
+//!         views.push((view.name, found));
+//!     }
+//! }
+//! let k = &camera.intrinsics;
+//! let calibrated = calibrate(&views, k.width, k.height, &CalibrationSettings::default())?;
+//! assert!(calibrated.rms_px < 0.3, "{} px", calibrated.rms_px);
+//! assert!((calibrated.intrinsics.fx / k.fx - 1.0).abs() < 0.01);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod board;
 mod bundle;

@@ -9,6 +9,24 @@
 //!
 //! [`Camera`] combines [`Intrinsics`] and [`Pose`] and offers projection with Jacobians and
 //! unprojection of a pixel to a world ray.
+//!
+//! ```
+//! use flexshape_camera::nalgebra::{Point3, Vector3};
+//! use flexshape_camera::{Camera, Distortion, Intrinsics, Pose};
+//!
+//! // A 640×480 camera with some barrel distortion, 400 mm from the origin, looking at it.
+//! let distortion = Distortion::from_opencv(&[-0.2, 0.05, 0.0, 0.0, 0.0])?;
+//! let intrinsics = Intrinsics::new(640, 480, 800.0, 800.0, 319.5, 239.5, distortion)?;
+//! let pose = Pose::look_at(Point3::new(0.0, 0.0, -400.0), Point3::origin(), Vector3::y());
+//! let camera = Camera::new(intrinsics, pose);
+//! let point = Point3::new(10.0, 5.0, 0.0); // world, mm
+//! let seen = camera.project(&point)?;
+//! assert!((seen.depth - 400.0).abs() < 1e-9);
+//! // Back through the lens: the pixel's ray passes through the point.
+//! let ray = camera.ray(seen.pixel)?;
+//! assert!((point - ray.origin).cross(&ray.direction).norm() < 1e-6);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod camera;
 mod distortion;

@@ -13,6 +13,27 @@
 //! - [`Occupancy`] and [`PointCloud`]: the result, with PLY export.
 //!
 //! World frame and millimetres throughout; voxel `(i, j, k)` has index `i + nx·(j + ny·k)`.
+//!
+//! ```
+//! use flexshape_carve::{HierarchicalCarver, OutsideImage};
+//! use flexshape_silhouette::BitMask;
+//! use flexshape_sim::{CatheterPose, SimConfig, Simulator};
+//!
+//! // The simulator's exact masks of a bent catheter, carved in its rig's 256 mm cube.
+//! let sim = Simulator::new(SimConfig::default())?;
+//! let pose = CatheterPose::arc(&sim.config().catheter, [0.006, -0.002], [0.0, 0.0], 0.0);
+//! let frame = sim.render(0, &pose)?;
+//! let masks: Vec<BitMask> = frame.views.iter().map(|v| BitMask::from_gray(&v.mask)).collect();
+//! let carver = HierarchicalCarver::new(&sim.cameras(), &sim.rig().volume)?;
+//! let hull = carver.carve(&masks.iter().collect::<Vec<_>>(), OutsideImage::Carve)?;
+//! // The visual hull holds the true centerline wherever it is in the volume.
+//! let volume = &sim.rig().volume;
+//! let inside = frame.truth.centerline.iter().map(|p| flexshape_camera::nalgebra::Point3::from(*p));
+//! let inside = inside.filter(|p| volume.contains(p));
+//! assert!(inside.clone().count() > 100 && inside.clone().all(|p| hull.contains_point(&p)));
+//! println!("{} voxels, {:.0} mm³", hull.len(), hull.volume_mm3());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod bands;
 mod cloud;

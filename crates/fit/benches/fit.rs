@@ -16,11 +16,7 @@ fn bench(c: &mut Criterion) {
     let rig = sim.rig();
     let cameras = sim.cameras();
     let frame = sim.render(3, &sim.sweep(4)[3]).unwrap();
-    let models: Vec<BackgroundModel> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
-        .collect();
+    let models: Vec<BackgroundModel> = BackgroundModel::each(&sim.backgrounds()).unwrap();
     let sil = silhouettes(&models, &frame);
     let objects: Vec<_> = sil.iter().map(|s| &s.object).collect();
     let markers: Vec<_> = sil.iter().map(|s| &s.markers).collect();

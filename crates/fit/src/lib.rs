@@ -14,6 +14,47 @@
 //! (`check`): a fit that does not explain a camera's image gets status `inconsistent`.
 //!
 //! World frame, millimetres, radians; image positions in pixels (OpenCV convention).
+//!
+//! The chain by hand (`flexshape_track::Pipeline` runs it, with the silhouettes, carving and
+//! bands): the hull's centerline of a simulated catheter refined on its images.
+//!
+//! ```
+//! use flexshape_carve::{HierarchicalCarver, OutsideImage};
+//! use flexshape_fit::{FitSettings, TubeFitter, View};
+//! use flexshape_shape::{ShapeEstimator, ShapeSettings};
+//! use flexshape_silhouette::{BackgroundModel, BitMask};
+//! use flexshape_sim::{CatheterPose, SimConfig, Simulator};
+//!
+//! let sim = Simulator::new(SimConfig::default())?;
+//! let pose = CatheterPose::arc(&sim.config().catheter, [0.006, -0.002], [0.0, 0.0], 0.0);
+//! let frame = sim.render(0, &pose)?;
+//! let backgrounds = BackgroundModel::each(&sim.backgrounds())?;
+//! let masks: Vec<BitMask> = frame.views.iter().map(|v| BitMask::from_gray(&v.mask)).collect();
+//! let markers: Vec<BitMask> = frame.views.iter().map(|v| BitMask::from_gray(&v.markers)).collect();
+//! let volume = &sim.rig().volume;
+//! let carver = HierarchicalCarver::new(&sim.cameras(), volume)?;
+//! let hull = carver.carve(&masks.iter().collect::<Vec<_>>(), OutsideImage::Carve)?;
+//! let estimator = ShapeEstimator::new(ShapeSettings::from_processing(&sim.rig().processing)?)?;
+//! let start = estimator.estimate(&hull, &[]);
+//! let views: Vec<View> = (0..masks.len())
+//!     .map(|k| View {
+//!         image: &frame.views[k].image,
+//!         background: backgrounds[k].means(),
+//!         silhouette: &masks[k],
+//!         markers: &markers[k],
+//!     })
+//!     .collect();
+//! let names = sim.rig().cameras.iter().map(|c| c.name.clone()).collect();
+//! let fitter = TubeFitter::new(sim.cameras(), names, FitSettings::default())?;
+//! let (fitted, fit) = fitter.refine(&estimator, volume, &views, &start, &hull.centres(), None)?;
+//! // Every camera's outline residual, px; the fitted tip is far closer to the truth.
+//! for camera in &fit.expect("a fit").cameras {
+//!     assert!(camera.residual_px < 0.5, "{camera:?}");
+//! }
+//! let tip_error = nalgebra::distance(&fitted.tip.into(), &frame.truth.tip.into());
+//! assert!(tip_error < 0.3, "{tip_error} mm");
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod bands;
 mod bundle;

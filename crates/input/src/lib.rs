@@ -6,6 +6,25 @@
 //! frame; a live source always hands out the newest and counts the frames it had to drop.
 //! [`capture`] writes a source's frame sets into per-camera folders (chessboards, backgrounds,
 //! frames to track later).
+//!
+//! ```
+//! use flexshape_input::{FrameSet, FrameSource, NewestSource};
+//!
+//! // A producer thread delivering frame sets on its own clock (here three, without images).
+//! let mut n = 0;
+//! let mut source = NewestSource::spawn(move || {
+//!     n += 1;
+//!     (n <= 3).then(|| Ok(FrameSet::new(n, Vec::new())))
+//! });
+//! let mut taken = Vec::new();
+//! while let Some(set) = source.next_frame() {
+//!     taken.push(set?.frame);
+//! }
+//! // A slow taker sees the newest; the frames it missed are counted.
+//! assert_eq!(taken.last(), Some(&3));
+//! assert_eq!(taken.len() as u64 + source.dropped(), 3);
+//! # Ok::<(), flexshape_input::InputError>(())
+//! ```
 
 mod capture;
 mod error;

@@ -21,6 +21,20 @@
 //!   the sensed tips (output error), from the two-step estimate.
 //!
 //! Units: mm, N, radians; curvature 1/mm; strains compression-positive.
+//!
+//! ```
+//! use flexshape_model::nalgebra_types::Vector4;
+//! use flexshape_model::{ManipulatorParams, Model};
+//!
+//! let model = Model::new(ManipulatorParams::paper_like())?;
+//! // The tendon displacements (mm) that bend the section to 1/200 mm about x, 0.1 % compressed.
+//! let y = model.inverse(&Vector4::new(0.005, 0.0, 0.001, 0.0))?;
+//! // … and back: the configuration they give, and the tendons' tensions (N).
+//! let f = model.forward(&y)?;
+//! assert!((f.q[0] - 0.005).abs() < 1e-9 && f.q[1].abs() < 1e-9, "{:?}", f.q);
+//! assert!(f.slack.is_empty() && f.tensions.iter().all(|t| *t > 0.0));
+//! # Ok::<(), flexshape_model::ModelError>(())
+//! ```
 
 mod control;
 mod estimate;

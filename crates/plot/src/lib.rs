@@ -7,6 +7,22 @@
 //!   error and its stiffness estimate).
 //!
 //! Coordinates in mm. Text uses the embedded DejaVu Sans (no system fonts needed).
+//!
+//! ```
+//! use flexshape_plot::{Mark, PALETTE, Series3, orthographic_views};
+//!
+//! let helix: Vec<[f64; 3]> = (0..200)
+//!     .map(|i| {
+//!         let t = i as f64 * 0.05;
+//!         [20.0 * t.cos(), 20.0 * t.sin(), 2.0 * t]
+//!     })
+//!     .collect();
+//! let series = [Series3 { label: "helix".into(), points: helix, mark: Mark::Line, colour: PALETTE[0] }];
+//! let stem = std::env::temp_dir().join("flexshape-plot-example");
+//! let written = orthographic_views("A helix in three views", &series, &stem)?;
+//! assert_eq!(written.len(), 2); // PNG and SVG
+//! # Ok::<(), flexshape_plot::PlotError>(())
+//! ```
 
 mod histogram;
 mod style;

@@ -4,8 +4,29 @@
 //! the form the paper uses, which also takes per-point weights — and per-axis and 3-D RMS
 //! reports. Units are the caller's (mm in flexshape); frames are "source" and "target":
 //! `target ≈ R·source + t`.
+//!
+//! ```
+//! use flexshape_register::{RigidTransform, register};
+//! use flexshape_register::nalgebra::{Point3, Rotation3, Vector3};
+//!
+//! // Reference points (a digitizer's, say) and the same points as a sensor sees them.
+//! let reference = [[0.0, 0.0, 0.0], [50.0, 0.0, 0.0], [0.0, 80.0, 0.0], [10.0, 20.0, 30.0]]
+//!     .map(Point3::from);
+//! let truth = RigidTransform {
+//!     rotation: Rotation3::from_euler_angles(0.1, -0.3, 0.7),
+//!     translation: Vector3::new(5.0, -2.0, 100.0),
+//! };
+//! let sensed = reference.map(|p| truth.apply(&p));
+//! let (found, residuals) = register(&reference, &sensed)?;
+//! assert!(residuals.rms < 1e-9);
+//! assert!((found.translation - truth.translation).norm() < 1e-9);
+//! # Ok::<(), flexshape_register::RegisterError>(())
+//! ```
 
 use nalgebra::{DVector, Matrix3, Point3, Rotation3, Vector3};
+
+/// Re-exported so users of this crate name the same nalgebra types.
+pub use nalgebra;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 

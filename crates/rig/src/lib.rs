@@ -13,6 +13,22 @@
 //!   COLMAP; Middlebury in [`middlebury`]) read into cameras, and written back.
 //!
 //! Every loader validates what it reads and names the file and field of any problem.
+//!
+//! ```no_run
+//! use flexshape_rig::{Rig, coverage};
+//!
+//! // A rig TOML, or a folder of OpenCV camera files (`NAME.yml`) such as a calibration's.
+//! let (rig, skipped) = Rig::open("calibration".as_ref())?;
+//! for file in &skipped {
+//!     eprintln!("not a camera file: {file}");
+//! }
+//! let cameras: Vec<_> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
+//! if coverage::corners_seen(&cameras, &rig.volume).iter().any(|&n| n < cameras.len()) {
+//!     let seen = coverage::suggest_volume(&cameras, 1.0);
+//!     println!("some camera misses part of the volume; every camera sees {seen:?}");
+//! }
+//! # Ok::<(), flexshape_rig::RigError>(())
+//! ```
 
 pub mod camera_file;
 pub mod coverage;

@@ -15,6 +15,29 @@
 //!
 //! Everything is in the world frame, millimetres and radians; arc lengths run from the
 //! proximal end. The output is a [`ShapeRecord`] whose [`Status`] says whether there is a shape.
+//!
+//! ```
+//! use flexshape_carve::{HierarchicalCarver, OutsideImage};
+//! use flexshape_shape::{ShapeEstimator, ShapeSettings, Status};
+//! use flexshape_silhouette::BitMask;
+//! use flexshape_sim::{CatheterPose, SimConfig, Simulator};
+//!
+//! // The hull of a simulated catheter from its exact masks, as in `flexshape_carve`.
+//! let sim = Simulator::new(SimConfig::default())?;
+//! let pose = CatheterPose::arc(&sim.config().catheter, [0.006, -0.002], [0.0, 0.0], 0.0);
+//! let frame = sim.render(0, &pose)?;
+//! let masks: Vec<BitMask> = frame.views.iter().map(|v| BitMask::from_gray(&v.mask)).collect();
+//! let hull = HierarchicalCarver::new(&sim.cameras(), &sim.rig().volume)?
+//!     .carve(&masks.iter().collect::<Vec<_>>(), OutsideImage::Carve)?;
+//! // The rig's `[processing.shape]` describes the catheter (radius, bands, sections).
+//! let estimator = ShapeEstimator::new(ShapeSettings::from_processing(&sim.rig().processing)?)?;
+//! let shape = estimator.estimate(&hull, &[]);
+//! // No bands were given, so the status says they are missing; the centerline is there.
+//! assert!(shape.status != Status::Ok && shape.points.len() > 100);
+//! let tip_error = nalgebra::distance(&shape.tip.into(), &frame.truth.tip.into());
+//! assert!(tip_error < 1.5, "{tip_error} mm");
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod arcfit;
 mod bands;

@@ -23,11 +23,7 @@ fn bench(c: &mut Criterion) {
                 .collect()
         })
         .collect();
-    let models: Vec<BackgroundModel> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
-        .collect();
+    let models: Vec<BackgroundModel> = BackgroundModel::each(&sim.backgrounds()).unwrap();
     let mut group = c.benchmark_group("silhouette");
     for (name, classifier) in [
         ("colour_shadow", Classifier::colour_shadow()),

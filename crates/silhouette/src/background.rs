@@ -139,6 +139,15 @@ impl BackgroundModel {
         })
     }
 
+    /// One model per camera, each from its camera's single empty frame (the simulator's
+    /// backgrounds, or one captured frame each), in order.
+    pub fn each(frames: &[RgbImage]) -> Result<Vec<Self>, SilhouetteError> {
+        frames
+            .iter()
+            .map(|f| Self::from_frames(std::slice::from_ref(f)))
+            .collect()
+    }
+
     /// A backdrop of one colour everywhere (e.g. black cloth or a lit screen), when no empty
     /// frame was recorded. `colour` is RGB and `spread` the noise, both in grey levels.
     pub fn uniform(

@@ -7,6 +7,24 @@
 //! ([`KeepComponents`]), then find the marker tape inside the object ([`MarkerSettings`]).
 //! Masks keep their boundary at half contrast; a consumer that wants a margin dilates its own
 //! copy ([`BitMask::dilate`]). Pixel (0, 0) is the top-left pixel.
+//!
+//! ```
+//! use flexshape_silhouette::{BackgroundModel, BitMask, SilhouetteSettings, Silhouetter};
+//! use flexshape_sim::{CatheterPose, SimConfig, Simulator};
+//!
+//! // A simulated camera's empty scene as the background, then a frame with the catheter.
+//! let sim = Simulator::new(SimConfig::default())?;
+//! let background = BackgroundModel::from_frames(&sim.backgrounds()[..1])?;
+//! let pose = CatheterPose::arc(&sim.config().catheter, [0.004, 0.0], [0.0, 0.0], 0.0);
+//! let frame = sim.render(0, &pose)?;
+//! let silhouetter = Silhouetter::new(&background, SilhouetteSettings::default())?;
+//! let silhouette = silhouetter.process(&frame.views[0].image)?;
+//! // Against the simulator's exact mask: the same pixels to within a few per cent.
+//! let truth = BitMask::from_gray(&frame.views[0].mask).count() as f64;
+//! assert!((silhouette.object.count() as f64 / truth - 1.0).abs() < 0.05);
+//! assert!(silhouette.markers.count() > 0, "the red bands are found");
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod background;
 mod bitmask;

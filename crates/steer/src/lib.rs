@@ -7,6 +7,30 @@
 //! Frames and units: targets and tips in the model frame at the bending base (+y along the
 //! proximal axis), mm; the base frame is known (the catheter's mount), so no registration poses
 //! are needed.
+//!
+//! ```no_run
+//! use std::ops::ControlFlow;
+//! use flexshape_model::ManipulatorParams;
+//! use flexshape_sim::SimConfig;
+//! use flexshape_steer::{SteerSettings, reachable_targets, steer};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! // The real catheter's bending stiffnesses are 30 % above what the controller assumes.
+//! let nominal = ManipulatorParams::paper_like();
+//! let mut truth = nominal.clone();
+//! truth.stiffness.kx *= 1.3;
+//! truth.stiffness.kz *= 1.3;
+//! let targets = reachable_targets(&truth, 3, 0.002)?;
+//! let (steps, learnt) = steer(&SimConfig::default(), &truth, &nominal, &targets,
+//!     &SteerSettings::default(), |step| {
+//!         println!("frame {}: tip {:?} mm from target {}", step.frame, step.sensed_error_mm,
+//!             step.target_index);
+//!         ControlFlow::Continue(())
+//!     })?;
+//! println!("{} frames; stiffnesses learnt: {learnt:?}", steps.len());
+//! # Ok(())
+//! # }
+//! ```
 
 use std::ops::ControlFlow;
 
@@ -205,11 +229,7 @@ pub fn steer_with_frames(
     let mut config = config.clone();
     config.catheter = catheter_for(&config.catheter, truth);
     let sim = Simulator::new(config)?;
-    let backgrounds = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)))
-        .collect::<Result<Vec<_>, _>>()
+    let backgrounds = BackgroundModel::each(&sim.backgrounds())
         .map_err(|e| SteerError::Background(e.to_string()))?;
     let rig = sim.rig();
     let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume)?;

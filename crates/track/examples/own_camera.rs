@@ -23,11 +23,7 @@ fn track() -> Result<(), Box<dyn std::error::Error>> {
     // (BackgroundModel::load("bg/cam0.png"), ...): here the simulator's.
     let sim = Simulator::new(SimConfig::default())?;
     let rig = sim.rig().clone();
-    let backgrounds = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)))
-        .collect::<Result<Vec<_>, _>>()?;
+    let backgrounds = BackgroundModel::each(&sim.backgrounds())?;
     // Each frame starts from the newest right shape: no carving while it follows.
     let pipeline = Pipeline::new(&rig, &backgrounds, &rig.volume)?.following(true)?;
     let poses = sim.motion(20, 120.0);

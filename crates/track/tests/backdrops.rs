@@ -81,13 +81,8 @@ fn folds_moved(shift: f64) -> SimConfig {
 fn with_silhouette(sim: &Simulator, table: toml::Table) -> Pipeline {
     let mut rig = sim.rig().clone();
     rig.processing.insert("silhouette".into(), table.into());
-    let backgrounds: Vec<_> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| {
-            flexshape_silhouette::BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap()
-        })
-        .collect();
+    let backgrounds: Vec<_> =
+        flexshape_silhouette::BackgroundModel::each(&sim.backgrounds()).unwrap();
     Pipeline::new(&rig, &backgrounds, &rig.volume).unwrap()
 }
 

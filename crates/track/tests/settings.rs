@@ -17,11 +17,7 @@ fn every_numeric_setting_at_special_values_is_refused_or_runs() {
     let (sim, _) = common::simulated_chain();
     let frame = sim.render(0, &sim.sweep(1)[0]).unwrap();
     let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
-    let backgrounds: Vec<_> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
-        .collect();
+    let backgrounds: Vec<_> = BackgroundModel::each(&sim.backgrounds()).unwrap();
     let floats: &[(&str, &str)] = &[
         ("fit", "span_mm"),
         ("fit", "spacing_mm"),

@@ -10,6 +10,21 @@
 //!
 //! World frame and mm throughout; per-axis errors are in the tracking system's frame, as in
 //! the paper.
+//!
+//! ```
+//! use flexshape_validate::accuracy;
+//! use nalgebra::Point3;
+//!
+//! // A digitizer's points and the tracked tip at the same places, in another frame and
+//! // 0.1 mm off along x at one of them.
+//! let reference = [[0.0, 0.0, 0.0], [40.0, 0.0, 0.0], [0.0, 40.0, 0.0], [0.0, 0.0, 40.0]];
+//! let mut sensed = reference.map(|[x, y, z]| Point3::new(y + 100.0, -x, z));
+//! sensed[1].x += 0.1;
+//! let report = accuracy(&sensed, &reference.map(Point3::from))?;
+//! assert!(report.rms < 0.1 && report.max > 0.0);
+//! println!("rms x {:.3}, y {:.3}, z {:.3} mm", report.rms_x, report.rms_y, report.rms_z);
+//! # Ok::<(), flexshape_validate::ValidateError>(())
+//! ```
 
 mod accuracy;
 mod extract;

@@ -110,11 +110,7 @@ impl Bench {
             ..defaults
         };
         let sim = Simulator::new(config).map_err(|e| ValidateError::Pipeline(e.to_string()))?;
-        let backgrounds = sim
-            .backgrounds()
-            .iter()
-            .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)))
-            .collect::<Result<Vec<_>, _>>()
+        let backgrounds = BackgroundModel::each(&sim.backgrounds())
             .map_err(|e| ValidateError::Pipeline(e.to_string()))?;
         let rig = sim.rig();
         let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume)

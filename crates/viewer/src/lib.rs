@@ -7,9 +7,32 @@
 //! mailbox: encoding (JPEG/PNG, JSON) happens on the viewer's own thread at a capped rate, and
 //! every browser gets the newest encoded frame when it is ready for one, so a slow browser or
 //! a slow network never slows tracking. World frame, mm.
+//!
+//! A recording tracked with the viewer open ([`Live`] works out the frame rate it shows):
+//!
+//! ```no_run
+//! use std::ops::ControlFlow;
+//! use std::sync::atomic::AtomicBool;
+//! use flexshape_track::{Recording, TrackRecord, run};
+//! use flexshape_viewer::Live;
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let mut recording = Recording::open("recording".as_ref())?;
+//! let pipeline = recording.pipeline()?;
+//! let mut viewer = Live::start("127.0.0.1:8080", false, &pipeline)?;
+//! println!("open {}", viewer.url());
+//! run(&mut recording.source, &pipeline, 2, &AtomicBool::new(false), |p| {
+//!     let record = TrackRecord::from_processed(&p);
+//!     viewer.publish(p, record, None);
+//!     ControlFlow::Continue(())
+//! });
+//! # Ok(())
+//! # }
+//! ```
 
 mod encode;
 mod limits;
+mod live;
 mod origin;
 mod server;
 
@@ -21,6 +44,7 @@ use tokio::sync::watch;
 
 pub use encode::{Stats, Steering, SteeringSample, Update};
 pub use limits::Limits;
+pub use live::Live;
 
 /// Why the viewer could not start.
 #[derive(Debug, Error)]

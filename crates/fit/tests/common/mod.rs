@@ -42,11 +42,7 @@ impl Chain {
         let sim = Simulator::new(config).unwrap();
         let mut cameras = sim.cameras();
         calibrate(&mut cameras);
-        let backgrounds: Vec<BackgroundModel> = sim
-            .backgrounds()
-            .iter()
-            .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
-            .collect();
+        let backgrounds: Vec<BackgroundModel> = BackgroundModel::each(&sim.backgrounds()).unwrap();
         let rig = sim.rig();
         let silhouetters = rig
             .cameras

@@ -71,11 +71,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Simulator::new(super::sim_config(&args.sim)).context("cannot set up the simulated rig")?;
     let frames =
         render(&sim, &sim.sweep(args.frames)).context("cannot render the simulated frames")?;
-    let backgrounds = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)))
-        .collect::<Result<Vec<_>, _>>()?;
+    let backgrounds = BackgroundModel::each(&sim.backgrounds())?;
     let rig = sim.rig();
     let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume)?;
     // Tracking is measured whatever the rig's default (it is off unless asked for).

@@ -71,11 +71,7 @@ impl Demo {
         };
         config.catheter = flexshape_steer::catheter_for(&config.catheter, model.params());
         let sim = Simulator::new(config).map_err(|e| setup("cannot set it up")(&e))?;
-        let backgrounds = sim
-            .backgrounds()
-            .iter()
-            .map(|bg| BackgroundModel::from_frames(std::slice::from_ref(bg)))
-            .collect::<Result<Vec<_>, _>>()
+        let backgrounds = BackgroundModel::each(&sim.backgrounds())
             .map_err(|e| setup("cannot model its backgrounds")(&e))?;
         // The simulated rig's `[processing.shape]` describes its catheter (bands, sections).
         let pipeline = Pipeline::new(sim.rig(), &backgrounds, &sim.rig().volume)?;

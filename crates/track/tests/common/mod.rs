@@ -17,11 +17,7 @@ pub fn simulated_chain() -> (Simulator, Pipeline) {
 /// The simulated rig of `config` and the chain set up for it.
 pub fn chain_of(config: SimConfig) -> (Simulator, Pipeline) {
     let sim = Simulator::new(config).unwrap();
-    let backgrounds: Vec<_> = sim
-        .backgrounds()
-        .iter()
-        .map(|b| BackgroundModel::from_frames(std::slice::from_ref(b)).unwrap())
-        .collect();
+    let backgrounds: Vec<_> = BackgroundModel::each(&sim.backgrounds()).unwrap();
     let rig = sim.rig();
     let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume).unwrap();
     (sim, pipeline)
