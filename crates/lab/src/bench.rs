@@ -1,0 +1,320 @@
+//! `flexshape bench`: per-stage figures of the sensing chain on the simulated rig, at 1 and 2
+//! threads. Frames are rendered once and kept in memory; image decoding is measured apart.
+//!
+//! Latency: one frame at a time (cameras' silhouettes in parallel when there are threads).
+//! Throughput: frames processed concurrently, one per thread.
+//!
+//! Two workloads: every frame through the whole chain from its hull (distinct poses from the
+//! sweep), and tracking (a smooth motion filmed at `rate_hz`, each frame started from an
+//! earlier one's shape as `flexshape track` does: with one frame per thread in flight, from
+//! the frame `threads` back).
+
+use std::fmt::Write as _;
+use std::time::Instant;
+
+use flexshape_silhouette::BackgroundModel;
+use flexshape_sim::{SimConfig, Simulator};
+use flexshape_track::{
+    Pipeline, Recent, StageSummary, Start, TrackError, quantile, stage_summaries,
+};
+use image::RgbImage;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::LabError;
+
+/// What to measure.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchSettings {
+    /// Distinct frames of the sweep (each processed `rounds` times).
+    pub frames: usize,
+    /// Passes over the frames per thread count.
+    pub rounds: usize,
+    /// Frames of the smooth motion the tracking figures are measured on.
+    pub track_frames: usize,
+    /// Its frame rate, frames per second.
+    pub rate_hz: f64,
+}
+
+impl Default for BenchSettings {
+    fn default() -> Self {
+        Self {
+            frames: 10,
+            rounds: 5,
+            track_frames: 60,
+            rate_hz: 120.0,
+        }
+    }
+}
+
+/// Renders the rig of `config` and measures the chain on it at 1 and 2 threads.
+pub fn bench(config: SimConfig, settings: &BenchSettings) -> Result<BenchReport, LabError> {
+    let s = settings;
+    if s.frames == 0 || s.rounds == 0 || s.track_frames < 2 {
+        return Err(LabError::data(
+            "bench",
+            "frames and rounds must be at least 1, track frames at least 2",
+        ));
+    }
+    if !(s.rate_hz.is_finite() && s.rate_hz > 0.0) {
+        return Err(LabError::data(
+            "bench",
+            "the rate must be a positive number of frames per second",
+        ));
+    }
+    let sim_error = |e: flexshape_sim::SimError| LabError::data("the simulated rig", e.to_string());
+    let sim = Simulator::new(config).map_err(sim_error)?;
+    let frames = render(&sim, &sim.sweep(s.frames)).map_err(sim_error)?;
+    let backgrounds = BackgroundModel::each(&sim.backgrounds())
+        .map_err(|e| LabError::data("the simulated backgrounds", e.to_string()))?;
+    let rig = sim.rig();
+    let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume)?;
+    // Tracking is measured whatever the rig's default (it is off unless asked for).
+    let following = pipeline.clone().following(true)?;
+    let motion = if following.tracks() {
+        render(&sim, &sim.motion(s.track_frames, s.rate_hz)).map_err(sim_error)?
+    } else {
+        Vec::new()
+    };
+    let mut results = Vec::new();
+    let mut tracking = Vec::new();
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| LabError::data("bench", format!("cannot start worker threads: {e}")))?;
+        results.push(pool.install(|| measure(&pipeline, &frames, s.rounds))?);
+        if !motion.is_empty() {
+            tracking.push(pool.install(|| measure(&following, &motion, s.rounds))?);
+        }
+    }
+    Ok(BenchReport {
+        cameras: frames[0].len(),
+        width: frames[0][0].width(),
+        height: frames[0][0].height(),
+        voxels: rig.volume.dims,
+        voxel_mm: rig.volume.voxel_size[0],
+        frames: s.frames,
+        rounds: s.rounds,
+        png_decode_ms: png_decode_ms(&frames[0][0])
+            .map_err(|e| LabError::data("bench", format!("cannot encode a PNG: {e}")))?,
+        results,
+        tracking,
+        track_frames: s.track_frames,
+        rate_hz: s.rate_hz,
+    })
+}
+
+/// Figures at one thread count.
+#[derive(Debug, Clone, Serialize)]
+pub struct Figures {
+    /// Threads.
+    pub threads: usize,
+    /// Per stage, median and 95th percentile ms, one frame at a time.
+    pub stages: Vec<StageSummary>,
+    /// Median ms of the whole chain, one frame at a time.
+    pub frame_median_ms: f64,
+    /// Frames per second with one frame per thread in flight.
+    pub throughput_fps: f64,
+    /// Tracking only: share of frames that started from an earlier frame (the rest were
+    /// carved again).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub followed: Option<f64>,
+}
+
+/// What `flexshape bench` measured (ms, frames per second).
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchReport {
+    /// Cameras of the simulated rig.
+    pub cameras: usize,
+    /// Image width, px.
+    pub width: u32,
+    /// Image height, px.
+    pub height: u32,
+    /// Voxels along x, y, z.
+    pub voxels: [u32; 3],
+    /// Voxel edge, mm.
+    pub voxel_mm: f64,
+    /// Distinct frames (sweep poses).
+    pub frames: usize,
+    /// Passes over them per thread count.
+    pub rounds: usize,
+    /// Median ms to decode one camera's PNG frame (not part of the figures above).
+    pub png_decode_ms: f64,
+    /// Every frame from its hull, at 1 and 2 threads.
+    pub results: Vec<Figures>,
+    /// Tracking frames of the smooth motion, at 1 and 2 threads (empty when the rig does not
+    /// track: fewer than three cameras).
+    pub tracking: Vec<Figures>,
+    /// Frames of the motion and its rate, frames per second.
+    pub track_frames: usize,
+    /// See `track_frames`.
+    pub rate_hz: f64,
+}
+
+/// Figures over `frames`: latency one frame at a time, throughput with one frame per thread in
+/// flight (thread `k` takes frames `k`, `k + n`, …). A pipeline that tracks starts each frame
+/// from the one before (for throughput, from its own previous one, `n` frames back, as the
+/// runner's workers do); one that does not starts every frame from its hull.
+fn measure(
+    pipeline: &Pipeline,
+    frames: &[Vec<RgbImage>],
+    rounds: usize,
+) -> Result<Figures, LabError> {
+    let refs: Vec<Vec<&RgbImage>> = frames.iter().map(|f| f.iter().collect()).collect();
+    let mut timings = Vec::new();
+    let mut totals = Vec::new();
+    let mut followed = 0usize;
+    for _ in 0..rounds {
+        let mut recent = Recent::new(pipeline);
+        for (seq, f) in refs.iter().enumerate() {
+            let t = Instant::now();
+            let prior = recent.for_frame(seq as u64);
+            let tracked = pipeline.process_after(f, prior.as_deref())?;
+            let elapsed = t.elapsed().as_secs_f64() * 1e3;
+            recent.update(seq as u64, tracked.prior());
+            // The first frame of a pass has nothing to start from.
+            if tracked.start == Start::Previous {
+                followed += 1;
+            }
+            totals.push(elapsed);
+            timings.push(tracked.timings);
+        }
+    }
+    let threads = rayon::current_num_threads();
+    let start = Instant::now();
+    for _ in 0..rounds {
+        (0..threads)
+            .into_par_iter()
+            .map(|k| {
+                let mut recent = Recent::new(pipeline);
+                for (seq, f) in refs.iter().enumerate().skip(k).step_by(threads) {
+                    let prior = recent.for_frame(seq as u64);
+                    let tracked = pipeline.process_after(f, prior.as_deref())?;
+                    recent.update(seq as u64, tracked.prior());
+                }
+                Ok(())
+            })
+            .collect::<Result<Vec<()>, TrackError>>()?;
+    }
+    let throughput_fps = (rounds * frames.len()) as f64 / start.elapsed().as_secs_f64();
+    Ok(Figures {
+        threads,
+        stages: stage_summaries(&timings),
+        frame_median_ms: quantile(&mut totals, 0.5),
+        throughput_fps,
+        followed: pipeline
+            .tracks()
+            .then(|| followed as f64 / (rounds * (frames.len() - 1).max(1)) as f64),
+    })
+}
+
+/// Every camera's image of each pose, rendered.
+fn render(
+    sim: &Simulator,
+    poses: &[flexshape_sim::CatheterPose],
+) -> Result<Vec<Vec<RgbImage>>, flexshape_sim::SimError> {
+    poses
+        .iter()
+        .enumerate()
+        .map(|(i, pose)| {
+            sim.render(i as u64, pose)
+                .map(|f| f.views.into_iter().map(|v| v.image).collect())
+        })
+        .collect()
+}
+
+/// Median time to decode one frame stored as PNG, ms.
+fn png_decode_ms(frame: &RgbImage) -> Result<f64, image::ImageError> {
+    let mut png = Vec::new();
+    frame.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+    let mut t: Vec<f64> = (0..20)
+        .map(|_| {
+            let start = Instant::now();
+            let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png);
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            img.map(|_| ms)
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(quantile(&mut t, 0.5))
+}
+
+impl BenchReport {
+    /// The report as `flexshape bench` prints it: per stage median and 95th percentile at 1
+    /// and 2 threads, whole frame and throughput, for both workloads.
+    pub fn table(&self) -> String {
+        let mut out = String::new();
+        let r = self;
+        _ = writeln!(
+            out,
+            "flexshape bench: {} cameras at {}×{}, {}×{}×{} voxels of {} mm, {} frames × {} rounds (in memory)",
+            r.cameras,
+            r.width,
+            r.height,
+            r.voxels[0],
+            r.voxels[1],
+            r.voxels[2],
+            r.voxel_mm,
+            r.frames,
+            r.rounds
+        );
+        figures_table(&mut out, "every frame from its hull", &r.results);
+        if r.tracking.len() == 2 {
+            figures_table(
+                &mut out,
+                &format!(
+                    "tracking (`track --follow`): {} frames of smooth motion at {} Hz",
+                    r.track_frames, r.rate_hz
+                ),
+                &r.tracking,
+            );
+            _ = writeln!(
+                out,
+                "frames that started from an earlier one: {:.0} % (1 thread), {:.0} % (2 threads; the rest were carved again)",
+                100.0 * r.tracking[0].followed.unwrap_or(0.0),
+                100.0 * r.tracking[1].followed.unwrap_or(0.0)
+            );
+        } else {
+            _ = writeln!(
+                out,
+                "\ntracking: off (the rig needs two cameras or more, and the fit's `track` on)"
+            );
+        }
+        _ = writeln!(
+            out,
+            "\nPNG decoding, not included above: {:.2} ms per camera frame",
+            r.png_decode_ms
+        );
+        out
+    }
+}
+
+fn figures_table(out: &mut String, title: &str, results: &[Figures]) {
+    _ = writeln!(
+        out,
+        "\n{title}\n{:<22} {:>18} {:>18}",
+        "stage (ms)", "1 thread med/p95", "2 threads med/p95"
+    );
+    let n = results[0].stages.len();
+    for i in 0..n {
+        let cell =
+            |f: &Figures| format!("{:.2} / {:.2}", f.stages[i].median_ms, f.stages[i].p95_ms);
+        _ = writeln!(
+            out,
+            "{:<22} {:>18} {:>18}",
+            results[0].stages[i].stage,
+            cell(&results[0]),
+            cell(&results[1])
+        );
+    }
+    _ = writeln!(
+        out,
+        "{:<22} {:>18.2} {:>18.2}",
+        "whole frame (median)", results[0].frame_median_ms, results[1].frame_median_ms
+    );
+    _ = writeln!(
+        out,
+        "{:<22} {:>18.0} {:>18.0}",
+        "throughput (frames/s)", results[0].throughput_fps, results[1].throughput_fps
+    );
+}
