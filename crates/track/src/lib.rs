@@ -24,6 +24,7 @@
 
 mod backdrop;
 mod open;
+pub mod output;
 mod pipeline;
 mod precision;
 mod record;
@@ -119,6 +120,9 @@ pub enum TrackError {
         /// What is wrong.
         source: flexshape_rig::RigError,
     },
+    /// An output could not be opened or written.
+    #[error("{0}")]
+    Output(String),
     /// Opening a frame source.
     #[error(transparent)]
     Source(#[from] flexshape_input::InputError),

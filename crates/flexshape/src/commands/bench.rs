@@ -6,6 +6,14 @@ use flexshape_lab::bench::{BenchSettings, bench};
 use crate::cli::BenchArgs;
 
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.frames > 0 && args.rounds > 0 && args.track_frames > 1,
+        "--frames and --rounds must be at least 1, --track-frames at least 2"
+    );
+    anyhow::ensure!(
+        args.rate.is_finite() && args.rate > 0.0,
+        "--rate must be a positive number of frames per second"
+    );
     let settings = BenchSettings {
         frames: args.frames,
         rounds: args.rounds,

@@ -1,8 +1,6 @@
 //! Where frames come from, shared by `track` and `carve`: a recording folder, image or mask
 //! folders, videos or live cameras, with the rig, backgrounds and volume the options name.
 
-use std::path::Path;
-
 use anyhow::Context;
 use flexshape_rig::{Rig, Volume};
 use flexshape_track::{Input, SourceSpec};
@@ -28,24 +26,7 @@ pub fn open_input(args: &FramesArgs) -> anyhow::Result<Input> {
     Ok(input)
 }
 
-/// Whether output `path` is `input` or lies inside it (compared as canonical paths; an
-/// output that does not exist yet by its folder's).
-pub fn within(path: &Path, input: &Path) -> bool {
-    if path == Path::new("-") {
-        return false;
-    }
-    let Ok(input) = input.canonicalize() else {
-        return false;
-    };
-    let canonical = path.canonicalize().ok().or_else(|| {
-        let parent = match path.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p,
-            _ => Path::new("."),
-        };
-        Some(parent.canonicalize().ok()?.join(path.file_name()?))
-    });
-    canonical.is_some_and(|c| c == input || (input.is_dir() && c.starts_with(&input)))
-}
+pub use flexshape_track::output::within;
 
 /// Warns when most of the volume's corners are seen by no camera: the rig's volume is likely
 /// not where the cameras look (an imported calibration with the default volume).

@@ -1,0 +1,247 @@
+//! Where `flexshape track` writes: JSON Lines records (a file or standard output), optional
+//! CSV rows and PLY clouds, each flushed as its frame is done. Outputs never replace an input,
+//! and an existing file is replaced only when asked.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use flexshape_carve::PlyEncoding;
+use serde::Serialize;
+
+use crate::{Processed, SummaryLine, TrackError, TrackRecord};
+
+macro_rules! out_err {
+    ($($t:tt)*) => { TrackError::Output(format!($($t)*)) };
+}
+
+/// The outputs of a run, as `flexshape track`'s options name them.
+#[derive(Debug, Clone)]
+pub struct SinkSpec {
+    /// The JSON Lines file (`-`: standard output).
+    pub out: PathBuf,
+    /// A CSV file of one row per record.
+    pub csv: Option<PathBuf>,
+    /// A folder for each frame's cloud, `NNNNNN.ply`.
+    pub ply: Option<PathBuf>,
+    /// How the clouds are encoded.
+    pub ply_encoding: PlyEncoding,
+    /// Replace existing outputs.
+    pub overwrite: bool,
+}
+
+/// Whether output `path` is `input` or lies inside it (compared as canonical paths; an
+/// output that does not exist yet by its folder's).
+pub fn within(path: &Path, input: &Path) -> bool {
+    if path == Path::new("-") {
+        return false;
+    }
+    let Ok(input) = input.canonicalize() else {
+        return false;
+    };
+    let canonical = path.canonicalize().ok().or_else(|| {
+        let parent = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        Some(parent.canonicalize().ok()?.join(path.file_name()?))
+    });
+    canonical.is_some_and(|c| c == input || (input.is_dir() && c.starts_with(&input)))
+}
+
+/// Where records go: the JSON Lines stream, and optionally CSV rows and PLY clouds.
+pub struct Sinks {
+    out: Output,
+    csv: Option<Output>,
+    ply: Option<(PathBuf, PlyEncoding)>,
+}
+
+/// The CSV file's header (`flexshape track --csv`): one row per record.
+pub const CSV_HEADER: &str = "frame,image,status,tip_x,tip_y,tip_z,tip_dx,tip_dy,tip_dz,arc_length_mm,curvature_per_mm,bands,voxels,latency_ms,silhouettes_ms,carve_ms,bands_ms,shape_ms";
+
+impl Sinks {
+    /// Opens the outputs, refusing any that is (or lies in) one of `inputs`, and existing ones
+    /// without `overwrite`.
+    pub fn open(args: &SinkSpec, inputs: &[PathBuf]) -> Result<Self, TrackError> {
+        let outputs = [Some(&args.out), args.csv.as_ref(), args.ply.as_ref()];
+        for path in outputs.into_iter().flatten() {
+            if let Some(input) = inputs.iter().find(|i| within(path, i)) {
+                return Err(out_err!(
+                    "{} is {} {}: write the output elsewhere",
+                    path.display(),
+                    if input.is_dir() {
+                        "inside the input folder"
+                    } else {
+                        "the input"
+                    },
+                    input.display()
+                ));
+            }
+        }
+        if args.csv.as_ref() == Some(&args.out) {
+            if args.out == Path::new("-") {
+                return Err(out_err!(
+                    "--csv - and --out - would both write to standard output: give one of them a file"
+                ));
+            }
+            return Err(out_err!(
+                "--csv and --out are the same file {}",
+                args.out.display()
+            ));
+        }
+        let out = Output::open(&args.out, args.overwrite)?;
+        let csv = match &args.csv {
+            Some(path) => {
+                let mut csv = Output::open(path, args.overwrite)?;
+                csv.line(CSV_HEADER)?;
+                Some(csv)
+            }
+            None => None,
+        };
+        if let Some(dir) = &args.ply {
+            let clouds = std::fs::read_dir(dir).map_or(0, |entries| {
+                entries
+                    .filter_map(Result::ok)
+                    .filter(|e| e.path().extension().is_some_and(|x| x == "ply"))
+                    .count()
+            });
+            if clouds > 0 && !args.overwrite {
+                return Err(out_err!(
+                    "{} already holds {clouds} PLY clouds: give --overwrite to replace them, or another --ply folder",
+                    dir.display()
+                ));
+            }
+            std::fs::create_dir_all(dir).map_err(|e| {
+                TrackError::Output(format!(
+                    "cannot create the PLY folder {}: {e}",
+                    dir.display()
+                ))
+            })?;
+        }
+        Ok(Sinks {
+            out,
+            csv,
+            ply: args.ply.clone().map(|dir| (dir, args.ply_encoding)),
+        })
+    }
+
+    /// Writes the run's last line, its summary.
+    pub fn finish(&mut self, summary: &SummaryLine) -> Result<(), TrackError> {
+        self.out.write(summary)
+    }
+
+    /// Writes a frame's record (and CSV row, and PLY cloud), flushed.
+    pub fn write(&mut self, record: &TrackRecord, p: &Processed) -> Result<(), TrackError> {
+        // The cloud first (written whole, then renamed into place), so that a record never
+        // names a cloud that is not there.
+        if let (Some((dir, encoding)), Ok(t)) = (&self.ply, &p.result) {
+            let path = dir.join(format!("{:06}.ply", record.frame));
+            t.occupancy
+                .to_cloud_with_bands(&t.bands)
+                .write_ply(&path, *encoding)
+                .map_err(|e| TrackError::Output(format!("cannot write {}: {e}", path.display())))?;
+        }
+        self.out.write(record)?;
+        if let Some(csv) = &mut self.csv {
+            csv.line(&csv_row(record))?;
+        }
+        Ok(())
+    }
+}
+
+/// A record as a row of the CSV file (see [`CSV_HEADER`]).
+pub fn csv_row(r: &TrackRecord) -> String {
+    let opt3 = |v: Option<[f64; 3]>| match v {
+        Some([x, y, z]) => format!("{x:.4},{y:.4},{z:.4}"),
+        None => ",,".into(),
+    };
+    let t = r.timings_ms;
+    format!(
+        "{},{},{},{},{},{:.4},{},{},{},{},{:.3},{:.3},{:.3},{:.3}",
+        r.frame,
+        r.image.as_deref().unwrap_or("").replace(',', ";"),
+        r.status,
+        opt3(r.tip),
+        opt3(r.tip_direction),
+        r.arc_length,
+        r.arc_fit
+            .as_ref()
+            .map(|f| format!("{:.7}", f.curvature))
+            .unwrap_or_default(),
+        r.bands.len(),
+        r.voxels,
+        r.latency_ms.map(|l| format!("{l:.3}")).unwrap_or_default(),
+        t.silhouettes,
+        t.carve,
+        t.bands,
+        t.shape
+    )
+}
+
+/// A line sink: a file or standard output, flushed after every line.
+pub struct Output {
+    name: String,
+    sink: Box<dyn Write>,
+}
+
+impl Output {
+    /// Opens `path` (`-`: standard output) for writing; an existing file only with
+    /// `overwrite`; locked while written.
+    pub fn open(path: &Path, overwrite: bool) -> Result<Self, TrackError> {
+        if path == Path::new("-") {
+            return Ok(Output {
+                name: "standard output".into(),
+                sink: Box::new(std::io::stdout().lock()),
+            });
+        }
+        if path.is_dir() {
+            return Err(out_err!("{} is a folder; give a file name", path.display()));
+        }
+        // Without --overwrite the file must be new (created atomically, so two runs cannot both
+        // take it); either way it is locked while written, so a second run on it stops.
+        let file = if overwrite {
+            File::options()
+                .write(true)
+                .create(true)
+                .truncate(false)
+                .open(path)
+        } else {
+            File::options().write(true).create_new(true).open(path)
+        }
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::AlreadyExists => out_err!(
+                "{} already exists: give --overwrite to replace it, or another file",
+                path.display()
+            ),
+            _ => out_err!("cannot create {}: {e}", path.display()),
+        })?;
+        if file.try_lock().is_err() {
+            return Err(out_err!(
+                "{} is being written by another process (another `flexshape track`?): give another file",
+                path.display()
+            ));
+        }
+        file.set_len(0)
+            .map_err(|e| out_err!("cannot empty {}: {e}", path.display()))?;
+        Ok(Output {
+            name: path.display().to_string(),
+            sink: Box::new(BufWriter::new(file)),
+        })
+    }
+
+    /// Writes `record` as one JSON line, flushed.
+    pub fn write(&mut self, record: &impl Serialize) -> Result<(), TrackError> {
+        let line =
+            serde_json::to_string(record).map_err(|e| out_err!("cannot encode a record: {e}"))?;
+        self.line(&line)
+    }
+
+    /// Writes one line, flushed.
+    pub fn line(&mut self, line: &str) -> Result<(), TrackError> {
+        self.sink
+            .write_all(line.as_bytes())
+            .and_then(|_| self.sink.write_all(b"\n"))
+            .and_then(|_| self.sink.flush())
+            .map_err(|e| out_err!("cannot write to {}: {e}", self.name))
+    }
+}
