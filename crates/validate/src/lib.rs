@@ -7,6 +7,7 @@
 //!   length and at the marked points (Section III-B).
 //! - [`extract`]: the sensed point of a frame (tip, a band, or the extreme along a direction).
 //! - [`simulated`]: both experiments on the simulated rig with known truth.
+//! - [`figures`]: the experiments' figures and a tracking output's (PNG + SVG).
 //!
 //! World frame and mm throughout; per-axis errors are in the tracking system's frame, as in
 //! the paper.
@@ -28,6 +29,8 @@
 
 mod accuracy;
 mod extract;
+pub mod figures;
+mod records;
 mod shape;
 pub mod simulated;
 
@@ -35,6 +38,7 @@ use thiserror::Error;
 
 pub use accuracy::{AccuracyReport, accuracy};
 pub use extract::{Extraction, extract};
+pub use records::{ShapeRun, compare_records};
 pub use shape::{KnownShape, PoseComparison, PrecisionReport, compare_shape, precision};
 
 /// Why an experiment cannot be evaluated.
@@ -49,4 +53,7 @@ pub enum ValidateError {
     /// The simulator or the sensing chain failed.
     #[error("{0}")]
     Pipeline(String),
+    /// A figure could not be written.
+    #[error("{0}")]
+    Figure(String),
 }

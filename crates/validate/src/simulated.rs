@@ -8,6 +8,8 @@
 //!   lead, then two 70 mm arcs of opposite 60 mm radius) with three bands, moved to random
 //!   poses through the bottom face; each sensed shape is compared with the known one.
 
+use std::path::Path;
+
 use flexshape_camera::nalgebra::{Matrix3, Point3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use flexshape_curve::{Frame, Polyline};
 use flexshape_fit::{FitSettings, Method};
@@ -380,4 +382,55 @@ fn random_rotation(rng: &mut Xoshiro256PlusPlus) -> Rotation3<f64> {
     let mut n = || -> f64 { rng.sample(StandardNormal) };
     let q = Quaternion::new(n(), n(), n(), n());
     UnitQuaternion::from_quaternion(q).to_rotation_matrix()
+}
+
+/// The experiments' inputs in the tools' formats, so `validate points` and `validate shape`
+/// can be run on them: `stylus_tracks.jsonl` + `stylus_reference.csv`, `object_tracks.jsonl`
+/// + `object_known.csv` + `object_marks.csv`.
+pub fn write_data(dir: &Path, acc: &AccuracyRun, pre: &PrecisionRun) -> Result<(), ValidateError> {
+    let write = |name: &str, text: String| {
+        let path = dir.join(name);
+        std::fs::write(&path, text)
+            .map_err(|e| ValidateError::Input(format!("cannot write {}: {e}", path.display())))
+    };
+    let jsonl = |records: &[TrackRecord]| -> Result<String, ValidateError> {
+        let mut out = String::new();
+        for r in records {
+            let line = serde_json::to_string(r)
+                .map_err(|e| ValidateError::Input(format!("cannot encode a record: {e}")))?;
+            out.push_str(&line);
+            out.push('\n');
+        }
+        Ok(out)
+    };
+    let csv = |points: &mut dyn Iterator<Item = [f64; 3]>| -> String {
+        let mut out = String::from("x,y,z\n");
+        for p in points {
+            out.push_str(&format!("{:.6},{:.6},{:.6}\n", p[0], p[1], p[2]));
+        }
+        out
+    };
+    // The stylus records with a tip pair with the reference points in order.
+    let with_tip: Vec<TrackRecord> = acc
+        .records
+        .iter()
+        .filter(|r| r.status.is_ok() && r.tip.is_some())
+        .cloned()
+        .collect();
+    write("stylus_tracks.jsonl", jsonl(&with_tip)?)?;
+    write(
+        "stylus_reference.csv",
+        csv(&mut acc.reference.iter().copied()),
+    )?;
+    write("object_tracks.jsonl", jsonl(&pre.records)?)?;
+    let known = known_object()?;
+    write(
+        "object_known.csv",
+        csv(&mut known.centerline.points().iter().map(|p| [p.x, p.y, p.z])),
+    )?;
+    write(
+        "object_marks.csv",
+        csv(&mut known.marks.iter().map(|p| [p.x, p.y, p.z])),
+    )?;
+    Ok(())
 }

@@ -6,7 +6,6 @@ mod calibrate;
 mod capture;
 mod carve;
 mod demo;
-mod figures;
 mod frames;
 mod model;
 mod model_fit;

@@ -7,7 +7,7 @@ pub fn run(args: &ReportArgs) -> anyhow::Result<()> {
         .into_iter()
         .map(|(_, r)| r)
         .collect();
-    let files = super::figures::report(&args.out, &records)?;
+    let files = flexshape_validate::figures::report(&args.out, &records)?;
     for f in files {
         println!("wrote {}", f.display());
     }

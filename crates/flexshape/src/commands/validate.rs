@@ -7,13 +7,10 @@ use anyhow::{Context, bail};
 use flexshape_camera::nalgebra::Point3;
 use flexshape_curve::Polyline;
 use flexshape_fit::Method;
-use flexshape_track::{RecordStatus, TrackRecord};
-use flexshape_validate::simulated::{
-    AccuracyRun, Experiments, PrecisionRun, accuracy_experiment, known_object, precision_experiment,
-};
+use flexshape_validate::simulated::{Experiments, accuracy_experiment, precision_experiment};
 use flexshape_validate::{
-    AccuracyReport, Extraction, KnownShape, PrecisionReport, accuracy, compare_shape, extract,
-    precision,
+    AccuracyReport, Extraction, KnownShape, PrecisionReport, accuracy, compare_records, extract,
+    figures, precision,
 };
 use serde::Serialize;
 
@@ -72,7 +69,7 @@ pub fn points(args: &ValidatePointsArgs) -> anyhow::Result<()> {
     })?;
     if let Some(dir) = &args.plots {
         let sensed: Vec<[f64; 3]> = sensed.iter().map(|p| [p.x, p.y, p.z]).collect();
-        super::figures::accuracy(dir, &report, &sensed)?;
+        figures::accuracy(dir, &report, &sensed)?;
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -132,122 +129,25 @@ pub fn shape(args: &ValidateShapeArgs) -> anyhow::Result<()> {
         None => Vec::new(),
     };
     let known = KnownShape { centerline, marks };
-    let (mut poses, mut frames, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut sensed, mut sensed_marks) = (Vec::new(), Vec::new());
-    for (line, r) in flexshape_track::read_records(&args.records)? {
-        let usable = matches!(r.status, RecordStatus::Ok | RecordStatus::BandsMissing)
-            && r.centerline.len() > 2;
-        if !usable {
-            skipped.push(format!(
-                "line {line} (frame {}): status {}",
-                r.frame, r.status
-            ));
-            continue;
-        }
-        let curve = Polyline::new(r.centerline.iter().map(|p| Point3::from(*p)).collect())
-            .with_context(|| format!("{} line {line}", args.records.display()))?;
-        let bands: Vec<Point3<f64>> = if known.marks.is_empty() {
-            Vec::new()
-        } else {
-            r.bands.iter().map(|b| Point3::from(b.position)).collect()
-        };
-        match compare_shape(&known, &curve, &bands) {
-            Ok(c) => {
-                frames.push(r.frame);
-                sensed.push(r.centerline.clone());
-                sensed_marks.push(bands.iter().map(|p| [p.x, p.y, p.z]).collect());
-                poses.push(c);
-            }
-            Err(e) => skipped.push(format!("line {line} (frame {}): {e}", r.frame)),
-        }
-    }
-    if poses.is_empty() {
-        bail!(
-            "{}: no pose could be compared with the known shape ({})",
-            args.records.display(),
-            skipped.join("; ")
-        );
-    }
-    let report = precision(&poses);
+    let records = flexshape_track::read_records(&args.records)?;
+    let run = compare_records(&known, records, &args.records)?;
+    let report = precision(&run.poses);
     if let Some(dir) = &args.plots {
-        super::figures::precision(dir, &poses, &sensed, &sensed_marks, &[])?;
+        figures::precision(dir, &run.poses, &run.sensed, &run.sensed_marks, &[])?;
     }
     if args.json {
-        let per_pose = poses
-            .iter()
-            .zip(&frames)
-            .map(|(p, &f)| {
-                let n = p.errors.len().max(1) as f64;
-                let rms = (p
-                    .errors
-                    .iter()
-                    .map(|e| e.iter().map(|v| v * v).sum::<f64>())
-                    .sum::<f64>()
-                    / n)
-                    .sqrt();
-                (f, p.offset_mm, rms)
-            })
-            .collect();
         let out = ShapeReport {
             precision: report,
-            poses: per_pose,
-            skipped,
+            poses: run.per_pose(),
+            skipped: run.skipped,
         };
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
     }
     print_precision(&report);
-    for s in &skipped {
+    for s in &run.skipped {
         println!("skipped {s}");
     }
-    Ok(())
-}
-
-/// The experiments' inputs in the tools' formats, so `validate points` and `validate shape`
-/// can be run on them: `stylus_tracks.jsonl` + `stylus_reference.csv`, `object_tracks.jsonl`
-/// + `object_known.csv` + `object_marks.csv`.
-fn write_data(dir: &Path, acc: &AccuracyRun, pre: &PrecisionRun) -> anyhow::Result<()> {
-    let write = |name: &str, text: String| {
-        let path = dir.join(name);
-        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
-    };
-    let jsonl = |records: &[TrackRecord]| -> anyhow::Result<String> {
-        let mut out = String::new();
-        for r in records {
-            out.push_str(&serde_json::to_string(r)?);
-            out.push('\n');
-        }
-        Ok(out)
-    };
-    let csv = |points: &mut dyn Iterator<Item = [f64; 3]>| -> String {
-        let mut out = String::from("x,y,z\n");
-        for p in points {
-            out.push_str(&format!("{:.6},{:.6},{:.6}\n", p[0], p[1], p[2]));
-        }
-        out
-    };
-    // The stylus records with a tip pair with the reference points in order.
-    let with_tip: Vec<TrackRecord> = acc
-        .records
-        .iter()
-        .filter(|r| r.status.is_ok() && r.tip.is_some())
-        .cloned()
-        .collect();
-    write("stylus_tracks.jsonl", jsonl(&with_tip)?)?;
-    write(
-        "stylus_reference.csv",
-        csv(&mut acc.reference.iter().copied()),
-    )?;
-    write("object_tracks.jsonl", jsonl(&pre.records)?)?;
-    let known = known_object()?;
-    write(
-        "object_known.csv",
-        csv(&mut known.centerline.points().iter().map(|p| [p.x, p.y, p.z])),
-    )?;
-    write(
-        "object_marks.csv",
-        csv(&mut known.marks.iter().map(|p| [p.x, p.y, p.z])),
-    )?;
     Ok(())
 }
 
@@ -295,15 +195,15 @@ pub fn simulate(args: &ValidateArgs) -> anyhow::Result<()> {
     let hull_pre = precision_experiment(&hull_experiments)
         .context("the simulated precision experiment (hull)")?;
     if let Some(dir) = &args.out {
-        let mut files = super::figures::accuracy(dir, &acc.report, &acc.sensed)?;
-        files.extend(super::figures::precision(
+        let mut files = figures::accuracy(dir, &acc.report, &acc.sensed)?;
+        files.extend(figures::precision(
             dir,
             &pre.poses,
             &pre.sensed,
             &pre.sensed_marks,
             &pre.cloud,
         )?);
-        write_data(dir, &acc, &pre)?;
+        flexshape_validate::simulated::write_data(dir, &acc, &pre)?;
         eprintln!(
             "wrote {} figures and the experiments' data to {}",
             files.len(),

@@ -1,13 +1,28 @@
-//! The figures the validation and report commands write (PNG + SVG), and reading tracking
-//! outputs.
+//! The figures of the validation experiments and of a tracking output (PNG + SVG), as
+//! `flexshape validate` and `flexshape report` write them. Each function returns the files it
+//! wrote; world mm.
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
 use flexshape_curve::Section;
-use flexshape_plot::{HistogramSeries, Mark, PALETTE, Series3, histograms, orthographic_views};
+use flexshape_plot::{
+    HistogramSeries, Mark, PALETTE, PlotError, Series3, histograms, orthographic_views,
+};
 use flexshape_track::{TrackArcFit, TrackRecord};
-use flexshape_validate::{AccuracyReport, PoseComparison};
+
+use crate::{AccuracyReport, PoseComparison, ValidateError};
+
+impl From<PlotError> for ValidateError {
+    fn from(e: PlotError) -> Self {
+        ValidateError::Figure(e.to_string())
+    }
+}
+
+/// `dir`, created if missing.
+fn folder(dir: &Path) -> Result<(), ValidateError> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| ValidateError::Figure(format!("cannot create {}: {e}", dir.display())))
+}
 
 fn series(label: impl Into<String>, points: Vec<[f64; 3]>, mark: Mark, k: usize) -> Series3 {
     Series3 {
@@ -18,7 +33,7 @@ fn series(label: impl Into<String>, points: Vec<[f64; 3]>, mark: Mark, k: usize)
     }
 }
 
-fn per_axis(title: &str, errors: &[[f64; 3]], stem: &Path) -> anyhow::Result<Vec<PathBuf>> {
+fn per_axis(title: &str, errors: &[[f64; 3]], stem: &Path) -> Result<Vec<PathBuf>, ValidateError> {
     let series: Vec<HistogramSeries> = ["x", "y", "z"]
         .iter()
         .enumerate()
@@ -36,8 +51,8 @@ pub fn accuracy(
     dir: &Path,
     report: &AccuracyReport,
     sensed: &[[f64; 3]],
-) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+) -> Result<Vec<PathBuf>, ValidateError> {
+    folder(dir)?;
     let mut files = orthographic_views(
         &format!(
             "Accuracy: sensed vs reference after registration (rms {:.2} / {:.2} / {:.2} mm)",
@@ -70,8 +85,8 @@ pub fn precision(
     sensed: &[Vec<[f64; 3]>],
     sensed_marks: &[Vec<[f64; 3]>],
     cloud: &[[f64; 3]],
-) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+) -> Result<Vec<PathBuf>, ValidateError> {
+    folder(dir)?;
     let mut files = Vec::new();
     if !cloud.is_empty() && !sensed.is_empty() {
         files.extend(orthographic_views(
@@ -152,14 +167,14 @@ fn arc_points(fit: &TrackArcFit) -> Vec<[f64; 3]> {
 
 /// Figures of a tracking output: all shapes (Fig. 7b), arc fits against the curves (Fig. 11),
 /// and the per-stage times.
-pub fn report(dir: &Path, records: &[TrackRecord]) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+pub fn report(dir: &Path, records: &[TrackRecord]) -> Result<Vec<PathBuf>, ValidateError> {
+    folder(dir)?;
     let shaped: Vec<&TrackRecord> = records
         .iter()
         .filter(|r| !r.centerline.is_empty())
         .collect();
     if shaped.is_empty() {
-        bail!("no record has a shape to plot");
+        return Err(ValidateError::Input("no record has a shape to plot".into()));
     }
     let mut files = Vec::new();
     let mut shapes = Vec::new();
