@@ -54,7 +54,7 @@ pub use record::{
 };
 pub use refine::{
     CameraRefinement, MAX_SIGMA_MM, MIN_FRAMES, MIN_GAIN, OutlineResiduals, Refinement, Verdict,
-    refine_cameras,
+    refine_cameras, refined_camera_file, sample_frames,
 };
 pub use runner::{Processed, Recent, RunEnd, run};
 pub use source::{Input, SourceSpec};

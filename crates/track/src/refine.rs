@@ -74,6 +74,28 @@ pub struct Refinement {
 pub const MIN_GAIN: f64 = 0.1;
 
 impl Refinement {
+    /// The refined rig: every camera at its refined pose, its file
+    /// `calibration/NAME.yml` beside the rig file, with `volume` and `processing` kept.
+    pub fn rig(
+        &self,
+        volume: flexshape_rig::Volume,
+        processing: toml::Table,
+    ) -> flexshape_rig::Rig {
+        flexshape_rig::Rig {
+            cameras: self
+                .cameras
+                .iter()
+                .map(|c| flexshape_rig::RigCamera {
+                    name: c.name.clone(),
+                    file: refined_camera_file(&c.name),
+                    camera: c.camera.clone(),
+                })
+                .collect(),
+            volume,
+            processing,
+        }
+    }
+
     /// RMS of every camera's outline samples together, before and after, pixels.
     pub fn overall_rms(&self) -> (f64, f64) {
         let total = |f: fn(&CameraRefinement) -> &OutlineResiduals| {
@@ -152,6 +174,59 @@ const MIN_FOUND: f64 = 0.5;
 
 /// …and the re-rendered tube overlaps every silhouette at least this much.
 const MIN_IOU: f64 = 0.5;
+
+/// Where a refined rig keeps camera `name`'s file, relative to its rig file.
+pub fn refined_camera_file(name: &str) -> std::path::PathBuf {
+    std::path::PathBuf::from("calibration").join(format!("{name}.yml"))
+}
+
+/// Up to `wanted` frames of `source`, spread evenly over it when its length is known, read
+/// and decoded for [`refine_cameras`]; frames that cannot be read or decoded are left out and
+/// listed (`frame N: left out: why`). Stops with an error when the input breaks or `stop`
+/// is set.
+pub fn sample_frames(
+    source: &mut dyn flexshape_input::FrameSource,
+    pipeline: &Pipeline,
+    wanted: usize,
+    stop: &std::sync::atomic::AtomicBool,
+) -> Result<(Vec<Vec<RgbImage>>, Vec<String>), TrackError> {
+    let stride = source.len_hint().map_or(1, |n| n.div_ceil(wanted).max(1));
+    let (mut frames, mut left_out) = (Vec::new(), Vec::new());
+    let mut seen = 0usize;
+    while let Some(next) = source.next_frame() {
+        if stop.load(std::sync::atomic::Ordering::Relaxed) {
+            return Err(TrackError::Input(
+                "interrupted while reading frames: nothing written".into(),
+            ));
+        }
+        let index = seen;
+        seen += 1;
+        let set = match next {
+            Ok(set) => set,
+            Err(e) if e.ends_input() => {
+                return Err(TrackError::Input(format!(
+                    "the input broke after {index} frames: {e}"
+                )));
+            }
+            Err(e) => {
+                left_out.push(format!("frame {index}: left out: {e}"));
+                continue;
+            }
+        };
+        if !index.is_multiple_of(stride) {
+            continue;
+        }
+        let frame = set.frame;
+        match pipeline.load(set.images) {
+            Ok((images, _)) => frames.push(images),
+            Err(e) => left_out.push(format!("frame {frame:06}: left out: {e}")),
+        }
+        if frames.len() >= wanted {
+            break;
+        }
+    }
+    Ok((frames, left_out))
+}
 
 /// The poses of `pipeline`'s cameras refined from `frames` (each one image per camera, in the
 /// rig's order): every frame is tracked, those whose tube every camera saw are kept, and the

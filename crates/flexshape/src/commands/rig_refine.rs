@@ -4,8 +4,11 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use flexshape_rig::{Rig, RigCamera};
-use flexshape_track::{MAX_SIGMA_MM, OutlineResiduals, Refinement, Verdict, refine_cameras};
+use flexshape_rig::Rig;
+use flexshape_track::{
+    MAX_SIGMA_MM, OutlineResiduals, Refinement, Verdict, refine_cameras, refined_camera_file,
+    sample_frames,
+};
 
 use super::frames;
 use crate::cli::RigRefineArgs;
@@ -35,7 +38,7 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
         .rig
         .cameras
         .iter()
-        .map(|c| args.out.join(calibration_file(&c.name)))
+        .map(|c| args.out.join(refined_camera_file(&c.name)))
         .collect();
     planned.push(rig_path.clone());
     planned.push(args.out.clone());
@@ -53,38 +56,14 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
         .pipeline(&volume)
         .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
 
-    let wanted = args.use_frames as usize;
-    let stride = input
-        .source
-        .len_hint()
-        .map_or(1, |n| n.div_ceil(wanted).max(1));
-    let mut frames = Vec::new();
-    let mut seen = 0usize;
-    while let Some(next) = input.source.next_frame() {
-        if stop.requested() {
-            bail!("interrupted while reading frames: nothing written");
-        }
-        let index = seen;
-        seen += 1;
-        let set = match next {
-            Ok(set) => set,
-            Err(e) if e.ends_input() => bail!("the input broke after {index} frames: {e}"),
-            Err(e) => {
-                eprintln!("frame {index}: left out: {e}");
-                continue;
-            }
-        };
-        if !index.is_multiple_of(stride) {
-            continue;
-        }
-        let frame = set.frame;
-        match pipeline.load(set.images) {
-            Ok((images, _)) => frames.push(images),
-            Err(e) => eprintln!("frame {frame:06}: left out: {e}"),
-        }
-        if frames.len() >= wanted {
-            break;
-        }
+    let (frames, left_out) = sample_frames(
+        input.source.as_mut(),
+        &pipeline,
+        args.use_frames as usize,
+        stop.flag(),
+    )?;
+    for note in &left_out {
+        eprintln!("{note}");
     }
     eprintln!(
         "refining the poses from {} frames: {} held (the world frame stays attached to it), and the rig's scale (the other cameras' summed distance from it) kept as calibrated …",
@@ -115,19 +94,7 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
             return Ok(());
         }
     }
-    let rig = Rig {
-        cameras: refinement
-            .cameras
-            .iter()
-            .map(|c| RigCamera {
-                name: c.name.clone(),
-                file: calibration_file(&c.name),
-                camera: c.camera.clone(),
-            })
-            .collect(),
-        volume,
-        processing: input.rig.processing.clone(),
-    };
+    let rig = refinement.rig(volume, input.rig.processing.clone());
     rig.save(&rig_path)
         .with_context(|| format!("cannot write the refined rig to {}", args.out.display()))?;
     let source = args
@@ -141,11 +108,6 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
         rig_path.display()
     );
     Ok(())
-}
-
-/// Where the refined rig keeps camera `name`'s file, relative to its rig.toml.
-fn calibration_file(name: &str) -> PathBuf {
-    PathBuf::from("calibration").join(format!("{name}.yml"))
 }
 
 fn camera_names(rig: &Rig) -> String {
