@@ -7,6 +7,8 @@
 //!   bench`).
 //! - [`demo`]: the model-driven catheter on the simulated rig, tracked and measured against
 //!   the simulator's truth (`flexshape demo`).
+//! - [`simulate`]: simulated recordings (sweep, motion, a model experiment) and calibration
+//!   sessions with their ground truth (`flexshape simulate`).
 //!
 //! ```no_run
 //! use flexshape_lab::identify::{Experiment, IdentifySettings, identify, load_model};
@@ -23,6 +25,7 @@
 pub mod bench;
 pub mod demo;
 pub mod identify;
+pub mod simulate;
 
 use std::path::PathBuf;
 

@@ -1,0 +1,241 @@
+//! Simulated data to plan a rig and rehearse a pipeline (`flexshape simulate`): a recording
+//! of the catheter sweeping, moving or driven through a model experiment, and a calibration
+//! session of target images seen by the rig's cameras, each with its ground truth.
+
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+
+use flexshape_calib::{Board, Pattern};
+use flexshape_model::{ExperimentPlan, Model, Role};
+use flexshape_recording::{PoseRole, RecordingWriter};
+use flexshape_sim::{
+    BoardRenderer, CatheterPose, PrintedBoard, PrintedMarkers, PrintedPattern, SimConfig, SimFrame,
+    Simulator, calibration_views,
+};
+
+use crate::LabError;
+
+/// What a simulated recording shows.
+#[derive(Debug, Clone)]
+pub enum Scenario {
+    /// `frames` poses sweeping the workspace (the bending plane turning while the bend
+    /// swings).
+    Sweep {
+        /// Frames.
+        frames: usize,
+    },
+    /// A smooth motion filmed at `rate_hz` (timestamps written).
+    Motion {
+        /// Frames.
+        frames: usize,
+        /// Frame rate, frames per second.
+        rate_hz: f64,
+    },
+    /// The paper's experiment for `model` (reference, registration and workspace poses), the
+    /// catheter made as the model describes it; the commands are written beside the frames.
+    Experiment {
+        /// The manipulator model.
+        model: Box<Model>,
+        /// The experiment's poses and preload.
+        plan: ExperimentPlan,
+    },
+}
+
+impl Scenario {
+    /// The frames it films.
+    pub fn frames(&self) -> Result<usize, LabError> {
+        Ok(match self {
+            Scenario::Sweep { frames } | Scenario::Motion { frames, .. } => *frames,
+            Scenario::Experiment { model, plan } => flexshape_model::experiment(model, plan)
+                .map_err(LabError::model("cannot plan the experiment"))?
+                .len(),
+        })
+    }
+}
+
+/// Writes the recording of `scenario` on the rig of `config` into `out` (an existing one
+/// only with `overwrite`); `on_frame` sees each frame as it is written and may stop early.
+/// Returns the frames written and the frames planned.
+pub fn simulate_recording(
+    mut config: SimConfig,
+    scenario: &Scenario,
+    out: &Path,
+    overwrite: bool,
+    on_frame: impl FnMut(&SimFrame) -> ControlFlow<()>,
+) -> Result<(u64, usize), LabError> {
+    let sim_error = |e: flexshape_sim::SimError| LabError::data("the simulated rig", e.to_string());
+    if let Scenario::Experiment { model, .. } = scenario {
+        config.catheter = flexshape_steer::catheter_for(&config.catheter, model.params());
+    }
+    let sim = Simulator::new(config).map_err(sim_error)?;
+    let (poses, commands) = match scenario {
+        Scenario::Sweep { frames } => (sim.sweep(*frames), Vec::new()),
+        Scenario::Motion { frames, rate_hz } => (sim.motion(*frames, *rate_hz), Vec::new()),
+        Scenario::Experiment { model, plan } => {
+            let commands = flexshape_model::experiment(model, plan)
+                .map_err(LabError::model("cannot plan the experiment"))?;
+            let catheter = &sim.config().catheter;
+            commands
+                .iter()
+                .map(|c| {
+                    let q = c.q;
+                    let pose = CatheterPose::arc(catheter, [q[0], q[1]], [q[2], q[3]], 0.0);
+                    let role = match c.role {
+                        Role::Reference => PoseRole::Reference,
+                        Role::Register => PoseRole::Register,
+                        Role::Pose => PoseRole::Pose,
+                    };
+                    (pose, (c.y.iter().copied().collect(), role))
+                })
+                .unzip()
+        }
+    };
+    let written = sim
+        .write_commanded_recording(out, &poses, &commands, overwrite, on_frame)
+        .map_err(|e| LabError::Write {
+            path: out.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+    if let Scenario::Motion { rate_hz, .. } = scenario {
+        // Filmed at `rate_hz`: frame n at n / rate_hz seconds.
+        let times: Vec<(u64, f64)> = (0..written).map(|n| (n, n as f64 / rate_hz)).collect();
+        RecordingWriter::reopen(out)
+            .write_timestamps(&times)
+            .map_err(|e| LabError::Write {
+                path: out.to_path_buf(),
+                reason: format!("the timestamps: {e}"),
+            })?;
+    }
+    Ok((written, poses.len()))
+}
+
+/// A calibration session of target images, as a lab would take it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoardSession {
+    /// Views per camera with the board facing that camera.
+    pub own: usize,
+    /// Views per camera after the first that it shares with the first camera.
+    pub shared: usize,
+    /// Image noise, grey levels (1 σ).
+    pub noise: f64,
+    /// Seed of the board poses and the noise.
+    pub seed: u64,
+}
+
+/// What [`simulate_boards`] wrote.
+#[derive(Debug, Clone)]
+pub struct BoardImages {
+    /// Images written.
+    pub images: usize,
+    /// Each camera's name and image folder (`out/images/NAME`).
+    pub folders: Vec<(String, PathBuf)>,
+    /// The true rig (`out/truth/rig.toml`; the board poses beside it in `boards.json`).
+    pub truth: PathBuf,
+}
+
+/// Renders `board` seen by the cameras of `config` in the views of `session` into
+/// `out/images/CAMERA/VIEW.png`, with the true rig and board poses in `out/truth/`;
+/// `on_image` is called after each image.
+pub fn simulate_boards(
+    config: &SimConfig,
+    board: &Board,
+    session: &BoardSession,
+    out: &Path,
+    mut on_image: impl FnMut(),
+) -> Result<BoardImages, LabError> {
+    let printed = printed(board)?;
+    let rig = config
+        .rig
+        .rig()
+        .map_err(|e| LabError::data("the simulated rig", e.to_string()))?;
+    let cameras: Vec<_> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
+    let views = calibration_views(
+        &cameras,
+        &printed,
+        session.own,
+        session.shared,
+        session.seed,
+    );
+    let renderers = cameras
+        .iter()
+        .map(|c| {
+            BoardRenderer::new(c).ok_or_else(|| {
+                LabError::data(
+                    "the simulated rig",
+                    "a camera's lens cannot be inverted over its image",
+                )
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let write_failed = |path: &Path, e: &dyn std::fmt::Display| LabError::Write {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let mut images = 0;
+    for (i, view) in views.iter().enumerate() {
+        for &k in &view.cameras {
+            let dir = out.join("images").join(&rig.cameras[k].name);
+            std::fs::create_dir_all(&dir).map_err(|e| write_failed(&dir, &e))?;
+            let seed = session.seed ^ (i as u64 * 31 + k as u64);
+            let img = renderers[k].render(&printed, &view.pose, session.noise, seed);
+            let path = dir.join(format!("{}.png", view.name));
+            img.save(&path).map_err(|e| write_failed(&path, &e))?;
+            images += 1;
+            on_image();
+        }
+    }
+    let truth = out.join("truth").join("rig.toml");
+    rig.save(&truth).map_err(|e| write_failed(&truth, &e))?;
+    // The board poses (board → world: x_world = R·x_board + t, mm), per image name.
+    let boards: Vec<serde_json::Value> = views
+        .iter()
+        .map(|v| {
+            let m = v.pose.rotation.to_rotation_matrix();
+            let rows: Vec<Vec<f64>> = (0..3).map(|r| (0..3).map(|c| m[(r, c)]).collect()).collect();
+            serde_json::json!({
+                "image": v.name,
+                "rotation": rows,
+                "translation": v.pose.translation.vector.as_slice(),
+                "cameras": v.cameras.iter().map(|&k| rig.cameras[k].name.clone()).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    let boards_path = out.join("truth").join("boards.json");
+    let text = serde_json::to_string_pretty(&boards).map_err(|e| write_failed(&boards_path, &e))?;
+    std::fs::write(&boards_path, text).map_err(|e| write_failed(&boards_path, &e))?;
+    Ok(BoardImages {
+        images,
+        folders: rig
+            .cameras
+            .iter()
+            .map(|c| (c.name.clone(), out.join("images").join(&c.name)))
+            .collect(),
+        truth,
+    })
+}
+
+/// The printed board of a calibration target: circle dots half as wide as the distance to
+/// their nearest neighbour.
+fn printed(board: &Board) -> Result<PrintedBoard, LabError> {
+    let pattern = match board.pattern {
+        Pattern::Chessboard => PrintedPattern::Chessboard,
+        Pattern::Charuco(m) => {
+            PrintedPattern::Charuco(PrintedMarkers::new(m.side, m.dictionary).ok_or_else(|| {
+                LabError::data(
+                    "the board",
+                    format!("dictionary {}: not known", m.dictionary),
+                )
+            })?)
+        }
+        Pattern::Circles { asymmetric } => PrintedPattern::Circles {
+            asymmetric,
+            diameter: board.square * if asymmetric { 0.7 } else { 0.5 },
+        },
+    };
+    Ok(PrintedBoard {
+        cols: board.cols,
+        rows: board.rows,
+        square: board.square,
+        pattern,
+    })
+}
