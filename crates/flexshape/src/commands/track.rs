@@ -6,12 +6,16 @@
 //! a record with status `error` and the run goes on; Ctrl-C or a broken input stops taking
 //! frames, the frames in flight are still written, and the last line is always the summary.
 
+use std::collections::HashSet;
 use std::ops::ControlFlow;
 
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
 use flexshape_track::output::{SinkSpec, Sinks};
-use flexshape_track::{Processed, RecordStatus, SummaryLine, Tally, TrackRecord, TrackSummary};
+use flexshape_track::{
+    Input, ModelFrame, Pipeline, Processed, RecordStatus, SummaryLine, Tally, TrackRecord,
+    TrackSummary,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::frames;
@@ -21,23 +25,7 @@ use crate::interrupt::Interrupt;
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let stop = Interrupt::install();
-    let mut input = frames::open_input(&args.frames)?;
-    let volume = frames::volume(&input.rig.volume, &args.frames)?;
-    frames::warn_unseen(&input.rig, &volume);
-    input.files.extend(args.model_frame.clone());
-    let pipeline = input
-        .pipeline(&volume)
-        .and_then(|p| super::with_method(p, args.method))
-        .and_then(|p| {
-            let follow = (args.follow || p.fit_settings().track) && args.ply.is_none();
-            p.following(follow)
-        })
-        .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
-    let model_frame = args
-        .model_frame
-        .as_deref()
-        .map(super::model::load_frame)
-        .transpose()?;
+    let (mut input, pipeline) = open(args)?;
     let spec = SinkSpec {
         out: args.out.clone(),
         csv: args.csv.clone(),
@@ -45,90 +33,42 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         ply_encoding: super::ply_encoding(args.ascii_ply),
         overwrite: args.overwrite,
     };
-    let mut sinks = Sinks::open(&spec, &input.files)?;
-    let mut viewer = super::viewer::start(&args.viewer, &pipeline)?;
-    let bar = progress(input.source.as_ref());
+    let mut frames = Frames {
+        model_frame: args
+            .model_frame
+            .as_deref()
+            .map(super::model::load_frame)
+            .transpose()?,
+        sinks: Sinks::open(&spec, &input.files)?,
+        viewer: super::viewer::start(&args.viewer, &pipeline)?,
+        bar: progress(input.source.as_ref()),
+        tally: Tally::new(),
+        warned: HashSet::new(),
+        failure: None,
+    };
     let startup_s = started.elapsed().as_secs_f64();
-    let mut tally = Tally::new();
-    let mut warned = std::collections::HashSet::new();
-    let mut failure = None;
     let threads = args.threads.unwrap_or_else(super::cores);
     let end = flexshape_track::run(
         input.source.as_mut(),
         &pipeline,
         threads,
         stop.flag(),
-        |p: Processed| {
-            let mut record = TrackRecord::from_processed(&p);
-            if let Some(f) = &model_frame {
-                record = record.with_model_frame(f);
-            }
-            // Each warning once: one that holds for every frame would bury the rest.
-            for w in &p.warnings {
-                if warned.insert(w.clone()) {
-                    bar.suspend(|| {
-                        eprintln!(
-                            "frame {:06}: {w} (said once; later frames may have it too)",
-                            p.frame
-                        )
-                    });
-                }
-            }
-            if record.status == RecordStatus::Error {
-                let reason = record.reason.as_deref().unwrap_or("");
-                bar.suspend(|| eprintln!("frame {:06}: {reason}", p.frame));
-            }
-            tally.add(&record);
-            bar.inc(1);
-            if let Err(e) = sinks.write(&record, &p) {
-                failure = Some(anyhow::Error::new(e));
-                return ControlFlow::Break(());
-            }
-            if let Some(v) = &mut viewer {
-                v.publish(p, record, None);
-            }
-            ControlFlow::Continue(())
-        },
+        |p: Processed| frames.take(p),
     );
-    bar.finish_and_clear();
+    frames.bar.finish_and_clear();
     let summary = TrackSummary {
         startup_s: Some(startup_s),
-        ..tally.summary(&end)
+        ..frames.tally.summary(&end)
     };
-    sinks.finish(&SummaryLine {
+    frames.sinks.finish(&SummaryLine {
         summary: summary.clone(),
     })?;
-    if let Some(e) = failure {
+    if let Some(e) = frames.failure {
         return Err(e);
     }
     eprintln!(
-        "{} frames ({} ok, {} errors{}{}) in {:.2} s (after {:.2} s of start-up), {:.1} frames/s{}; ms per stage, median/p95: {}",
-        summary.frames,
-        summary.ok,
-        summary.errors,
-        if input.source.is_live() {
-            format!(", {} dropped", summary.dropped)
-        } else {
-            String::new()
-        },
-        if end.stopped { ", stopped early" } else { "" },
-        summary.seconds,
-        startup_s,
-        summary.fps,
-        summary
-            .latency_ms
-            .as_ref()
-            .map(|l| format!(
-                ", latency {:.1} ms median / {:.1} ms p95",
-                l.median_ms, l.p95_ms
-            ))
-            .unwrap_or_default(),
-        summary
-            .stages
-            .iter()
-            .map(|s| format!("{} {:.2}/{:.2}", s.stage, s.median_ms, s.p95_ms))
-            .collect::<Vec<_>>()
-            .join(", ")
+        "{}",
+        summary_line(&summary, startup_s, input.source.is_live(), end.stopped)
     );
     if let Some(e) = end.input_error {
         bail!("the input broke after {} frames: {e}", summary.frames);
@@ -147,6 +87,105 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The input the arguments name and the chain that tracks it.
+fn open(args: &TrackArgs) -> anyhow::Result<(Input, Pipeline)> {
+    let mut input = frames::open_input(&args.frames)?;
+    let volume = frames::volume(&input.rig.volume, &args.frames)?;
+    frames::warn_unseen(&input.rig, &volume);
+    input.files.extend(args.model_frame.clone());
+    let pipeline = input
+        .pipeline(&volume)
+        .and_then(|p| super::with_method(p, args.method))
+        .and_then(|p| {
+            let follow = (args.follow || p.fit_settings().track) && args.ply.is_none();
+            p.following(follow)
+        })
+        .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
+    Ok((input, pipeline))
+}
+
+/// What happens to each tracked frame, in input order.
+struct Frames {
+    model_frame: Option<ModelFrame>,
+    sinks: Sinks,
+    viewer: Option<super::viewer::Live>,
+    bar: ProgressBar,
+    tally: Tally,
+    /// Warnings said so far (each is said once).
+    warned: HashSet<String>,
+    /// Why writing failed, which stops the run.
+    failure: Option<anyhow::Error>,
+}
+
+impl Frames {
+    /// Records the frame: warnings and errors said, the record written, the viewer fed.
+    fn take(&mut self, p: Processed) -> ControlFlow<()> {
+        let mut record = TrackRecord::from_processed(&p);
+        if let Some(f) = &self.model_frame {
+            record = record.with_model_frame(f);
+        }
+        // Each warning once: one that holds for every frame would bury the rest.
+        for w in &p.warnings {
+            if self.warned.insert(w.clone()) {
+                self.bar.suspend(|| {
+                    eprintln!(
+                        "frame {:06}: {w} (said once; later frames may have it too)",
+                        p.frame
+                    )
+                });
+            }
+        }
+        if record.status == RecordStatus::Error {
+            let reason = record.reason.as_deref().unwrap_or("");
+            self.bar
+                .suspend(|| eprintln!("frame {:06}: {reason}", p.frame));
+        }
+        self.tally.add(&record);
+        self.bar.inc(1);
+        if let Err(e) = self.sinks.write(&record, &p) {
+            self.failure = Some(anyhow::Error::new(e));
+            return ControlFlow::Break(());
+        }
+        if let Some(v) = &mut self.viewer {
+            v.publish(p, record, None);
+        }
+        ControlFlow::Continue(())
+    }
+}
+
+/// The run in one line: frames, speed, latency and per-stage times.
+fn summary_line(summary: &TrackSummary, startup_s: f64, live: bool, stopped: bool) -> String {
+    format!(
+        "{} frames ({} ok, {} errors{}{}) in {:.2} s (after {:.2} s of start-up), {:.1} frames/s{}; ms per stage, median/p95: {}",
+        summary.frames,
+        summary.ok,
+        summary.errors,
+        if live {
+            format!(", {} dropped", summary.dropped)
+        } else {
+            String::new()
+        },
+        if stopped { ", stopped early" } else { "" },
+        summary.seconds,
+        startup_s,
+        summary.fps,
+        summary
+            .latency_ms
+            .as_ref()
+            .map(|l| format!(
+                ", latency {:.1} ms median / {:.1} ms p95",
+                l.median_ms, l.p95_ms
+            ))
+            .unwrap_or_default(),
+        summary
+            .stages
+            .iter()
+            .map(|s| format!("{} {:.2}/{:.2}", s.stage, s.median_ms, s.p95_ms))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
 }
 
 fn progress(source: &dyn FrameSource) -> ProgressBar {
