@@ -43,22 +43,8 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         super::cores(),
     )
     .context("cannot set up the demo")?;
-    let pipeline = &demo.pipeline;
     introduce(demo.simulator(), setup);
-    let mut viewer = if args.no_viewer {
-        None
-    } else {
-        let addr = args.viewer.as_deref().unwrap_or(DEFAULT_VIEWER);
-        let started = super::viewer::start_at(addr, args.allow_remote, pipeline);
-        Some(match started {
-            // The default port may be taken: any free one will do.
-            Err(e) if args.viewer.is_none() => {
-                eprintln!("{e:#}; using a free port instead");
-                super::viewer::start_at("127.0.0.1:0", false, pipeline)?
-            }
-            other => other?,
-        })
-    };
+    let viewer = viewer(args, &demo)?;
     let mut source: Box<dyn FrameSource> = if args.no_viewer {
         println!("{}", table_header());
         Box::new(demo.on_demand(args.frames, args.fps))
@@ -69,9 +55,14 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         );
         Box::new(demo.live(args.frames, args.fps))
     };
-    let mut tally = Tally::new();
-    let mut figures = DemoFigures::default();
-    let mut last_status = Instant::now();
+    let mut frames = Frames {
+        demo: &demo,
+        headless: args.no_viewer,
+        viewer,
+        tally: Tally::new(),
+        figures: DemoFigures::default(),
+        last_status: Instant::now(),
+    };
     // Headless, frames are rendered on demand: one worker keeps rendering and tracking apart,
     // so the chain's figures are its own.
     let threads = args
@@ -79,49 +70,19 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         .unwrap_or(if args.no_viewer { 1 } else { super::cores() });
     let end = flexshape_track::run(
         source.as_mut(),
-        pipeline,
+        &demo.pipeline,
         threads,
         stop.flag(),
-        |p: Processed| {
-            let record = TrackRecord::from_processed(&p).with_model_frame(&demo.model_frame);
-            tally.add(&record);
-            let errors = demo.errors(&p);
-            if let Some(e) = &errors {
-                figures.add(e);
-            }
-            if let Ok(t) = &p.result {
-                figures.chain_ms.push(t.timings.total());
-            }
-            if args.no_viewer {
-                let bend_length = demo.simulator().config().catheter.bend_length;
-                println!("{}", table_row(&p, &record, errors.as_ref(), bend_length));
-            } else if last_status.elapsed() > Duration::from_secs(2) {
-                last_status = Instant::now();
-                println!(
-                    "frame {:>6}: {:.1} frames/s tracked, {} dropped, latency {:.1} ms; centerline rms {:.3} mm (worst so far {:.3}), tip {:.2} mm",
-                    p.frame,
-                    tally.frames() as f64 / tally.seconds(),
-                    p.dropped,
-                    p.latency_ms,
-                    errors.as_ref().map_or(f64::NAN, |e| e.centerline_rms),
-                    DemoFigures::worst(&figures.rms),
-                    errors.as_ref().map_or(f64::NAN, |e| e.tip),
-                );
-            }
-            if let Some(v) = &mut viewer {
-                let truth = errors.as_ref().map(|e| (e.centerline_rms, e.tip));
-                v.publish(p, record, truth);
-            }
-            ControlFlow::Continue(())
-        },
+        |p: Processed| frames.take(p),
     );
-    let summary = tally.summary(&end);
+    let summary = frames.tally.summary(&end);
     if let Some(e) = end.input_error {
         return Err(e).context("the simulated rig stopped");
     }
     if summary.frames == 0 {
         return Ok(());
     }
+    let figures = &frames.figures;
     let n = figures.rms.len();
     println!(
         "\n{} frames, {} ok; against truth over {n} frames: centerline rms median {:.3} mm, worst {:.3} mm; tip median {:.2} mm, worst {:.2} mm; band centre worst {:.2} mm; arc-fit curvature worst {:.2} %; the carved hull holds ≥ {:.1} % of the true centerline",
@@ -135,8 +96,89 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         figures.curvature * 100.0,
         figures.cover.unwrap_or(0.0) * 100.0,
     );
-    let chain = DemoFigures::median(&figures.chain_ms);
     println!(
+        "{}",
+        speed_line(&summary, figures, threads, args.no_viewer, &demo)
+    );
+    if let Some(dir) = &args.out {
+        println!("wrote {} frames to {}", summary.frames, dir.display());
+    }
+    Ok(())
+}
+
+/// The viewer, unless headless: at the address given, or the default one (any free port
+/// when that is taken).
+fn viewer(args: &DemoArgs, demo: &Demo) -> anyhow::Result<Option<super::viewer::Live>> {
+    if args.no_viewer {
+        return Ok(None);
+    }
+    let addr = args.viewer.as_deref().unwrap_or(DEFAULT_VIEWER);
+    let started = super::viewer::start_at(addr, args.allow_remote, &demo.pipeline);
+    Ok(Some(match started {
+        Err(e) if args.viewer.is_none() => {
+            eprintln!("{e:#}; using a free port instead");
+            super::viewer::start_at("127.0.0.1:0", false, &demo.pipeline)?
+        }
+        other => other?,
+    }))
+}
+
+/// What happens to each tracked frame: measured against truth, printed (a table row
+/// headless, a status line every 2 s live) and shown.
+struct Frames<'a> {
+    demo: &'a Demo,
+    headless: bool,
+    viewer: Option<super::viewer::Live>,
+    tally: Tally,
+    figures: DemoFigures,
+    last_status: Instant,
+}
+
+impl Frames<'_> {
+    fn take(&mut self, p: Processed) -> ControlFlow<()> {
+        let record = TrackRecord::from_processed(&p).with_model_frame(&self.demo.model_frame);
+        self.tally.add(&record);
+        let errors = self.demo.errors(&p);
+        if let Some(e) = &errors {
+            self.figures.add(e);
+        }
+        if let Ok(t) = &p.result {
+            self.figures.chain_ms.push(t.timings.total());
+        }
+        if self.headless {
+            let bend_length = self.demo.simulator().config().catheter.bend_length;
+            println!("{}", table_row(&p, &record, errors.as_ref(), bend_length));
+        } else if self.last_status.elapsed() > Duration::from_secs(2) {
+            self.last_status = Instant::now();
+            println!(
+                "frame {:>6}: {:.1} frames/s tracked, {} dropped, latency {:.1} ms; centerline rms {:.3} mm (worst so far {:.3}), tip {:.2} mm",
+                p.frame,
+                self.tally.frames() as f64 / self.tally.seconds(),
+                p.dropped,
+                p.latency_ms,
+                errors.as_ref().map_or(f64::NAN, |e| e.centerline_rms),
+                DemoFigures::worst(&self.figures.rms),
+                errors.as_ref().map_or(f64::NAN, |e| e.tip),
+            );
+        }
+        if let Some(v) = &mut self.viewer {
+            let truth = errors.as_ref().map(|e| (e.centerline_rms, e.tip));
+            v.publish(p, record, truth);
+        }
+        ControlFlow::Continue(())
+    }
+}
+
+/// The run's speed: the chain per frame and per stage, and what the workers kept up with.
+fn speed_line(
+    summary: &flexshape_track::TrackSummary,
+    figures: &DemoFigures,
+    threads: usize,
+    headless: bool,
+    demo: &Demo,
+) -> String {
+    let chain = DemoFigures::median(&figures.chain_ms);
+    format!(
         "speed: the chain takes {chain:.2} ms per frame (median; {}), {:.0} frames/s per worker; {threads} worker{} tracked {:.1} frames/s{}{}",
         summary
             .stages
@@ -147,7 +189,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         1e3 / chain.max(1e-9),
         if threads == 1 { "" } else { "s" },
         summary.fps,
-        if args.no_viewer {
+        if headless {
             format!(
                 " while rendering the simulated cameras ({:.1} ms per frame) on the same cores",
                 demo.rig.render_ms()
@@ -155,18 +197,14 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         } else {
             " (sharing the cores with the simulated cameras' rendering)".to_string()
         },
-        match (&summary.latency_ms, args.no_viewer) {
+        match (&summary.latency_ms, headless) {
             (Some(l), false) => format!(
                 "; latency {:.1} ms median, {:.1} ms p95; {} frames dropped",
                 l.median_ms, l.p95_ms, summary.dropped
             ),
             _ => String::new(),
         }
-    );
-    if let Some(dir) = &args.out {
-        println!("wrote {} frames to {}", summary.frames, dir.display());
-    }
-    Ok(())
+    )
 }
 
 fn introduce(sim: &Simulator, setup: Instant) {
