@@ -34,6 +34,7 @@ mod error;
 mod markers;
 mod shade;
 mod silhouetter;
+mod trial;
 
 pub use background::{BackgroundModel, CHANGED_LEVELS, CHANGED_SPREADS, DEFAULT_SPREAD};
 pub use bitmask::BitMask;
@@ -45,3 +46,4 @@ pub use silhouetter::{
     GROWTH_FLOOR, MASK_LEVEL, Silhouette, SilhouetteSettings, SilhouetteStatus, Silhouetter,
     debug_image,
 };
+pub use trial::{ClassifierTrial, suggest_classifier, try_classifiers};

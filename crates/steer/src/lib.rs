@@ -62,6 +62,9 @@ pub enum SteerError {
     /// A background model from the simulated empty scene.
     #[error("background: {0}")]
     Background(String),
+    /// A figure could not be written.
+    #[error("cannot write the figure to {0}")]
+    Figure(String),
 }
 
 /// How the loop runs.
@@ -296,4 +299,62 @@ pub fn steer_with_frames(
         }
     }
     Ok((steps, control.estimate().map(|e| e.stiffness)))
+}
+
+/// The tip's error over the frames (sensed and true, log scale), the curvature the
+/// controller's model expected of each command against the sensed one, and the stiffnesses
+/// the controller used, relative to the truth.
+/// Written as `steer.png`/`.svg` in `dir` (created if missing); `truth` is the true `[Kx, Kz]`.
+pub fn figure(
+    dir: &std::path::Path,
+    steps: &[SteerStep],
+    truth: [f64; 2],
+) -> Result<(), SteerError> {
+    use flexshape_plot::{PALETTE, TimePanel, TimeSeries, timelines};
+    let failed = |e: &dyn std::fmt::Display| SteerError::Figure(format!("{}: {e}", dir.display()));
+    std::fs::create_dir_all(dir).map_err(|e| failed(&e))?;
+    let line = |label: &str, k: usize, value: &dyn Fn(&SteerStep) -> f64| TimeSeries {
+        label: label.into(),
+        points: steps.iter().map(|s| (s.frame as f64, value(s))).collect(),
+        colour: PALETTE[k],
+    };
+    let panels = [
+        TimePanel {
+            y_label: "tip error (mm)".into(),
+            series: vec![
+                line("sensed", 0, &|s| s.sensed_error_mm.unwrap_or(f64::NAN)),
+                line("true", 1, &|s| s.true_error_mm),
+            ],
+            log: true,
+        },
+        TimePanel {
+            y_label: "curvature |κ| (1/m)".into(),
+            series: vec![
+                line("commanded (model)", 4, &|s| {
+                    1000.0 * s.commanded_kappa[0].hypot(s.commanded_kappa[1])
+                }),
+                line("sensed", 5, &|s| {
+                    s.sensed_kappa
+                        .map_or(f64::NAN, |k| 1000.0 * k[0].hypot(k[1]))
+                }),
+            ],
+            log: false,
+        },
+        TimePanel {
+            y_label: "stiffness used − truth (%)".into(),
+            series: vec![
+                line("Kx", 2, &|s| 100.0 * (s.stiffness[0] / truth[0] - 1.0)),
+                line("Kz", 3, &|s| 100.0 * (s.stiffness[1] / truth[1] - 1.0)),
+            ],
+            log: false,
+        },
+    ];
+    timelines(
+        "Closed loop: the tip steered to targets, the stiffnesses learnt online",
+        "frame",
+        &panels,
+        &dir.join("steer"),
+    )
+    .map_err(|e| failed(&e))?;
+    Ok(())
 }

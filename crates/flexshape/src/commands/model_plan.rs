@@ -50,19 +50,7 @@ pub fn run(args: &ModelPlanArgs) -> anyhow::Result<()> {
     }
     let accuracy =
         super::model::sensing_accuracy(&args.bias, SensingAccuracy::default().position_mm)?;
-    let mut preloads = vec![0.002];
-    while preloads
-        .last()
-        .is_some_and(|p| p * 2.0 <= args.max_strain * (1.0 + 1e-9))
-    {
-        preloads.push(preloads[preloads.len() - 1] * 2.0);
-    }
-    if preloads
-        .last()
-        .is_some_and(|p| *p < args.max_strain * (1.0 - 1e-9))
-    {
-        preloads.push(args.max_strain);
-    }
+    let preloads = candidate_preloads(args.max_strain);
     let design = plan_experiment(
         model.params(),
         args.poses,
@@ -91,6 +79,48 @@ pub fn run(args: &ModelPlanArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
     }
+    print_table(&report, args);
+    // The design to run: the smallest preload that determines all, else the largest allowed.
+    let all = report.determined_from.iter().all(Option::is_some);
+    let preload = if all {
+        report
+            .determined_from
+            .iter()
+            .flatten()
+            .copied()
+            .fold(0.0, f64::max)
+    } else {
+        preloads[preloads.len() - 1]
+    };
+    println!(
+        "\nTo simulate {}: flexshape simulate --out EXP --model {} --poses {} --preload {preload}",
+        if all { "it" } else { "the best allowed" },
+        args.params.display(),
+        args.poses
+    );
+    Ok(())
+}
+
+/// The preloads tried: 0.002 doubled up to `max_strain`, and `max_strain` itself.
+fn candidate_preloads(max_strain: f64) -> Vec<f64> {
+    let mut preloads = vec![0.002];
+    while preloads
+        .last()
+        .is_some_and(|p| p * 2.0 <= max_strain * (1.0 + 1e-9))
+    {
+        preloads.push(preloads[preloads.len() - 1] * 2.0);
+    }
+    if preloads
+        .last()
+        .is_some_and(|p| *p < max_strain * (1.0 - 1e-9))
+    {
+        preloads.push(max_strain);
+    }
+    preloads
+}
+
+/// The predicted errors per candidate preload, and what determines each stiffness.
+fn print_table(report: &Report, args: &ModelPlanArgs) {
     println!(
         "The paper's experiment ({} workspace poses up to {:.0}°, one per tendon to register) on \
          this catheter, sensed with curvatures within {} % and strains within {:.1e}: predicted \
@@ -140,23 +170,4 @@ pub fn run(args: &ModelPlanArgs) -> anyhow::Result<()> {
             (None, None) => println!("{name}: the experiment does not exercise it"),
         }
     }
-    // The design to run: the smallest preload that determines all, else the largest allowed.
-    let all = report.determined_from.iter().all(Option::is_some);
-    let preload = if all {
-        report
-            .determined_from
-            .iter()
-            .flatten()
-            .copied()
-            .fold(0.0, f64::max)
-    } else {
-        preloads[preloads.len() - 1]
-    };
-    println!(
-        "\nTo simulate {}: flexshape simulate --out EXP --model {} --poses {} --preload {preload}",
-        if all { "it" } else { "the best allowed" },
-        args.params.display(),
-        args.poses
-    );
-    Ok(())
 }

@@ -19,39 +19,9 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
     let mut input = frames::open_input(&args.frames)?;
     let volume = frames::volume(&input.rig.volume, &args.frames)?;
     frames::warn_unseen(&input.rig, &volume);
-    let hold = match &args.hold {
-        None => 0,
-        Some(name) => input
-            .rig
-            .cameras
-            .iter()
-            .position(|c| &c.name == name)
-            .with_context(|| {
-                format!(
-                    "--hold {name}: the rig has no such camera (its cameras: {})",
-                    camera_names(&input.rig)
-                )
-            })?,
-    };
+    let hold = held_camera(&input.rig, args.hold.as_deref())?;
     let rig_path = args.out.join("rig.toml");
-    let mut planned: Vec<PathBuf> = input
-        .rig
-        .cameras
-        .iter()
-        .map(|c| args.out.join(refined_camera_file(&c.name)))
-        .collect();
-    planned.push(rig_path.clone());
-    planned.push(args.out.clone());
-    if let Some(p) = planned
-        .iter()
-        .find(|p| input.files.iter().any(|f| frames::within(p, f)))
-    {
-        bail!(
-            "{} is or lies inside an input: write the refined rig elsewhere",
-            p.display()
-        );
-    }
-    super::rig_import::refuse_existing(&planned, args.overwrite)?;
+    refuse_outputs(&input, args)?;
     let pipeline = input
         .pipeline(&volume)
         .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
@@ -76,24 +46,11 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
         bail!("interrupted: nothing written");
     }
     print_refinement(&refinement, pipeline.fit_settings().max_residual_px);
+    if !worth_writing(&refinement) {
+        return Ok(());
+    }
     let (before, after) = refinement.overall_rms();
     let gain = 100.0 * (1.0 - after / before.max(1e-12));
-    match refinement.verdict() {
-        Verdict::Better => {}
-        Verdict::NoBetter => {
-            println!(
-                "the rig's poses already explain the outlines ({before:.3} → {after:.3} px RMS, {gain:.0} % better, {} → {} frames right): the refinement is within its own noise; keep the rig (nothing written)",
-                refinement.right_before, refinement.right_after
-            );
-            return Ok(());
-        }
-        Verdict::Undetermined { camera, sigma_mm } => {
-            println!(
-                "the frames do not pin camera {camera}'s pose down (±{sigma_mm:.2} mm at the tube, 1 σ; at most {MAX_SIGMA_MM}): the tubes fit a family of poses — with two cameras they always do; with more, record the tube in more varied shapes across the volume. Nothing written: calibrate the rig again instead"
-            );
-            return Ok(());
-        }
-    }
     let rig = refinement.rig(volume, input.rig.processing.clone());
     rig.save(&rig_path)
         .with_context(|| format!("cannot write the refined rig to {}", args.out.display()))?;
@@ -108,6 +65,66 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
         rig_path.display()
     );
     Ok(())
+}
+
+/// The camera `--hold` names (rig order), the first by default.
+fn held_camera(rig: &Rig, hold: Option<&str>) -> anyhow::Result<usize> {
+    let Some(name) = hold else {
+        return Ok(0);
+    };
+    rig.cameras
+        .iter()
+        .position(|c| c.name == name)
+        .with_context(|| {
+            format!(
+                "--hold {name}: the rig has no such camera (its cameras: {})",
+                camera_names(rig)
+            )
+        })
+}
+
+/// Refuses outputs that are or lie in an input, and existing ones without `--overwrite`.
+fn refuse_outputs(input: &flexshape_track::Input, args: &RigRefineArgs) -> anyhow::Result<()> {
+    let mut planned: Vec<PathBuf> = input
+        .rig
+        .cameras
+        .iter()
+        .map(|c| args.out.join(refined_camera_file(&c.name)))
+        .collect();
+    planned.push(args.out.join("rig.toml"));
+    planned.push(args.out.clone());
+    if let Some(p) = planned
+        .iter()
+        .find(|p| input.files.iter().any(|f| frames::within(p, f)))
+    {
+        bail!(
+            "{} is or lies inside an input: write the refined rig elsewhere",
+            p.display()
+        );
+    }
+    super::rig_import::refuse_existing(&planned, args.overwrite)
+}
+
+/// Whether the refined poses are worth writing; says why not when they are not.
+fn worth_writing(refinement: &Refinement) -> bool {
+    let (before, after) = refinement.overall_rms();
+    let gain = 100.0 * (1.0 - after / before.max(1e-12));
+    match refinement.verdict() {
+        Verdict::Better => true,
+        Verdict::NoBetter => {
+            println!(
+                "the rig's poses already explain the outlines ({before:.3} → {after:.3} px RMS, {gain:.0} % better, {} → {} frames right): the refinement is within its own noise; keep the rig (nothing written)",
+                refinement.right_before, refinement.right_after
+            );
+            false
+        }
+        Verdict::Undetermined { camera, sigma_mm } => {
+            println!(
+                "the frames do not pin camera {camera}'s pose down (±{sigma_mm:.2} mm at the tube, 1 σ; at most {MAX_SIGMA_MM}): the tubes fit a family of poses — with two cameras they always do; with more, record the tube in more varied shapes across the volume. Nothing written: calibrate the rig again instead"
+            );
+            false
+        }
+    }
 }
 
 fn camera_names(rig: &Rig) -> String {

@@ -8,8 +8,7 @@ use flexshape_fit::debug_image as fit_debug_image;
 use flexshape_recording::RecordingReader;
 use flexshape_rig::Rig;
 use flexshape_silhouette::{
-    BackgroundModel, BitMask, Classifier, SilhouetteSettings, SilhouetteStatus, Silhouetter,
-    debug_image,
+    BackgroundModel, BitMask, SilhouetteSettings, debug_image, suggest_classifier, try_classifiers,
 };
 use flexshape_track::{Pipeline, TrackRecord, Tracked};
 
@@ -22,25 +21,7 @@ pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
     let pipeline = input
         .pipeline(&volume)
         .with_context(|| format!("cannot set up tracking for {}", input.rig_name))?;
-    // The frame asked for: by number in a recording, by position elsewhere.
-    let numbered = args.frames.recording.is_some();
-    let mut position = 0u64;
-    let set = loop {
-        let Some(next) = input.source.next_frame() else {
-            bail!(
-                "the input has no frame {:06} ({} frames{})",
-                args.frame,
-                position,
-                if numbered { "" } else { ", counted from 0" }
-            );
-        };
-        let set = next.with_context(|| format!("frame {position}"))?;
-        let wanted = if numbered { set.frame } else { position };
-        position += 1;
-        if wanted == args.frame {
-            break set;
-        }
-    };
+    let set = pick_frame(input.source.as_mut(), args)?;
     let (frame, name) = (set.frame, set.name.clone());
     let (images, warnings) = pipeline.load(set.images).map_err(|e| anyhow::anyhow!(e))?;
     for w in warnings {
@@ -53,18 +34,18 @@ pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
         "frame {frame:06}{}",
         name.map(|n| format!(" ({n})")).unwrap_or_default()
     );
-    let truth = args
-        .frames
-        .recording
-        .as_ref()
-        .map(|r| RecordingReader::open(r))
-        .transpose()?;
     let refs: Vec<&image::RgbImage> = images.iter().collect();
     let t = Instant::now();
     let tracked = pipeline
         .process(&refs)
         .with_context(|| format!("frame {frame:06}"))?;
     let ms = t.elapsed().as_secs_f64() * 1e3;
+    let truth = args
+        .frames
+        .recording
+        .as_ref()
+        .map(|r| RecordingReader::open(r))
+        .transpose()?;
     for (i, (cam, s)) in input
         .rig
         .cameras
@@ -72,44 +53,12 @@ pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
         .zip(&tracked.silhouettes)
         .enumerate()
     {
-        let truth = match truth
+        let truth = truth
             .as_ref()
             .map(|r| r.read_truth_mask(i, frame))
             .transpose()?
-        {
-            Some(Some(mask)) => format!(
-                "  IoU vs truth {:.4}",
-                s.object.iou(&BitMask::from_gray(&mask))
-            ),
-            _ => String::new(),
-        };
-        println!(
-            "  {:<8} {:?}: {} object px in {} component(s), {} marker px{truth}",
-            cam.name,
-            s.status,
-            s.object.count(),
-            s.components,
-            s.markers.count()
-        );
-        if let Some(out) = &args.out {
-            let save = |name: String, img: image::DynamicImage| -> anyhow::Result<()> {
-                let path = out.join(name);
-                img.save(&path)
-                    .with_context(|| format!("cannot write {}", path.display()))
-            };
-            save(
-                format!("{}_object.png", cam.name),
-                s.object.to_gray().into(),
-            )?;
-            save(
-                format!("{}_markers.png", cam.name),
-                s.markers.to_gray().into(),
-            )?;
-            save(
-                format!("{}_debug.png", cam.name),
-                debug_image(&images[i], s).into(),
-            )?;
-        }
+            .flatten();
+        report_camera(&cam.name, s, truth, &images[i], args.out.as_deref())?;
     }
     println!("  (the whole chain: {ms:.1} ms)");
     if let Some(backgrounds) = &input.backgrounds {
@@ -122,6 +71,68 @@ pub fn run(args: &SilhouettesArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The frame asked for: by number in a recording, by position elsewhere.
+fn pick_frame(
+    source: &mut dyn flexshape_input::FrameSource,
+    args: &SilhouettesArgs,
+) -> anyhow::Result<flexshape_input::FrameSet> {
+    let numbered = args.frames.recording.is_some();
+    let mut position = 0u64;
+    loop {
+        let Some(next) = source.next_frame() else {
+            bail!(
+                "the input has no frame {:06} ({} frames{})",
+                args.frame,
+                position,
+                if numbered { "" } else { ", counted from 0" }
+            );
+        };
+        let set = next.with_context(|| format!("frame {position}"))?;
+        let wanted = if numbered { set.frame } else { position };
+        position += 1;
+        if wanted == args.frame {
+            return Ok(set);
+        }
+    }
+}
+
+/// One camera's silhouette: its line (with the IoU against the true mask when known), and
+/// with `out` its object, marker and debug images.
+fn report_camera(
+    name: &str,
+    s: &flexshape_silhouette::Silhouette,
+    truth: Option<image::GrayImage>,
+    image: &image::RgbImage,
+    out: Option<&std::path::Path>,
+) -> anyhow::Result<()> {
+    let truth = match truth {
+        Some(mask) => format!(
+            "  IoU vs truth {:.4}",
+            s.object.iou(&BitMask::from_gray(&mask))
+        ),
+        None => String::new(),
+    };
+    println!(
+        "  {:<8} {:?}: {} object px in {} component(s), {} marker px{truth}",
+        name,
+        s.status,
+        s.object.count(),
+        s.components,
+        s.markers.count()
+    );
+    let Some(out) = out else {
+        return Ok(());
+    };
+    let save = |file: String, img: image::DynamicImage| -> anyhow::Result<()> {
+        let path = out.join(file);
+        img.save(&path)
+            .with_context(|| format!("cannot write {}", path.display()))
+    };
+    save(format!("{name}_object.png"), s.object.to_gray().into())?;
+    save(format!("{name}_markers.png"), s.markers.to_gray().into())?;
+    save(format!("{name}_debug.png"), debug_image(image, s).into())
+}
+
 /// Every classifier's silhouette of each camera's frame (object share, components), and a
 /// suggestion where the rig's classifier gives an implausible one and another would not.
 fn compare_classifiers(
@@ -130,48 +141,24 @@ fn compare_classifiers(
     images: &[image::RgbImage],
     tracked: &Tracked,
 ) -> anyhow::Result<()> {
-    let kinds = [
-        ("colour_shadow", Classifier::colour_shadow()),
-        ("green_matte", Classifier::green_matte()),
-        ("difference", Classifier::Difference(Default::default())),
-    ];
     println!("classifiers on this frame (object share of the image, components):");
     for (i, cam) in rig.cameras.iter().enumerate() {
         let settings = SilhouetteSettings::from_processing(&rig.processing, &cam.name)
             .with_context(|| format!("camera {}", cam.name))?;
-        let pixels = (images[i].width() * images[i].height()) as f64;
-        let mut row = Vec::new();
-        let mut best: Option<(&str, f64)> = None;
-        for (kind, classifier) in &kinds {
-            let trial = SilhouetteSettings {
-                classifier: classifier.clone(),
-                ..settings.clone()
-            };
-            let s = Silhouetter::new(&backgrounds[i], trial)
-                .and_then(|sil| sil.process(&images[i]))
-                .with_context(|| format!("camera {}", cam.name))?;
-            let share = s.object.count() as f64 / pixels;
-            row.push(format!("{kind} {:.2} % ({})", 100.0 * share, s.components));
-            // Plausible: something, one component, well under the limit.
-            let plausible =
-                s.components == 1 && share > 0.0 && share < settings.max_foreground / 5.0;
-            if plausible && best.is_none_or(|(_, b)| share < b) {
-                best = Some((kind, share));
-            }
-        }
+        let trials = try_classifiers(&backgrounds[i], &images[i], &settings)
+            .with_context(|| format!("camera {}", cam.name))?;
+        let row: Vec<String> = trials
+            .iter()
+            .map(|t| format!("{} {:.2} % ({})", t.kind, 100.0 * t.share, t.components))
+            .collect();
         println!("  {:<8} {}", cam.name, row.join(", "));
         let own = &tracked.silhouettes[i];
-        let own_share = own.object.count() as f64 / pixels;
-        let implausible = matches!(
-            own.status,
-            SilhouetteStatus::Implausible { .. } | SilhouetteStatus::NoObject
-        ) || own.components > 1
-            || own_share >= settings.max_foreground / 5.0;
-        if let (true, Some((kind, _))) = (implausible, best) {
+        let pixels = u64::from(images[i].width()) * u64::from(images[i].height());
+        if let Some(kind) = suggest_classifier(own, pixels, &settings, &trials) {
             println!(
                 "  suggestion for {0}: its silhouette looks wrong ({1:.1} % of the image in {2} component(s)); try in the rig file:\n    [processing.silhouette.per_camera.{0}]\n    classifier = {{ kind = \"{kind}\" }}",
                 cam.name,
-                100.0 * own_share,
+                100.0 * own.object.count() as f64 / pixels as f64,
                 own.components
             );
         }

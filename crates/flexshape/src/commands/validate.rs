@@ -236,6 +236,18 @@ pub fn simulate(args: &ValidateArgs) -> anyhow::Result<()> {
     print_accuracy(&acc.report);
     println!();
     print_precision(&pre.report);
+    print_fit_against_hull(
+        [&acc.report, &hull_acc.report],
+        [&pre.report, &hull_pre.report],
+    );
+    for s in &skipped {
+        println!("skipped {s}");
+    }
+    Ok(())
+}
+
+/// The image fit's figures beside the hull's alone (`--method hull`), rms x/y/z mm.
+fn print_fit_against_hull(accuracy: [&AccuracyReport; 2], precision: [&PrecisionReport; 2]) {
     println!(
         "\nThe tube fitted to the images against the hull's centerline alone (--method hull), rms x/y/z mm:"
     );
@@ -247,21 +259,17 @@ pub fn simulate(args: &ValidateArgs) -> anyhow::Result<()> {
     };
     side(
         "accuracy (points)",
-        acc.report.rms_axis(),
-        hull_acc.report.rms_axis(),
+        accuracy[0].rms_axis(),
+        accuracy[1].rms_axis(),
     );
     side(
         "precision along the length",
-        pre.report.rms_along,
-        hull_pre.report.rms_along,
+        precision[0].rms_along,
+        precision[1].rms_along,
     );
     side(
         "precision at the marks",
-        pre.report.rms_marks,
-        hull_pre.report.rms_marks,
+        precision[0].rms_marks,
+        precision[1].rms_marks,
     );
-    for s in &skipped {
-        println!("skipped {s}");
-    }
-    Ok(())
 }
