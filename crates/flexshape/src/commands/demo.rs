@@ -83,19 +83,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     let figures = &frames.figures;
-    let n = figures.rms.len();
-    println!(
-        "\n{} frames, {} ok; against truth over {n} frames: centerline rms median {:.3} mm, worst {:.3} mm; tip median {:.2} mm, worst {:.2} mm; band centre worst {:.2} mm; arc-fit curvature worst {:.2} %; the carved hull holds ≥ {:.1} % of the true centerline",
-        summary.frames,
-        summary.ok,
-        DemoFigures::median(&figures.rms),
-        DemoFigures::worst(&figures.rms),
-        DemoFigures::median(&figures.tip),
-        DemoFigures::worst(&figures.tip),
-        figures.band,
-        figures.curvature * 100.0,
-        figures.cover.unwrap_or(0.0) * 100.0,
-    );
+    println!("\n{}", truth_line(&summary, figures));
     println!(
         "{}",
         speed_line(&summary, figures, threads, args.no_viewer, &demo)
@@ -167,6 +155,23 @@ impl Frames<'_> {
         }
         ControlFlow::Continue(())
     }
+}
+
+/// The run against truth: centerline, tip, bands, curvature, hull coverage.
+fn truth_line(summary: &flexshape_track::TrackSummary, figures: &DemoFigures) -> String {
+    format!(
+        "{} frames, {} ok; against truth over {} frames: centerline rms median {:.3} mm, worst {:.3} mm; tip median {:.2} mm, worst {:.2} mm; band centre worst {:.2} mm; arc-fit curvature worst {:.2} %; the carved hull holds ≥ {:.1} % of the true centerline",
+        summary.frames,
+        summary.ok,
+        figures.rms.len(),
+        DemoFigures::median(&figures.rms),
+        DemoFigures::worst(&figures.rms),
+        DemoFigures::median(&figures.tip),
+        DemoFigures::worst(&figures.tip),
+        figures.band,
+        figures.curvature * 100.0,
+        figures.cover.unwrap_or(0.0) * 100.0,
+    )
 }
 
 /// The run's speed: the chain per frame and per stage, and what the workers kept up with.

@@ -69,12 +69,32 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.plots {
         flexshape_steer::figure(dir, &steps, true_stiffness)?;
     }
-    let finals: Vec<f64> = (0..targets.len())
+    print_summary(args.json, &steps, targets.len(), learnt, &truth, &nominal);
+    if let Some(l) = &frames.live {
+        eprintln!("viewer: the last frame stays at {} until Ctrl-C", l.url());
+        while !stop.requested() {
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+    Ok(())
+}
+
+/// The loop's outcome: each target's final true tip error and the stiffnesses learnt.
+fn print_summary(
+    json: bool,
+    steps: &[SteerStep],
+    targets: usize,
+    learnt: Option<flexshape_model::Stiffness>,
+    truth: &flexshape_model::ManipulatorParams,
+    nominal: &flexshape_model::ManipulatorParams,
+) {
+    let true_stiffness = [truth.stiffness.kx, truth.stiffness.kz];
+    let finals: Vec<f64> = (0..targets)
         .filter_map(|t| steps.iter().rfind(|s| s.target_index == t))
         .map(|s| s.true_error_mm)
         .collect();
     let worst = finals.iter().copied().fold(0.0, f64::max);
-    if args.json {
+    if json {
         let summary = serde_json::json!({
             "frames": steps.len(),
             "final_true_error_mm": finals,
@@ -95,13 +115,6 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
             nominal.stiffness.kz
         );
     }
-    if let Some(l) = &frames.live {
-        eprintln!("viewer: the last frame stays at {} until Ctrl-C", l.url());
-        while !stop.requested() {
-            std::thread::sleep(Duration::from_millis(100));
-        }
-    }
-    Ok(())
 }
 
 /// `--stiffness-error KX,KZ`: two percentages above −90.
