@@ -38,7 +38,7 @@ pub use camera::{Camera, Projection, Ray};
 pub use distortion::{Distortion, UNDISTORT_TOLERANCE};
 pub use error::{CameraError, ProjectError, UndistortError};
 pub use intrinsics::Intrinsics;
-pub use pose::{Pose, angle_between};
+pub use pose::{Pose, ROTATION_TOLERANCE, angle_between};
 
 /// Re-exported so users of this crate name the same nalgebra types.
 pub use nalgebra;

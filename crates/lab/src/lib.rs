@@ -3,7 +3,7 @@
 //! - [`identify`]: the manipulator model's stiffnesses (and tendon positions) identified from
 //!   a tracked experiment — records that carry the commanded tendon displacements — as the
 //!   paper's Table I (`flexshape model fit`).
-//! - [`bench`]: the chain's per-stage times and throughput on the simulated rig (`flexshape
+//! - [`bench`](mod@bench): the chain's per-stage times and throughput on the simulated rig (`flexshape
 //!   bench`).
 //! - [`demo`]: the model-driven catheter on the simulated rig, tracked and measured against
 //!   the simulator's truth (`flexshape demo`).

@@ -212,7 +212,7 @@ impl BackgroundModel {
     /// front of it). Such changes are smooth at the scale of a few pixels, so the change
     /// `frame − mean` is averaged over the unmarked pixels of the 3×3 window around each pixel
     /// (a single frame's noise is not taken in), or of a window wide enough to hold
-    /// [`FILL_SAMPLES`] of them — which carries the change in under the marked pixels, where
+    /// `FILL_SAMPLES` (6) of them — which carries the change in under the marked pixels, where
     /// the backdrop is hidden. The spread stays. Returns how many pixels changed by more than
     /// [`CHANGED_SPREADS`] spreads (at least [`CHANGED_LEVELS`] grey levels) in some channel.
     pub fn absorb(&mut self, frame: &RgbImage, keep: &BitMask) -> Result<usize, SilhouetteError> {
