@@ -6,7 +6,7 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 use flexshape_calib::{Board, Pattern};
-use flexshape_model::{ExperimentPlan, Model, Role};
+use flexshape_model::{CommandedPose, ExperimentPlan, Model, Role};
 use flexshape_recording::{PoseRole, RecordingWriter};
 use flexshape_sim::{
     BoardRenderer, CatheterPose, PrintedBoard, PrintedMarkers, PrintedPattern, SimConfig, SimFrame,
@@ -33,23 +33,32 @@ pub enum Scenario {
     },
     /// The paper's experiment for `model` (reference, registration and workspace poses), the
     /// catheter made as the model describes it; the commands are written beside the frames.
+    /// Made by [`Scenario::experiment`].
     Experiment {
         /// The manipulator model.
         model: Box<Model>,
-        /// The experiment's poses and preload.
-        plan: ExperimentPlan,
+        /// The planned commands, one per frame.
+        commands: Vec<CommandedPose>,
     },
 }
 
 impl Scenario {
-    /// The frames it films.
-    pub fn frames(&self) -> Result<usize, LabError> {
-        Ok(match self {
-            Scenario::Sweep { frames } | Scenario::Motion { frames, .. } => *frames,
-            Scenario::Experiment { model, plan } => flexshape_model::experiment(model, plan)
-                .map_err(LabError::model("cannot plan the experiment"))?
-                .len(),
+    /// The experiment `plan` for `model`, planned once here.
+    pub fn experiment(model: Model, plan: &ExperimentPlan) -> Result<Self, LabError> {
+        let commands = flexshape_model::experiment(&model, plan)
+            .map_err(LabError::model("cannot plan the experiment"))?;
+        Ok(Scenario::Experiment {
+            model: Box::new(model),
+            commands,
         })
+    }
+
+    /// The frames it films.
+    pub fn frames(&self) -> usize {
+        match self {
+            Scenario::Sweep { frames } | Scenario::Motion { frames, .. } => *frames,
+            Scenario::Experiment { commands, .. } => commands.len(),
+        }
     }
 }
 
@@ -71,9 +80,7 @@ pub fn simulate_recording(
     let (poses, commands) = match scenario {
         Scenario::Sweep { frames } => (sim.sweep(*frames), Vec::new()),
         Scenario::Motion { frames, rate_hz } => (sim.motion(*frames, *rate_hz), Vec::new()),
-        Scenario::Experiment { model, plan } => {
-            let commands = flexshape_model::experiment(model, plan)
-                .map_err(LabError::model("cannot plan the experiment"))?;
+        Scenario::Experiment { commands, .. } => {
             let catheter = &sim.config().catheter;
             commands
                 .iter()

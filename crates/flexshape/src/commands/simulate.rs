@@ -21,7 +21,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     };
     let scenario = scenario(args)?;
     let stop = Interrupt::install();
-    let bar = ProgressBar::new(scenario.frames()? as u64).with_style(
+    let bar = ProgressBar::new(scenario.frames() as u64).with_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} frames, {per_sec}, eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
@@ -70,10 +70,8 @@ fn scenario(args: &SimulateArgs) -> anyhow::Result<Scenario> {
             preload_strain: args.preload,
             ..ExperimentPlan::default()
         };
-        return Ok(Scenario::Experiment {
-            model: Box::new(super::model::load(path)?),
-            plan,
-        });
+        let model = super::model::load(path)?;
+        return Scenario::experiment(model, &plan).with_context(|| path.display().to_string());
     }
     Ok(match args.motion {
         Some(hz) => {
