@@ -6,8 +6,11 @@
 use std::collections::BTreeMap;
 
 use flexshape_camera::{Distortion, Intrinsics};
-use flexshape_lsq::{LevenbergMarquardt, Residuals, minimize};
-use nalgebra::{DMatrix, DVector, Point2, Point3, Rotation3, Vector2, Vector3};
+use flexshape_lsq::{Arrowhead, Normal, NormalEquations, Settings, minimize_normal};
+use nalgebra::{
+    DMatrix, DVector, Matrix2, Matrix2x3, Matrix2x4, Matrix2x5, Matrix3, Point2, Point3, Rotation3,
+    SMatrix, SVector, Vector2, Vector3,
+};
 
 use crate::{BoardPose, CalibError, Calibration, Detection};
 
@@ -123,10 +126,16 @@ pub fn adjust_rig(
         intrinsics == JointIntrinsics::Refined { fix_k3: true },
         DVector::from_vec(x),
     );
-    let solver = LevenbergMarquardt::new().with_xtol(1e-10).with_ftol(1e-12);
-    problem.x = minimize(&problem, problem.x.clone(), solver).x;
+    let settings = Settings {
+        xtol: 1e-10,
+        ftol: 1e-12,
+        ..Settings::default()
+    };
+    problem.x = minimize_normal(&problem, problem.x.clone(), &settings)
+        .ok_or_else(|| CalibError::Degenerate("the rig adjustment started out of range".into()))?
+        .x;
     let r = problem
-        .residuals(&problem.x)
+        .residuals_at(&problem.x)
         .ok_or_else(|| CalibError::Degenerate("the rig adjustment left the valid range".into()))?;
     let x = &problem.x;
     let mut intrinsics = Vec::new();
@@ -259,7 +268,8 @@ impl Problem {
         Some(())
     }
 
-    fn residuals_at(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
+    /// The residuals (observed − projected, px; x then y of each corner) at `x`.
+    pub fn residuals_at(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
         let mut r = DVector::zeros(self.offsets[self.offsets.len() - 1]);
         for (i, o) in self.observations.iter().enumerate() {
             self.block(x, o, &mut r.as_mut_slice()[self.rows_of(i)])?;
@@ -268,58 +278,206 @@ impl Problem {
     }
 }
 
-impl Residuals for Problem {
-    fn residuals(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
-        self.residuals_at(x)
+impl NormalEquations for Problem {
+    fn cost(&self, x: &DVector<f64>) -> Option<f64> {
+        Some(0.5 * self.residuals_at(x)?.norm_squared())
     }
 
-    fn jacobian(&self, x: &DVector<f64>) -> Option<DMatrix<f64>> {
-        // Central differences, block by block: a parameter moves only the observations of its
-        // camera or its board.
-        let rows = self.offsets[self.offsets.len() - 1];
-        let mut j = DMatrix::zeros(rows, x.len());
-        let most = self
-            .observations
-            .iter()
-            .map(|o| 2 * o.points.len())
-            .max()
-            .unwrap_or(0);
-        let (mut up_block, mut down_block) = (vec![0.0; most], vec![0.0; most]);
-        let first = if self.free_intrinsics {
-            0
-        } else {
-            9 * self.cameras
+    fn normal(&self, x: &DVector<f64>) -> Option<Normal> {
+        let n = x.len();
+        let mut normal = Normal {
+            jtj: DMatrix::zeros(n, n),
+            jtr: DVector::zeros(n),
+            cost: 0.0,
         };
-        for col in first..x.len() {
-            if self.fix_k3 && col < 9 * self.cameras && col % 9 == 8 {
-                continue;
+        for o in &self.observations {
+            self.accumulate(x, o, &mut normal)?;
+        }
+        Some(normal)
+    }
+
+    fn arrowhead(&self) -> Option<Arrowhead> {
+        Some(Arrowhead {
+            global: self.board_at(0),
+            block: 6,
+        })
+    }
+}
+
+/// Columns of one observation's Jacobian: its camera's 9 intrinsics, its camera's pose (6),
+/// its board's pose (6).
+const LOCAL: usize = 21;
+
+impl Problem {
+    /// Adds observation `o`'s residuals to the normal equations, with their analytic
+    /// Jacobian (rotations by their exact derivative in the rotation vector).
+    fn accumulate(&self, x: &DVector<f64>, o: &Observation, normal: &mut Normal) -> Option<()> {
+        let p = &x.as_slice()[9 * o.camera..9 * o.camera + 9];
+        let d = Distortion::from_opencv(&p[4..9]).ok()?;
+        let (fx, fy) = (p[0], p[1]);
+        let cam_at = 9 * self.cameras + 6 * o.camera.saturating_sub(1);
+        let board_at = self.board_at(o.board);
+        let cam = self.camera_pose(x, o.camera);
+        let board = Self::pose_at(x, board_at);
+        let cam_jl = left_jacobian(cam.rotation.scaled_axis());
+        let board_jl = left_jacobian(board.rotation.scaled_axis());
+        let mut jtj = SMatrix::<f64, LOCAL, LOCAL>::zeros();
+        let mut jtr = SVector::<f64, LOCAL>::zeros();
+        for (pt, obs) in o.points.iter().zip(&o.corners) {
+            let q = board.rotation * pt.coords + board.translation;
+            let c = cam.rotation * q + cam.translation;
+            if c.z <= 1e-9 {
+                return None;
             }
-            let touches = |o: &Observation| -> bool {
-                if col < 9 * self.cameras {
-                    o.camera == col / 9
-                } else if col < self.board_at(0) {
-                    o.camera == 1 + (col - 9 * self.cameras) / 6
-                } else {
-                    o.board == (col - self.board_at(0)) / 6
+            let u = Vector2::new(c.x / c.z, c.y / c.z);
+            let (n, jd) = d.distort_with_jacobian(u);
+            let r = Vector2::new(obs.x - (fx * n.x + p[2]), obs.y - (fy * n.y + p[3]));
+            // ∂r/∂c = −diag(fx, fy)·∂n/∂u·∂u/∂c.
+            let du = Matrix2x3::new(1.0 / c.z, 0.0, -u.x / c.z, 0.0, 1.0 / c.z, -u.y / c.z);
+            let dr_dc = -(Matrix2::new(fx, 0.0, 0.0, fy) * jd * du);
+            let mut j = SMatrix::<f64, 2, LOCAL>::zeros();
+            if self.free_intrinsics {
+                let (x2, y2) = (u.x * u.x, u.y * u.y);
+                let r2 = x2 + y2;
+                let xy = 2.0 * u.x * u.y;
+                // ∂n/∂(k1, k2, p1, p2, k3) of the plumb-bob model.
+                let dn = Matrix2x5::new(
+                    u.x * r2,
+                    u.x * r2 * r2,
+                    xy,
+                    r2 + 2.0 * x2,
+                    u.x * r2 * r2 * r2,
+                    u.y * r2,
+                    u.y * r2 * r2,
+                    r2 + 2.0 * y2,
+                    xy,
+                    u.y * r2 * r2 * r2,
+                );
+                j.fixed_view_mut::<2, 4>(0, 0)
+                    .copy_from(&-Matrix2x4::new(n.x, 0.0, 1.0, 0.0, 0.0, n.y, 0.0, 1.0));
+                j.fixed_view_mut::<2, 5>(0, 4)
+                    .copy_from(&-(Matrix2::new(fx, 0.0, 0.0, fy) * dn));
+                if self.fix_k3 {
+                    j.fixed_view_mut::<2, 1>(0, 8).fill(0.0);
                 }
-            };
-            let h = 1e-6 * x[col].abs().max(1e-3);
-            let (mut up, mut down) = (x.clone(), x.clone());
-            up[col] += h;
-            down[col] -= h;
-            for (i, o) in self.observations.iter().enumerate() {
-                if !touches(o) {
-                    continue;
-                }
-                let per = 2 * o.points.len();
-                self.block(&up, o, &mut up_block[..per])?;
-                self.block(&down, o, &mut down_block[..per])?;
-                let first = self.offsets[i];
-                for row in 0..per {
-                    j[(first + row, col)] = (up_block[row] - down_block[row]) / (2.0 * h);
-                }
+            }
+            if o.camera > 0 {
+                let rq = cam.rotation * q;
+                j.fixed_view_mut::<2, 3>(0, 9)
+                    .copy_from(&(dr_dc * -(rq.cross_matrix() * cam_jl)));
+                j.fixed_view_mut::<2, 3>(0, 12).copy_from(&dr_dc);
+            }
+            let dr_dq = dr_dc * cam.rotation.matrix();
+            let rp = board.rotation * pt.coords;
+            j.fixed_view_mut::<2, 3>(0, 15)
+                .copy_from(&(dr_dq * -(rp.cross_matrix() * board_jl)));
+            j.fixed_view_mut::<2, 3>(0, 18).copy_from(&dr_dq);
+            jtj += j.transpose() * j;
+            jtr += j.transpose() * r;
+            normal.cost += 0.5 * r.norm_squared();
+        }
+        let column = |k: usize| match k {
+            0..9 => 9 * o.camera + k,
+            9..15 => cam_at + k - 9,
+            _ => board_at + k - 15,
+        };
+        let used: Vec<usize> = (0..LOCAL)
+            .filter(|&k| (o.camera > 0 || !(9..15).contains(&k)) && jtj[(k, k)] != 0.0)
+            .collect();
+        for &a in &used {
+            normal.jtr[column(a)] += jtr[a];
+            for &b in &used {
+                normal.jtj[(column(a), column(b))] += jtj[(a, b)];
             }
         }
-        Some(j)
+        Some(())
+    }
+}
+
+/// The left Jacobian of SO(3) at rotation vector `w`: d(exp(w + δ)) = exp(J·δ)·exp(w), so
+/// ∂(exp(w)·q)/∂w = −[exp(w)·q]×·J.
+fn left_jacobian(w: Vector3<f64>) -> Matrix3<f64> {
+    let theta2 = w.norm_squared();
+    let k = w.cross_matrix();
+    let (a, b) = if theta2 < 1e-8 {
+        (0.5 - theta2 / 24.0, 1.0 / 6.0 - theta2 / 120.0)
+    } else {
+        let theta = theta2.sqrt();
+        (
+            (1.0 - theta.cos()) / theta2,
+            (theta - theta.sin()) / (theta2 * theta),
+        )
+    };
+    Matrix3::identity() + k * a + k * k * b
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two cameras, two boards, distortion everywhere: the analytic normal equations must be
+    /// those of the residuals' central differences.
+    #[test]
+    fn the_analytic_normal_equations_match_finite_differences() {
+        let points: Vec<Point3<f64>> = (0..12)
+            .map(|i| Point3::new(30.0 * (i % 4) as f64, 30.0 * (i / 4) as f64, 0.0))
+            .collect();
+        let observation = |camera, board, shift: f64| Observation {
+            camera,
+            board,
+            corners: (0..12)
+                .map(|i| {
+                    Point2::new(
+                        300.0 + 40.0 * (i % 4) as f64 + shift,
+                        200.0 + 35.0 * (i / 4) as f64,
+                    )
+                })
+                .collect(),
+            points: points.clone(),
+        };
+        let x = DVector::from_vec(vec![
+            800.0, 790.0, 320.0, 240.0, -0.2, 0.08, 0.001, -0.002, 0.01, // camera 0
+            700.0, 705.0, 330.0, 250.0, 0.1, -0.05, -0.001, 0.003, -0.02, // camera 1
+            0.1, -0.4, 0.05, -300.0, 10.0, 80.0, // camera 1's pose
+            0.2, 0.1, -0.3, -40.0, -30.0, 600.0, // board 0
+            -0.3, 0.25, 1.2, 10.0, -20.0, 550.0, // board 1
+        ]);
+        for (free_intrinsics, fix_k3) in [(true, false), (true, true), (false, false)] {
+            let problem = Problem::new(
+                vec![
+                    observation(0, 0, 0.0),
+                    observation(1, 0, 3.0),
+                    observation(0, 1, -2.0),
+                    observation(1, 1, 1.0),
+                ],
+                2,
+                free_intrinsics,
+                fix_k3,
+                x.clone(),
+            );
+            let normal = problem.normal(&x).unwrap();
+            let r = problem.residuals_at(&x).unwrap();
+            let mut j = flexshape_lsq::central_differences(
+                &x,
+                |_, v| 1e-6 * v.abs().max(1e-3),
+                |x| problem.residuals_at(x),
+            )
+            .unwrap();
+            for col in 0..x.len() {
+                let held = (!free_intrinsics && col < 18) || (fix_k3 && col < 18 && col % 9 == 8);
+                if held {
+                    j.column_mut(col).fill(0.0);
+                }
+            }
+            let jtj = j.transpose() * &j;
+            let jtr = j.transpose() * &r;
+            assert!((normal.cost - 0.5 * r.norm_squared()).abs() < 1e-9 * normal.cost);
+            let scale = jtj.amax();
+            assert!((normal.jtj - &jtj).amax() < 1e-6 * scale, "JᵀJ differs");
+            assert!(
+                (normal.jtr - &jtr).amax() < 1e-6 * jtr.amax(),
+                "Jᵀr differs"
+            );
+        }
     }
 }

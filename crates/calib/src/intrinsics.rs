@@ -2,7 +2,7 @@
 //! Levenberg–Marquardt on the reprojection error, from the closed-form start.
 
 use flexshape_camera::{Distortion, Intrinsics};
-use flexshape_lsq::{LevenbergMarquardt, Residuals, minimize};
+use flexshape_lsq::{NormalEquations, Settings, global_inverse, minimize_normal};
 
 use nalgebra::{DVector, Matrix3, Point2, Rotation3, Vector3};
 use serde::Serialize;
@@ -161,15 +161,13 @@ fn solve(
         settings.fix_k3,
         DVector::from_vec(x),
     );
-    let solver = LevenbergMarquardt::new().with_xtol(1e-12).with_ftol(1e-14);
-    problem.x = minimize(&problem, problem.x.clone(), solver).x;
+    problem.x = minimize_normal(&problem, problem.x.clone(), &Settings::default())
+        .ok_or_else(|| CalibError::Degenerate("the refinement started out of range".into()))?
+        .x;
     let x = problem.x.clone();
-    let r = problem
-        .residuals(&problem.x)
-        .ok_or_else(|| CalibError::Degenerate("the refinement left the valid range".into()))?;
-    let j = problem
-        .jacobian(&problem.x)
-        .ok_or_else(|| CalibError::Degenerate("the refinement left the valid range".into()))?;
+    let out_of_range = || CalibError::Degenerate("the refinement left the valid range".into());
+    let r = problem.residuals_at(&problem.x).ok_or_else(out_of_range)?;
+    let normal = problem.normal(&problem.x).ok_or_else(out_of_range)?;
     let distortion = Distortion::from_opencv(&[x[4], x[5], x[6], x[7], x[8]])
         .map_err(|e| CalibError::Degenerate(e.to_string()))?;
     let intrinsics = Intrinsics::new(width, height, x[0], x[1], x[2], x[3], distortion)
@@ -204,12 +202,10 @@ fn solve(
     }
     let dof = (r.len() as f64 - x.len() as f64).max(1.0);
     let sigma2 = r.norm_squared() / dof;
-    let mut normal = j.transpose() * &j;
-    if settings.fix_k3 {
-        // k3's column is zero: give it a unit diagonal so the others' covariance exists.
-        normal[(8, 8)] = 1.0;
-    }
-    let cov = normal.try_inverse();
+    // Held parameters (k3 when fixed) get a unit diagonal so the others' covariance exists.
+    let cov = problem
+        .arrowhead()
+        .and_then(|a| global_inverse(&normal.jtj, a));
     let std_dev = std::array::from_fn(|k| match &cov {
         Some(c) if !(settings.fix_k3 && k == 8) => (sigma2 * c[(k, k)]).max(0.0).sqrt(),
         _ => 0.0,

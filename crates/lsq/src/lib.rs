@@ -2,6 +2,9 @@
 //! residuals are at a parameter vector (and, when it can, its Jacobian there), and
 //! [`minimize`] runs Levenberg–Marquardt on it from a start. Problems without an analytic
 //! Jacobian get central differences ([`central_differences`]) with steps they may choose.
+//! Problems too large for a dense QR of their Jacobian (a calibration's hundreds of board
+//! poses) build their own normal equations instead and are solved by [`minimize_normal`],
+//! which eliminates bundle adjustment's independent blocks by the Schur complement.
 //!
 //! ```
 //! use flexshape_lsq::{Residuals, minimize, nalgebra::DVector};
@@ -19,8 +22,13 @@
 //! assert!((solved.x[2] - 1.0).abs() < 1e-9);
 //! ```
 
+mod normal;
+
 pub use levenberg_marquardt::{LevenbergMarquardt, MinimizationReport, TerminationReason};
 pub use nalgebra;
+pub use normal::{
+    Arrowhead, Normal, NormalEquations, NormalSolution, Settings, global_inverse, minimize_normal,
+};
 
 use levenberg_marquardt::LeastSquaresProblem;
 use nalgebra::storage::Owned;
