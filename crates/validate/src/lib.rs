@@ -6,7 +6,9 @@
 //!   shape (CAD), paired along the length and registered per pose: per-axis RMS along the whole
 //!   length and at the marked points (Section III-B).
 //! - [`extract`]: the sensed point of a frame (tip, a band, or the extreme along a direction).
-//! - [`simulated`]: both experiments on the simulated rig with known truth.
+//! - [`simulated`]: both experiments on the simulated rig with known truth;
+//!   [`SimulatedValidation`] runs them with the image fit and the hull alone, and prints them
+//!   beside the paper's figures ([`PAPER`]).
 //! - [`figures`]: the experiments' figures and a tracking output's (PNG + SVG).
 //!
 //! World frame and mm throughout; per-axis errors are in the tracking system's frame, as in
@@ -31,6 +33,7 @@ mod accuracy;
 mod extract;
 pub mod figures;
 mod records;
+mod report;
 mod shape;
 pub mod simulated;
 
@@ -39,6 +42,7 @@ use thiserror::Error;
 pub use accuracy::{AccuracyReport, accuracy};
 pub use extract::{Extraction, extract};
 pub use records::{ShapeRun, compare_records};
+pub use report::{HullReport, PAPER, PaperFigures, SimulatedValidation};
 pub use shape::{KnownShape, PoseComparison, PrecisionReport, compare_shape, precision};
 
 /// Why an experiment cannot be evaluated.

@@ -6,21 +6,14 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use flexshape_camera::nalgebra::Point3;
 use flexshape_curve::Polyline;
-use flexshape_fit::Method;
-use flexshape_validate::simulated::{Experiments, accuracy_experiment, precision_experiment};
+use flexshape_validate::simulated::Experiments;
 use flexshape_validate::{
-    AccuracyReport, Extraction, KnownShape, PrecisionReport, accuracy, compare_records, extract,
-    figures, precision,
+    Extraction, KnownShape, PrecisionReport, SimulatedValidation, accuracy, compare_records,
+    extract, figures, precision,
 };
 use serde::Serialize;
 
 use crate::cli::{ValidateArgs, ValidatePointsArgs, ValidateShapeArgs};
-
-/// The paper's figures (Section III): accuracy against the digitizer, precision along the
-/// machined object and at its bands, mm per axis.
-const PAPER_ACCURACY: [f64; 3] = [0.72, 0.61, 0.64];
-const PAPER_ALONG: [f64; 3] = [0.69, 0.59, 0.24];
-const PAPER_BANDS: [f64; 3] = [0.49, 0.77, 0.47];
 
 /// Points from a CSV of `x,y,z` lines; a first line that is not numeric is a header.
 fn read_points(path: &Path) -> anyhow::Result<Vec<Point3<f64>>> {
@@ -31,16 +24,6 @@ fn read_points(path: &Path) -> anyhow::Result<Vec<Point3<f64>>> {
             .collect(),
     )
 }
-
-fn rms_line(name: &str, got: [f64; 3], paper: [f64; 3]) -> String {
-    format!(
-        "{name:<34} {:>6.3} {:>6.3} {:>6.3}    {:>5.2} {:>5.2} {:>5.2}",
-        got[0], got[1], got[2], paper[0], paper[1], paper[2]
-    )
-}
-
-const HEADER: &str =
-    "                                   rms x  rms y  rms z    paper (Section III)";
 
 pub fn points(args: &ValidatePointsArgs) -> anyhow::Result<()> {
     let sensed = match (&args.sensed, &args.sensed_from) {
@@ -75,7 +58,7 @@ pub fn points(args: &ValidatePointsArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
     }
-    print_accuracy(&report);
+    print!("{report}");
     println!(
         "translation [{:.3}, {:.3}, {:.3}] mm; rotation rows {:?}",
         report.translation[0],
@@ -84,33 +67,6 @@ pub fn points(args: &ValidatePointsArgs) -> anyhow::Result<()> {
         report.rotation.map(|r| r.map(|v| (v * 1e6).round() / 1e6))
     );
     Ok(())
-}
-
-fn print_accuracy(r: &AccuracyReport) {
-    println!(
-        "Accuracy: {} point pairs registered (reference → sensed); 3-D rms {:.3} mm, max {:.3} mm",
-        r.points, r.rms, r.max
-    );
-    println!("{HEADER}");
-    println!("{}", rms_line("points (mm)", r.rms_axis(), PAPER_ACCURACY));
-}
-
-fn print_precision(r: &PrecisionReport) {
-    println!(
-        "Precision: {} poses; along the length 3-D rms {:.3} mm (max {:.3}), at the marks 3-D rms {:.3} mm (max {:.3})",
-        r.poses, r.rms_along_3d, r.max_along, r.rms_marks_3d, r.max_marks
-    );
-    println!("{HEADER}");
-    println!(
-        "{}",
-        rms_line("along the length (mm)", r.rms_along, PAPER_ALONG)
-    );
-    if r.rms_marks_3d > 0.0 || r.max_marks > 0.0 {
-        println!(
-            "{}",
-            rms_line("at the marked points (mm)", r.rms_marks, PAPER_BANDS)
-        );
-    }
 }
 
 #[derive(Serialize)]
@@ -144,34 +100,11 @@ pub fn shape(args: &ValidateShapeArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
     }
-    print_precision(&report);
+    print!("{report}");
     for s in &run.skipped {
         println!("skipped {s}");
     }
     Ok(())
-}
-
-#[derive(Serialize)]
-struct SimulatedReport {
-    accuracy: AccuracyReport,
-    precision: PrecisionReport,
-    /// The same experiments with the hull's centerline alone (`--method hull`).
-    hull: HullReport,
-    paper: PaperFigures,
-    skipped: Vec<String>,
-}
-
-#[derive(Serialize)]
-struct HullReport {
-    accuracy: AccuracyReport,
-    precision: PrecisionReport,
-}
-
-#[derive(Serialize)]
-struct PaperFigures {
-    accuracy: [f64; 3],
-    precision_along: [f64; 3],
-    precision_bands: [f64; 3],
 }
 
 pub fn simulate(args: &ValidateArgs) -> anyhow::Result<()> {
@@ -183,93 +116,20 @@ pub fn simulate(args: &ValidateArgs) -> anyhow::Result<()> {
         "simulating {} stylus poses and {} poses of the S-bent object …",
         experiments.probe_poses, experiments.object_poses
     );
-    let acc = accuracy_experiment(&experiments).context("the simulated accuracy experiment")?;
-    let pre = precision_experiment(&experiments).context("the simulated precision experiment")?;
-    // The same poses with the hull's centerline alone, to show what the image fit gains.
-    let hull_experiments = Experiments {
-        method: Method::Hull,
-        ..experiments.clone()
-    };
-    let hull_acc = accuracy_experiment(&hull_experiments)
-        .context("the simulated accuracy experiment (hull)")?;
-    let hull_pre = precision_experiment(&hull_experiments)
-        .context("the simulated precision experiment (hull)")?;
+    let validation =
+        SimulatedValidation::run(&experiments).context("the simulated validation experiments")?;
     if let Some(dir) = &args.out {
-        let mut files = figures::accuracy(dir, &acc.report, &acc.sensed)?;
-        files.extend(figures::precision(
-            dir,
-            &pre.poses,
-            &pre.sensed,
-            &pre.sensed_marks,
-            &pre.cloud,
-        )?);
-        flexshape_validate::simulated::write_data(dir, &acc, &pre)?;
+        let files = validation.write(dir)?;
         eprintln!(
             "wrote {} figures and the experiments' data to {}",
             files.len(),
             dir.display()
         );
     }
-    let skipped: Vec<String> = acc.skipped.iter().chain(&pre.skipped).cloned().collect();
     if args.json {
-        let out = SimulatedReport {
-            accuracy: acc.report,
-            precision: pre.report,
-            hull: HullReport {
-                accuracy: hull_acc.report,
-                precision: hull_pre.report,
-            },
-            paper: PaperFigures {
-                accuracy: PAPER_ACCURACY,
-                precision_along: PAPER_ALONG,
-                precision_bands: PAPER_BANDS,
-            },
-            skipped,
-        };
-        println!("{}", serde_json::to_string_pretty(&out)?);
-        return Ok(());
-    }
-    println!(
-        "Simulated validation (seed {}; default rig: 3 cameras 640×480, 1 mm voxels; reference noise {} mm per axis)\n",
-        args.seed, experiments.reference_noise_mm
-    );
-    print_accuracy(&acc.report);
-    println!();
-    print_precision(&pre.report);
-    print_fit_against_hull(
-        [&acc.report, &hull_acc.report],
-        [&pre.report, &hull_pre.report],
-    );
-    for s in &skipped {
-        println!("skipped {s}");
+        println!("{}", serde_json::to_string_pretty(&validation)?);
+    } else {
+        print!("{validation}");
     }
     Ok(())
-}
-
-/// The image fit's figures beside the hull's alone (`--method hull`), rms x/y/z mm.
-fn print_fit_against_hull(accuracy: [&AccuracyReport; 2], precision: [&PrecisionReport; 2]) {
-    println!(
-        "\nThe tube fitted to the images against the hull's centerline alone (--method hull), rms x/y/z mm:"
-    );
-    let side = |name: &str, fit: [f64; 3], hull: [f64; 3]| {
-        println!(
-            "  {name:<26} fit {:.3} {:.3} {:.3}   hull {:.3} {:.3} {:.3}",
-            fit[0], fit[1], fit[2], hull[0], hull[1], hull[2]
-        )
-    };
-    side(
-        "accuracy (points)",
-        accuracy[0].rms_axis(),
-        accuracy[1].rms_axis(),
-    );
-    side(
-        "precision along the length",
-        precision[0].rms_along,
-        precision[1].rms_along,
-    );
-    side(
-        "precision at the marks",
-        precision[0].rms_marks,
-        precision[1].rms_marks,
-    );
 }
