@@ -25,6 +25,7 @@
 //! ```
 
 mod errors;
+mod report;
 mod rig;
 
 use std::path::Path;
@@ -37,6 +38,7 @@ use flexshape_sim::{SimConfig, Simulator};
 use flexshape_track::{ModelFrame, Pipeline, Processed};
 
 pub use errors::{DemoFigures, ShapeErrors};
+pub use report::table_header;
 pub use rig::{DemoRig, OnDemand};
 
 use crate::LabError;
