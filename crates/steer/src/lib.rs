@@ -32,6 +32,10 @@
 //! # }
 //! ```
 
+mod report;
+
+pub use report::SteerSummary;
+
 use std::ops::ControlFlow;
 
 use flexshape_curve::Frame;

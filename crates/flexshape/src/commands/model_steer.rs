@@ -7,7 +7,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, ensure};
 use flexshape_sim::SimConfig;
-use flexshape_steer::{SteerFrame, SteerSettings, SteerStep, reachable_targets, steer_with_frames};
+use flexshape_steer::{
+    SteerFrame, SteerSettings, SteerStep, SteerSummary, reachable_targets, steer_with_frames,
+};
 use flexshape_track::Processed;
 use flexshape_viewer::{Steering, SteeringSample};
 
@@ -39,10 +41,7 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
         .context("cannot find targets the catheter reaches")?;
     let stop = Interrupt::install();
     if !args.json {
-        println!(
-            "{:>5} {:>6} {:>14} {:>10} {:>10} {:>10} {:>10}",
-            "frame", "target", "status", "sensed mm", "true mm", "Kx used", "Kz used"
-        );
+        println!("{}", SteerStep::table_header());
     }
     let true_stiffness = [truth.stiffness.kx, truth.stiffness.kz];
     let mut frames = Frames {
@@ -69,7 +68,12 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.plots {
         flexshape_steer::figure(dir, &steps, true_stiffness)?;
     }
-    print_summary(args.json, &steps, targets.len(), learnt, &truth, &nominal);
+    let summary = SteerSummary::of(&steps, targets.len(), learnt, &truth, &nominal);
+    if args.json {
+        println!("{}", serde_json::to_string(&summary)?);
+    } else {
+        println!("\n{summary}");
+    }
     if let Some(l) = &frames.live {
         eprintln!("viewer: the last frame stays at {} until Ctrl-C", l.url());
         while !stop.requested() {
@@ -77,44 +81,6 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// The loop's outcome: each target's final true tip error and the stiffnesses learnt.
-fn print_summary(
-    json: bool,
-    steps: &[SteerStep],
-    targets: usize,
-    learnt: Option<flexshape_model::Stiffness>,
-    truth: &flexshape_model::ManipulatorParams,
-    nominal: &flexshape_model::ManipulatorParams,
-) {
-    let true_stiffness = [truth.stiffness.kx, truth.stiffness.kz];
-    let finals: Vec<f64> = (0..targets)
-        .filter_map(|t| steps.iter().rfind(|s| s.target_index == t))
-        .map(|s| s.true_error_mm)
-        .collect();
-    let worst = finals.iter().copied().fold(0.0, f64::max);
-    if json {
-        let summary = serde_json::json!({
-            "frames": steps.len(),
-            "final_true_error_mm": finals,
-            "worst_final_true_error_mm": worst,
-            "true_stiffness": true_stiffness,
-            "learnt_stiffness": learnt.map(|k| [k.kx, k.kz]),
-        });
-        println!("{summary}");
-    } else {
-        println!(
-            "\n{} frames; tip at the end of each target within {worst:.3} mm of it (true tip); \
-             Kx, Kz learnt online: {} (truth {:.1}, {:.1}; the file said {:.1}, {:.1})",
-            steps.len(),
-            learnt.map_or("not yet".into(), |k| format!("{:.1}, {:.1}", k.kx, k.kz)),
-            truth.stiffness.kx,
-            truth.stiffness.kz,
-            nominal.stiffness.kx,
-            nominal.stiffness.kz
-        );
-    }
 }
 
 /// `--stiffness-error KX,KZ`: two percentages above −90.
@@ -163,16 +129,7 @@ impl Frames<'_> {
                 println!("{line}");
             }
         } else {
-            println!(
-                "{:>5} {:>6} {:>14} {:>10} {:>10.3} {:>10.1} {:>10.1}",
-                s.frame,
-                s.target_index,
-                s.status,
-                s.sensed_error_mm.map_or("—".into(), |e| format!("{e:.3}")),
-                s.true_error_mm,
-                s.stiffness[0],
-                s.stiffness[1]
-            );
+            println!("{}", s.row());
         }
         if self.stop.requested() {
             ControlFlow::Break(())
