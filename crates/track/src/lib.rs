@@ -23,6 +23,7 @@
 //! ```
 
 mod backdrop;
+mod inspect;
 mod open;
 pub mod output;
 mod pipeline;
@@ -44,6 +45,7 @@ use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
 pub use backdrop::BackgroundUpdate;
+pub use inspect::Inspection;
 pub use open::{Recording, TrackLine, load_backgrounds, parse_line, read_records};
 pub use pipeline::{
     Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, StageTimings, Start, Tracked,
