@@ -23,6 +23,7 @@
 //! ```
 
 mod backdrop;
+mod hull_record;
 mod inspect;
 mod open;
 pub mod output;
@@ -45,6 +46,7 @@ use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
 pub use backdrop::BackgroundUpdate;
+pub use hull_record::{HullRecord, carve_frame};
 pub use inspect::Inspection;
 pub use open::{Recording, TrackLine, load_backgrounds, parse_line, read_records};
 pub use pipeline::{

@@ -1,0 +1,133 @@
+//! The visual hull alone, for any object (`flexshape carve`): one frame's hull as files and
+//! as its line of `hull.jsonl` (`docs/formats.md`).
+
+use std::path::Path;
+
+use flexshape_carve::PlyEncoding;
+use flexshape_input::FrameSet;
+use serde::Serialize;
+
+use crate::{Hull, Pipeline, TrackError};
+
+/// One frame's line of `hull.jsonl` (`docs/formats.md`).
+#[derive(Debug, Serialize)]
+pub struct HullRecord {
+    /// Frame number.
+    pub frame: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    /// The frame's name, when its input has one.
+    pub name: Option<String>,
+    /// `ok`, `no_object`, `bad_silhouette` or `error`.
+    pub status: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    /// Why, when not `ok`.
+    pub reason: Option<String>,
+    /// Occupied voxels.
+    pub voxels: usize,
+    /// Their volume, mm³.
+    pub volume_mm3: f64,
+    /// The hull surface's area, mm² (0 unless `ok`).
+    pub surface_mm2: f64,
+    /// Smallest and largest corner of the occupied voxels' box, world mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bounds: Option<[[f64; 3]; 2]>,
+    /// Object pixels per camera, in the rig's order.
+    pub silhouette_pixels: Vec<usize>,
+    /// Time of the silhouette stage, ms.
+    pub silhouettes_ms: f64,
+    /// Time of the carving stage, ms.
+    pub carve_ms: f64,
+}
+
+/// One frame's visual hull for any object: its voxel centres (`NNNNNN.ply`) and surface
+/// (`NNNNNN.surface.ply`) written to `dir` when carved; a frame that cannot be read or carved
+/// is an `error` record. Fails only when a file cannot be written.
+pub fn carve_frame(
+    pipeline: &Pipeline,
+    set: FrameSet,
+    dir: &Path,
+    encoding: PlyEncoding,
+) -> Result<HullRecord, TrackError> {
+    let (frame, name) = (set.frame, set.name.clone());
+    let images = match pipeline.load(set.images) {
+        Ok((i, _)) => i,
+        Err(e) => return Ok(HullRecord::error(frame, name, e)),
+    };
+    let refs: Vec<_> = images.iter().collect();
+    let hull = match pipeline.hull(&refs) {
+        Ok(h) => h,
+        Err(e) => return Ok(HullRecord::error(frame, name, e.to_string())),
+    };
+    let mut record = HullRecord::of(frame, name, &hull);
+    if record.status == "ok" {
+        let cloud = dir.join(format!("{frame:06}.ply"));
+        hull.occupancy
+            .to_cloud()
+            .write_ply(&cloud, encoding)
+            .map_err(|e| TrackError::Output(format!("cannot write {}: {e}", cloud.display())))?;
+        let surface = hull.occupancy.surface();
+        let mesh = dir.join(format!("{frame:06}.surface.ply"));
+        surface
+            .write_ply(&mesh, encoding)
+            .map_err(|e| TrackError::Output(format!("cannot write {}: {e}", mesh.display())))?;
+        record.surface_mm2 = surface.area_mm2;
+    }
+    Ok(record)
+}
+
+impl HullRecord {
+    /// The record of `hull` (frame `frame`, named `name`).
+    pub fn of(frame: u64, name: Option<String>, hull: &Hull) -> Self {
+        let occ = &hull.occupancy;
+        let (status, reason) = match (&hull.implausible, occ.is_empty()) {
+            (Some(r), _) => ("bad_silhouette", Some(r.clone())),
+            (None, true) => (
+                "no_object",
+                Some("nothing is left after carving: the object is outside the volume or missing from a camera's silhouette".into()),
+            ),
+            (None, false) => ("ok", None),
+        };
+        let bounds = (!occ.is_empty()).then(|| {
+            let v = &occ.volume;
+            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+            for &i in &occ.voxels {
+                let ijk = occ.ijk(i);
+                for a in 0..3 {
+                    lo[a] = lo[a].min(v.origin[a] + ijk[a] as f64 * v.voxel_size[a]);
+                    hi[a] = hi[a].max(v.origin[a] + (ijk[a] + 1) as f64 * v.voxel_size[a]);
+                }
+            }
+            [lo, hi]
+        });
+        HullRecord {
+            frame,
+            name,
+            status,
+            reason,
+            voxels: occ.len(),
+            volume_mm3: occ.volume_mm3(),
+            surface_mm2: 0.0,
+            bounds,
+            silhouette_pixels: hull.silhouettes.iter().map(|s| s.object.count()).collect(),
+            silhouettes_ms: hull.timings.silhouettes,
+            carve_ms: hull.timings.carve,
+        }
+    }
+
+    /// The record of a frame that could not be carved, and why.
+    pub fn error(frame: u64, name: Option<String>, reason: String) -> Self {
+        HullRecord {
+            frame,
+            name,
+            status: "error",
+            reason: Some(reason),
+            voxels: 0,
+            volume_mm3: 0.0,
+            surface_mm2: 0.0,
+            bounds: None,
+            silhouette_pixels: Vec::new(),
+            silhouettes_ms: 0.0,
+            carve_ms: 0.0,
+        }
+    }
+}
