@@ -31,6 +31,7 @@
 //! ```
 
 pub mod camera_file;
+mod check;
 pub mod coverage;
 mod error;
 pub mod files;
@@ -40,6 +41,7 @@ mod opencv_matrix;
 mod rig;
 mod volume;
 
+pub use check::{CameraView, RigCheck, short};
 pub use error::RigError;
 pub use rig::{Rig, RigCamera, SkippedFile, valid_name};
 pub use volume::{MAX_VOXELS, Volume, VolumeError};

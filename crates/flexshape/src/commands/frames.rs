@@ -39,8 +39,8 @@ pub fn warn_unseen(rig: &Rig, volume: &Volume) {
     if unseen > 4 {
         eprintln!(
             "warning: {unseen} of the volume's 8 corners are seen by no camera: the volume may not be where the cameras look{}",
-            super::suggested_volume(&cameras, volume.voxel_size[0])
-                .map(|s| format!("; every camera sees {s}"))
+            flexshape_rig::coverage::suggest_volume(&cameras, volume.voxel_size[0])
+                .map(|s| format!("; every camera sees {}", s.as_options()))
                 .unwrap_or_default()
         );
     }

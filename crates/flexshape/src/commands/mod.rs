@@ -149,28 +149,3 @@ pub(crate) fn with_method(
         }
     }
 }
-
-/// The box every camera sees, as the `--volume` option that sets it, e.g.
-/// `--volume -60,-60,-60,60,60,60 --voxel 1` (or `None`).
-fn suggested_volume(cameras: &[flexshape_camera::Camera], voxel: f64) -> Option<String> {
-    let v = flexshape_rig::coverage::suggest_volume(cameras, voxel)?;
-    let hi = v.max_corner();
-    Some(format!(
-        "--volume {:.0},{:.0},{:.0},{:.0},{:.0},{:.0} --voxel {}",
-        v.origin[0],
-        v.origin[1],
-        v.origin[2],
-        hi.x,
-        hi.y,
-        hi.z,
-        short(v.voxel_size[0])
-    ))
-}
-
-/// A number for people: at most three decimals, no trailing zeros (`0.30000000000000004` →
-/// `0.3`, `-128` → `-128`).
-pub(crate) fn short(x: f64) -> String {
-    let s = format!("{x:.3}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" { "0".into() } else { s.into() }
-}
