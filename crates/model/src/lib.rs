@@ -44,6 +44,7 @@ mod joint;
 mod mechanics;
 mod params;
 mod plan;
+mod plan_report;
 mod sensing;
 mod tendons;
 
@@ -58,6 +59,7 @@ pub use joint::{JointEstimate, JointPose, identify_jointly};
 pub use mechanics::{Forward, Model};
 pub use params::{ManipulatorParams, Stiffness, Tendon};
 pub use plan::{ExperimentDesign, PlannedDesign, plan_experiment};
+pub use plan_report::{PlanCandidate, PlanReport, candidate_preloads};
 pub use sensing::{SensedPose, SensorFrame};
 pub use tendons::{TendonEstimate, estimate_tendons};
 
