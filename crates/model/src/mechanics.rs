@@ -185,3 +185,51 @@ impl Model {
         Ok(())
     }
 }
+
+impl Forward {
+    /// The header of [`Forward::csv_row`] for `tendons` tendons.
+    pub fn csv_header(tendons: usize) -> String {
+        let t: Vec<String> = (0..tendons).map(|i| format!("tension{i}_n")).collect();
+        format!(
+            "kappa_x_per_mm,kappa_z_per_mm,eps0,eps1,{},slack",
+            t.join(",")
+        )
+    }
+
+    /// `κx,κz,ε0,ε1` (1/mm), the tensions (N), and the slack tendons separated by spaces.
+    pub fn csv_row(&self) -> String {
+        let tensions: Vec<String> = self.tensions.iter().map(|t| format!("{t:.6}")).collect();
+        let slack: Vec<String> = self.slack.iter().map(|i| i.to_string()).collect();
+        format!(
+            "{:.9},{:.9},{:.9},{:.9},{},{}",
+            self.q[0],
+            self.q[1],
+            self.q[2],
+            self.q[3],
+            tensions.join(","),
+            slack.join(" ")
+        )
+    }
+}
+
+/// Three lines: the configuration, the tensions, the slack tendons.
+impl std::fmt::Display for Forward {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        let tensions: Vec<String> = self.tensions.iter().map(|t| format!("{t:.6}")).collect();
+        let slack: Vec<String> = self.slack.iter().map(|i| i.to_string()).collect();
+        write!(
+            f,
+            "κx {:.6} 1/mm, κz {:.6} 1/mm, ε0 {:.6}, ε1 {:.6}\ntensions (N): {}\nslack tendons: {}",
+            self.q[0],
+            self.q[1],
+            self.q[2],
+            self.q[3],
+            tensions.join(", "),
+            if slack.is_empty() {
+                "none".into()
+            } else {
+                slack.join(", ")
+            }
+        )
+    }
+}

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use anyhow::{Context, bail};
 use flexshape_model::nalgebra_types::{DVector, Vector4};
-use flexshape_model::{ManipulatorParams, Model};
+use flexshape_model::{Forward, ManipulatorParams, Model};
 
 use crate::cli::ModelArgs;
 
@@ -57,11 +57,7 @@ pub fn forward(args: &ModelArgs) -> anyhow::Result<()> {
     let n = model.params().tendons.len();
     let csv = args.csv.is_some();
     if csv {
-        let t: Vec<String> = (0..n).map(|i| format!("tension{i}_n")).collect();
-        println!(
-            "kappa_x_per_mm,kappa_z_per_mm,eps0,eps1,{},slack",
-            t.join(",")
-        );
+        println!("{}", Forward::csv_header(n));
     }
     for (place, y) in rows(args)? {
         if y.len() != n {
@@ -73,32 +69,10 @@ pub fn forward(args: &ModelArgs) -> anyhow::Result<()> {
         let f = model
             .forward(&DVector::from_vec(y))
             .with_context(|| place.clone())?;
-        let tensions: Vec<String> = f.tensions.iter().map(|t| format!("{t:.6}")).collect();
-        let slack: Vec<String> = f.slack.iter().map(|i| i.to_string()).collect();
         if csv {
-            println!(
-                "{:.9},{:.9},{:.9},{:.9},{},{}",
-                f.q[0],
-                f.q[1],
-                f.q[2],
-                f.q[3],
-                tensions.join(","),
-                slack.join(" ")
-            );
+            println!("{}", f.csv_row());
         } else {
-            println!(
-                "κx {:.6} 1/mm, κz {:.6} 1/mm, ε0 {:.6}, ε1 {:.6}\ntensions (N): {}\nslack tendons: {}",
-                f.q[0],
-                f.q[1],
-                f.q[2],
-                f.q[3],
-                tensions.join(", "),
-                if slack.is_empty() {
-                    "none".into()
-                } else {
-                    slack.join(", ")
-                }
-            );
+            println!("{f}");
         }
     }
     Ok(())
