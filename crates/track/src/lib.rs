@@ -31,6 +31,7 @@ mod pipeline;
 mod precision;
 mod record;
 mod refine;
+mod refine_report;
 mod runner;
 mod source;
 mod status;

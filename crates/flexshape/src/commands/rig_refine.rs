@@ -5,10 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flexshape_rig::Rig;
-use flexshape_track::{
-    MAX_SIGMA_MM, OutlineResiduals, Refinement, Verdict, refine_cameras, refined_camera_file,
-    sample_frames,
-};
+use flexshape_track::{refine_cameras, refined_camera_file, sample_frames};
 
 use super::frames;
 use crate::cli::RigRefineArgs;
@@ -45,12 +42,16 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
     if stop.requested() {
         bail!("interrupted: nothing written");
     }
-    print_refinement(&refinement, pipeline.fit_settings().max_residual_px);
-    if !worth_writing(&refinement) {
+    print!("{refinement}");
+    for w in refinement.warnings(pipeline.fit_settings().max_residual_px) {
+        eprintln!("warning: {w}");
+    }
+    if let Some(why) = refinement.not_worth_writing() {
+        println!("{why}");
         return Ok(());
     }
     let (before, after) = refinement.overall_rms();
-    let gain = 100.0 * (1.0 - after / before.max(1e-12));
+    let gain = refinement.gain_percent();
     let rig = refinement.rig(volume, input.rig.processing.clone());
     rig.save(&rig_path)
         .with_context(|| format!("cannot write the refined rig to {}", args.out.display()))?;
@@ -105,65 +106,10 @@ fn refuse_outputs(input: &flexshape_track::Input, args: &RigRefineArgs) -> anyho
     super::rig_import::refuse_existing(&planned, args.overwrite)
 }
 
-/// Whether the refined poses are worth writing; says why not when they are not.
-fn worth_writing(refinement: &Refinement) -> bool {
-    let (before, after) = refinement.overall_rms();
-    let gain = 100.0 * (1.0 - after / before.max(1e-12));
-    match refinement.verdict() {
-        Verdict::Better => true,
-        Verdict::NoBetter => {
-            println!(
-                "the rig's poses already explain the outlines ({before:.3} → {after:.3} px RMS, {gain:.0} % better, {} → {} frames right): the refinement is within its own noise; keep the rig (nothing written)",
-                refinement.right_before, refinement.right_after
-            );
-            false
-        }
-        Verdict::Undetermined { camera, sigma_mm } => {
-            println!(
-                "the frames do not pin camera {camera}'s pose down (±{sigma_mm:.2} mm at the tube, 1 σ; at most {MAX_SIGMA_MM}): the tubes fit a family of poses — with two cameras they always do; with more, record the tube in more varied shapes across the volume. Nothing written: calibrate the rig again instead"
-            );
-            false
-        }
-    }
-}
-
 fn camera_names(rig: &Rig) -> String {
     rig.cameras
         .iter()
         .map(|c| c.name.as_str())
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-/// The before/after table, and a warning for cameras the refined pose still leaves off.
-fn print_refinement(r: &Refinement, limit_px: f64) {
-    println!(
-        "{} of {} frames used ({} steps of the joint fit); frames right (tracked from scratch): {} with the rig's poses, {} with the refined ones",
-        r.used, r.frames, r.steps, r.right_before, r.right_after
-    );
-    println!(
-        "{:<12} {:>5} {:>22} {:>32} {:>9} {:>9} {:>9}",
-        "camera", "held", "outline RMS px", "image shift px (x, y)", "turned °", "moved mm", "± mm"
-    );
-    let shift = |o: &OutlineResiduals| format!("({:+.2}, {:+.2})", o.shift_px[0], o.shift_px[1]);
-    for c in &r.cameras {
-        println!(
-            "{:<12} {:>5} {:>22} {:>32} {:>9.3} {:>9.2} {:>9.3}",
-            c.name,
-            if c.held { "yes" } else { "" },
-            format!("{:.3} → {:.3}", c.before.rms_px, c.after.rms_px),
-            format!("{} → {}", shift(&c.before), shift(&c.after)),
-            c.rotation_rad.to_degrees(),
-            c.centre_moved_mm,
-            c.sigma_mm
-        );
-    }
-    for c in &r.cameras {
-        if c.after.rms_px > limit_px {
-            eprintln!(
-                "warning: camera {} still leaves its outlines {:.2} px RMS off (the self-check allows {limit_px:.2}): its lens model (intrinsics, distortion) may be off too, which refining the pose cannot mend; calibrate it again",
-                c.name, c.after.rms_px
-            );
-        }
-    }
 }
