@@ -565,3 +565,41 @@ pub fn quantile(values: &mut [f64], q: f64) -> f64 {
         .copied()
         .unwrap_or(0.0)
 }
+
+impl TrackSummary {
+    /// The run in one line: frames (with those dropped, for a `live` source), speed, latency
+    /// and per-stage times.
+    pub fn line(&self, live: bool, stopped: bool) -> String {
+        let summary = self;
+        let startup_s = self.startup_s.unwrap_or(0.0);
+        format!(
+            "{} frames ({} ok, {} errors{}{}) in {:.2} s (after {:.2} s of start-up), {:.1} frames/s{}; ms per stage, median/p95: {}",
+            summary.frames,
+            summary.ok,
+            summary.errors,
+            if live {
+                format!(", {} dropped", summary.dropped)
+            } else {
+                String::new()
+            },
+            if stopped { ", stopped early" } else { "" },
+            summary.seconds,
+            startup_s,
+            summary.fps,
+            summary
+                .latency_ms
+                .as_ref()
+                .map(|l| format!(
+                    ", latency {:.1} ms median / {:.1} ms p95",
+                    l.median_ms, l.p95_ms
+                ))
+                .unwrap_or_default(),
+            summary
+                .stages
+                .iter()
+                .map(|s| format!("{} {:.2}/{:.2}", s.stage, s.median_ms, s.p95_ms))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    }
+}

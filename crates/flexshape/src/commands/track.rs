@@ -66,10 +66,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     if let Some(e) = frames.failure {
         return Err(e);
     }
-    eprintln!(
-        "{}",
-        summary_line(&summary, startup_s, input.source.is_live(), end.stopped)
-    );
+    eprintln!("{}", summary.line(input.source.is_live(), end.stopped));
     if let Some(e) = end.input_error {
         bail!("the input broke after {} frames: {e}", summary.frames);
     }
@@ -153,39 +150,6 @@ impl Frames {
         }
         ControlFlow::Continue(())
     }
-}
-
-/// The run in one line: frames, speed, latency and per-stage times.
-fn summary_line(summary: &TrackSummary, startup_s: f64, live: bool, stopped: bool) -> String {
-    format!(
-        "{} frames ({} ok, {} errors{}{}) in {:.2} s (after {:.2} s of start-up), {:.1} frames/s{}; ms per stage, median/p95: {}",
-        summary.frames,
-        summary.ok,
-        summary.errors,
-        if live {
-            format!(", {} dropped", summary.dropped)
-        } else {
-            String::new()
-        },
-        if stopped { ", stopped early" } else { "" },
-        summary.seconds,
-        startup_s,
-        summary.fps,
-        summary
-            .latency_ms
-            .as_ref()
-            .map(|l| format!(
-                ", latency {:.1} ms median / {:.1} ms p95",
-                l.median_ms, l.p95_ms
-            ))
-            .unwrap_or_default(),
-        summary
-            .stages
-            .iter()
-            .map(|s| format!("{} {:.2}/{:.2}", s.stage, s.median_ms, s.p95_ms))
-            .collect::<Vec<_>>()
-            .join(", ")
-    )
 }
 
 fn progress(source: &dyn FrameSource) -> ProgressBar {
