@@ -1,7 +1,7 @@
 //! A rig looked at as a whole (`flexshape rig check`): what each camera sees of the volume,
 //! the angles between their axes, and the box they all see.
 
-use std::fmt;
+use std::fmt::{self, Write as _};
 
 use flexshape_camera::Camera;
 use flexshape_camera::nalgebra::Point3;
@@ -217,6 +217,48 @@ fn pair_lines(rig: &Rig) -> Vec<String> {
         pairs.last().map(name).unwrap_or_default(),
         if narrow == 1 { "" } else { "s" }
     )]
+}
+
+impl Rig {
+    /// A line per camera (size, focal length, centre), the volume, and how far apart the
+    /// cameras are (to see at a glance whether an imported unit was right).
+    pub fn summary(&self) -> String {
+        let rig = self;
+        let mut out = String::new();
+        for c in &rig.cameras {
+            let i = &c.camera.intrinsics;
+            let o = c.camera.centre();
+            let _ = writeln!(
+                out,
+                "  {:<12} {}×{}  fx {:.1} fy {:.1}  centre ({:.1}, {:.1}, {:.1}) mm",
+                c.name, i.width, i.height, i.fx, i.fy, o.x, o.y, o.z
+            );
+        }
+        let v = &rig.volume;
+        let hi = v.max_corner();
+        let _ = writeln!(
+            out,
+            "  volume ({:.1}, {:.1}, {:.1}) to ({:.1}, {:.1}, {:.1}) mm, voxels of {} mm",
+            v.origin[0], v.origin[1], v.origin[2], hi.x, hi.y, hi.z, v.voxel_size[0]
+        );
+        let centres: Vec<_> = rig.cameras.iter().map(|c| c.camera.centre()).collect();
+        let mut gaps = Vec::new();
+        for a in 0..centres.len() {
+            for b in a + 1..centres.len() {
+                gaps.push((centres[a] - centres[b]).norm());
+            }
+        }
+        if !gaps.is_empty() {
+            let (lo, hi) = gaps
+                .iter()
+                .fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));
+            let _ = writeln!(
+                out,
+                "  cameras {lo:.1}–{hi:.1} mm apart (if that is off by 10× or 1000×, give --unit)"
+            );
+        }
+        out
+    }
 }
 
 #[cfg(test)]

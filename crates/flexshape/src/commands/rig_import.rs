@@ -3,9 +3,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
+use flexshape_rig::Volume;
 use flexshape_rig::coverage;
 use flexshape_rig::import::{self, ImportOptions};
-use flexshape_rig::{Rig, Volume};
 
 use crate::cli::{RigExportArgs, RigImportArgs};
 
@@ -48,7 +48,7 @@ pub fn import(args: &RigImportArgs) -> anyhow::Result<()> {
     for note in &read.notes {
         eprintln!("note: {note}");
     }
-    print_cameras(&rig);
+    print!("{}", rig.summary());
     println!(
         "wrote {} ({} camera files and rig.toml); check what each camera sees of the volume with: flexshape rig check {}",
         args.out.display(),
@@ -112,38 +112,4 @@ pub(crate) fn refuse_existing(files: &[PathBuf], overwrite: bool) -> anyhow::Res
         );
     }
     Ok(())
-}
-
-/// Each camera's size, focal length and centre, and the distances between the centres (to see
-/// at a glance whether the unit was right).
-fn print_cameras(rig: &Rig) {
-    for c in &rig.cameras {
-        let i = &c.camera.intrinsics;
-        let o = c.camera.centre();
-        println!(
-            "  {:<12} {}×{}  fx {:.1} fy {:.1}  centre ({:.1}, {:.1}, {:.1}) mm",
-            c.name, i.width, i.height, i.fx, i.fy, o.x, o.y, o.z
-        );
-    }
-    let v = &rig.volume;
-    let hi = v.max_corner();
-    println!(
-        "  volume ({:.1}, {:.1}, {:.1}) to ({:.1}, {:.1}, {:.1}) mm, voxels of {} mm",
-        v.origin[0], v.origin[1], v.origin[2], hi.x, hi.y, hi.z, v.voxel_size[0]
-    );
-    let centres: Vec<_> = rig.cameras.iter().map(|c| c.camera.centre()).collect();
-    let mut gaps = Vec::new();
-    for a in 0..centres.len() {
-        for b in a + 1..centres.len() {
-            gaps.push((centres[a] - centres[b]).norm());
-        }
-    }
-    if !gaps.is_empty() {
-        let (lo, hi) = gaps
-            .iter()
-            .fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));
-        println!(
-            "  cameras {lo:.1}–{hi:.1} mm apart (if that is off by 10× or 1000×, give --unit)"
-        );
-    }
 }
