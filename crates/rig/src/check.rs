@@ -99,7 +99,7 @@ impl RigCheck {
         let centre = Point3::from((Point3::from(v.origin).coords + v.max_corner().coords) / 2.0);
         let cameras: Vec<Camera> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
         RigCheck {
-            volume: v.clone(),
+            volume: *v,
             cameras: rig
                 .cameras
                 .iter()

@@ -1,0 +1,163 @@
+//! A tracked run written as MCAP reads back with the `mcap` crate: the standard ROS 2
+//! schemas on the expected topics, one message per frame, and messages that decode to the
+//! records' figures (in metres).
+
+use std::collections::BTreeMap;
+use std::ops::ControlFlow;
+use std::sync::atomic::AtomicBool;
+
+use flexshape_lab::demo::Demo;
+use flexshape_mcap::{McapOptions, McapSink};
+use flexshape_model::{ManipulatorParams, Model};
+use flexshape_sim::SimConfig;
+use flexshape_track::TrackRecord;
+
+/// Reads CDR fields back in order (little-endian, aligned from the end of the header).
+struct Reader<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn align(&mut self, n: usize) {
+        while (self.at - 4) % n != 0 {
+            self.at += 1;
+        }
+    }
+    fn u32(&mut self) -> u32 {
+        self.align(4);
+        self.at += 4;
+        u32::from_le_bytes(self.b[self.at - 4..self.at].try_into().unwrap())
+    }
+    fn f64(&mut self) -> f64 {
+        self.align(8);
+        self.at += 8;
+        f64::from_le_bytes(self.b[self.at - 8..self.at].try_into().unwrap())
+    }
+    fn string(&mut self) -> String {
+        let n = self.u32() as usize;
+        self.at += n;
+        String::from_utf8(self.b[self.at - n..self.at - 1].to_vec()).unwrap()
+    }
+    /// A std_msgs/Header: (seconds, nanoseconds, frame id).
+    fn header(&mut self) -> (u32, u32, String) {
+        (self.u32(), self.u32(), self.string())
+    }
+}
+
+#[test]
+fn a_tracked_run_reads_back_with_standard_schemas() {
+    let model = Model::new(ManipulatorParams::paper_like()).unwrap();
+    let demo = Demo::new(SimConfig::default(), model, None, 1).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.mcap");
+    let cameras: Vec<_> = demo
+        .simulator()
+        .rig()
+        .cameras
+        .iter()
+        .map(|c| (c.name.clone(), c.camera.clone()))
+        .collect();
+    let options = McapOptions {
+        images: true,
+        overwrite: false,
+    };
+    let mut sink = McapSink::create(&path, &cameras, options).unwrap();
+    let mut records = Vec::new();
+    let mut source = demo.on_demand(Some(3), 30.0);
+    flexshape_track::run(
+        &mut source,
+        &demo.pipeline,
+        1,
+        &AtomicBool::new(false),
+        |p| {
+            let record = TrackRecord::from_processed(&p);
+            sink.write(&record, &p).unwrap();
+            records.push(record);
+            ControlFlow::Continue(())
+        },
+    );
+    sink.finish().unwrap();
+    assert_eq!(records.len(), 3);
+    assert!(records.iter().all(|r| r.status.as_str() == "ok"));
+
+    let bytes = std::fs::read(&path).unwrap();
+    let mut by_topic: BTreeMap<String, Vec<(String, String, Vec<u8>, u64)>> = BTreeMap::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let schema = m.channel.schema.as_ref().unwrap();
+        by_topic.entry(m.channel.topic.clone()).or_default().push((
+            schema.name.clone(),
+            schema.encoding.clone(),
+            m.data.to_vec(),
+            m.log_time,
+        ));
+    }
+    let expect = [
+        ("/flexshape/centerline", "nav_msgs/msg/Path", 3),
+        ("/flexshape/tube", "visualization_msgs/msg/MarkerArray", 3),
+        ("/flexshape/hull", "sensor_msgs/msg/PointCloud2", 3),
+        ("/tf_static", "tf2_msgs/msg/TFMessage", 1),
+        (
+            "/flexshape/cam0/camera_info",
+            "sensor_msgs/msg/CameraInfo",
+            3,
+        ),
+        ("/flexshape/cam2/image", "sensor_msgs/msg/Image", 3),
+        ("/flexshape/record", "flexshape.TrackRecord", 3),
+    ];
+    for (topic, schema, count) in expect {
+        let got = by_topic
+            .get(topic)
+            .unwrap_or_else(|| panic!("no {topic}: {:?}", by_topic.keys()));
+        assert_eq!(got.len(), count, "{topic}");
+        assert_eq!(got[0].0, schema, "{topic}");
+        let encoding = if topic == "/flexshape/record" {
+            "jsonschema"
+        } else {
+            "ros2msg"
+        };
+        assert_eq!(got[0].1, encoding, "{topic}");
+    }
+
+    // The centerline decodes to the record's, in metres, at the record's time.
+    let (_, _, data, log_time) = &by_topic["/flexshape/centerline"][1];
+    let record = &records[1];
+    let mut r = Reader { b: data, at: 4 };
+    let (sec, nsec, frame_id) = r.header();
+    assert_eq!(frame_id, "world");
+    assert_eq!(u64::from(sec) * 1_000_000_000 + u64::from(nsec), *log_time);
+    let n = r.u32() as usize;
+    assert_eq!(n, record.centerline.len());
+    for k in 0..n {
+        r.header();
+        let p = [r.f64(), r.f64(), r.f64()];
+        let q = [r.f64(), r.f64(), r.f64(), r.f64()];
+        for a in 0..3 {
+            assert!((p[a] * 1e3 - record.centerline[k][a]).abs() < 1e-9);
+        }
+        assert!((q.iter().map(|v| v * v).sum::<f64>() - 1.0).abs() < 1e-9);
+    }
+    assert_eq!(r.at, data.len(), "the whole message was read");
+
+    // The camera info holds the rig's intrinsics.
+    let (_, _, data, _) = &by_topic["/flexshape/cam0/camera_info"][0];
+    let mut r = Reader { b: data, at: 4 };
+    assert_eq!(r.header().2, "cam0");
+    let k = &cameras[0].1.intrinsics;
+    assert_eq!((r.u32(), r.u32()), (k.height, k.width));
+    assert_eq!(r.string(), "plumb_bob");
+    let d: Vec<f64> = (0..r.u32()).map(|_| r.f64()).collect();
+    assert_eq!(d, k.distortion.to_opencv());
+    let kk: Vec<f64> = (0..9).map(|_| r.f64()).collect();
+    assert_eq!([kk[0], kk[2], kk[4], kk[5]], [k.fx, k.cx, k.fy, k.cy]);
+
+    // The record channel holds the JSON record itself.
+    let (_, _, data, _) = &by_topic["/flexshape/record"][2];
+    let json: serde_json::Value = serde_json::from_slice(data).unwrap();
+    assert_eq!(json["frame"], records[2].frame);
+
+    // An existing file is not replaced unless asked.
+    let again = McapSink::create(&path, &cameras, McapOptions::default());
+    assert!(again.is_err_and(|e| e.to_string().contains("--overwrite")));
+}
