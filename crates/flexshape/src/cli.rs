@@ -600,7 +600,15 @@ pub struct TrackArgs {
     /// Write the PLY clouds as text (one line per point) instead of binary.
     #[arg(long, requires = "ply")]
     pub ascii_ply: bool,
-    /// Replace existing --out and --csv files and PLY clouds.
+    /// Also write an MCAP file for Foxglove and ROS 2 tools: the centerline (nav_msgs/Path),
+    /// tube, bands and tip (MarkerArray), hull (PointCloud2), each camera's CameraInfo and
+    /// pose (/tf_static) and the record (JSON); lengths in metres (docs/formats.md).
+    #[arg(long, value_name = "FILE")]
+    pub mcap: Option<PathBuf>,
+    /// Put every camera's image in the MCAP file too (about 0.9 MB per 640×480 image).
+    #[arg(long, requires = "mcap")]
+    pub mcap_images: bool,
+    /// Replace existing --out, --csv and --mcap files and PLY clouds.
     #[arg(long)]
     pub overwrite: bool,
     /// Start each frame's fit from the previous frame's shape when that one was right (carried
@@ -890,6 +898,10 @@ pub struct DemoArgs {
     /// Also write the simulated recording to this folder.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Also write the tracked shapes and the cameras' images as an MCAP file (as `track
+    /// --mcap --mcap-images` does; replaces an existing one).
+    #[arg(long, value_name = "FILE")]
+    pub mcap: Option<PathBuf>,
     #[command(flatten)]
     pub sim: SimArgs,
 }

@@ -809,3 +809,70 @@ fn the_classifier_is_chosen_from_the_command_line() {
     let e = common::fails(&["track", r, "--classifier", r#"{ kind = "magic" }"#]);
     assert!(e.contains("--classifier") && e.contains("magic"), "{e}");
 }
+
+/// `track --mcap`: every frame's record and shape in the MCAP file (a frame that could not be
+/// read has its record and an empty marker array, no centerline), the cameras' poses once;
+/// the file is never one of the inputs (nor inside its folders), nor replaced without
+/// `--overwrite`.
+#[test]
+fn an_mcap_file_holds_every_frame_and_spares_the_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let o = flexshape(&["simulate", "--out", rec.to_str().unwrap(), "--frames", "4"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let broken = rec.join("frames/cam2/000002.png");
+    std::fs::write(&broken, b"not a png").unwrap();
+    let mcap = dir.path().join("run.mcap");
+    let out = dir.path().join("run.jsonl");
+    let args = [
+        "track",
+        rec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ];
+    let o = flexshape(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let bytes = std::fs::read(&mcap).unwrap();
+    let mut counts = std::collections::BTreeMap::<String, usize>::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        *counts.entry(m.unwrap().channel.topic.clone()).or_default() += 1;
+    }
+    assert_eq!(counts["/flexshape/record"], 4, "{counts:?}");
+    assert_eq!(counts["/flexshape/tube"], 4, "{counts:?}");
+    assert_eq!(counts["/flexshape/centerline"], 3, "{counts:?}");
+    assert_eq!(counts["/tf_static"], 1, "{counts:?}");
+    assert_eq!(counts["/flexshape/cam1/camera_info"], 4, "{counts:?}");
+    assert!(!counts.contains_key("/flexshape/cam1/image"), "{counts:?}");
+    // Not again without --overwrite; never into the recording.
+    let o = flexshape(&args);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--overwrite"));
+    // (The recording's root may hold outputs; its rig, frames and truth may not.)
+    let inside = rec.join("frames/run.mcap");
+    let o = flexshape(&[
+        "track",
+        rec.to_str().unwrap(),
+        "--out",
+        dir.path().join("again.jsonl").to_str().unwrap(),
+        "--mcap",
+        inside.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("input"));
+    assert!(!inside.exists());
+    let rig = rec.join("rig.toml");
+    let before = std::fs::read(&rig).unwrap();
+    let o = flexshape(&[
+        "track",
+        rec.to_str().unwrap(),
+        "--out",
+        dir.path().join("again.jsonl").to_str().unwrap(),
+        "--mcap",
+        rig.to_str().unwrap(),
+        "--overwrite",
+    ]);
+    assert!(!o.status.success());
+    assert_eq!(std::fs::read(&rig).unwrap(), before);
+}

@@ -6,7 +6,7 @@
 //! |---|---|---|
 //! | `/flexshape/centerline` | `nav_msgs/msg/Path` | the centerline, proximal to distal, each pose's x axis along it |
 //! | `/flexshape/tube` | `visualization_msgs/msg/MarkerArray` | the tube (a line strip as wide as the tube), bands, tip |
-//! | `/flexshape/hull` | `sensor_msgs/msg/PointCloud2` | the carved voxel centres |
+//! | `/flexshape/hull` | `sensor_msgs/msg/PointCloud2` | the carved voxel centres (frames that were carved) |
 //! | `/flexshape/record` | JSON (`jsonschema`) | the frame's JSON Lines record, whole |
 //! | `/tf_static` | `tf2_msgs/msg/TFMessage` | every camera's pose in `world` (its optical frame, OpenCV's axes) |
 //! | `/flexshape/CAM/camera_info` | `sensor_msgs/msg/CameraInfo` | every frame, beside its image |
@@ -193,7 +193,7 @@ impl McapSink {
         }
         let tube = tube_markers(stamp, record, &metres);
         self.put(self.channels.tube, sequence, stamp, &tube)?;
-        if let Ok(t) = &p.result {
+        if let Some(t) = p.result.as_ref().ok().filter(|t| !t.occupancy.is_empty()) {
             let cloud: Vec<[f32; 3]> = t
                 .occupancy
                 .to_cloud()

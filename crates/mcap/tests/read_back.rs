@@ -20,7 +20,7 @@ struct Reader<'a> {
 
 impl Reader<'_> {
     fn align(&mut self, n: usize) {
-        while (self.at - 4) % n != 0 {
+        while !(self.at - 4).is_multiple_of(n) {
             self.at += 1;
         }
     }
@@ -44,6 +44,9 @@ impl Reader<'_> {
         (self.u32(), self.u32(), self.string())
     }
 }
+
+/// One message read back: schema name, schema encoding, data, log time.
+type Message = (String, String, Vec<u8>, u64);
 
 #[test]
 fn a_tracked_run_reads_back_with_standard_schemas() {
@@ -82,7 +85,7 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
     assert!(records.iter().all(|r| r.status.as_str() == "ok"));
 
     let bytes = std::fs::read(&path).unwrap();
-    let mut by_topic: BTreeMap<String, Vec<(String, String, Vec<u8>, u64)>> = BTreeMap::new();
+    let mut by_topic: BTreeMap<String, Vec<Message>> = BTreeMap::new();
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
         let schema = m.channel.schema.as_ref().unwrap();
@@ -133,8 +136,8 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
         r.header();
         let p = [r.f64(), r.f64(), r.f64()];
         let q = [r.f64(), r.f64(), r.f64(), r.f64()];
-        for a in 0..3 {
-            assert!((p[a] * 1e3 - record.centerline[k][a]).abs() < 1e-9);
+        for (got, want) in p.iter().zip(record.centerline[k]) {
+            assert!((got * 1e3 - want).abs() < 1e-9);
         }
         assert!((q.iter().map(|v| v * v).sum::<f64>() - 1.0).abs() < 1e-9);
     }

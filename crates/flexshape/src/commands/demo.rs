@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use flexshape_input::FrameSource;
 use flexshape_lab::demo::{Demo, DemoFigures};
+use flexshape_mcap::{McapOptions, McapSink};
 use flexshape_model::{ManipulatorParams, Model};
 use flexshape_track::{Processed, Tally, TrackRecord};
 
@@ -54,8 +55,27 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         );
         Box::new(demo.live(args.frames, args.fps))
     };
+    let mcap = match &args.mcap {
+        Some(path) => {
+            let cameras: Vec<_> = demo
+                .simulator()
+                .rig()
+                .cameras
+                .iter()
+                .map(|c| (c.name.clone(), c.camera.clone()))
+                .collect();
+            let options = McapOptions {
+                images: true,
+                overwrite: true,
+            };
+            Some(McapSink::create(path, &cameras, options)?)
+        }
+        None => None,
+    };
     let mut frames = Frames {
         demo: &demo,
+        mcap,
+        failure: None,
         headless: args.no_viewer,
         viewer,
         tally: Tally::new(),
@@ -75,6 +95,12 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         |p: Processed| frames.take(p),
     );
     let summary = frames.tally.summary(&end);
+    if let Some(e) = frames.failure.take() {
+        return Err(e).context("cannot write the MCAP file");
+    }
+    if let Some(mcap) = frames.mcap.take() {
+        mcap.finish()?;
+    }
     if let Some(e) = end.input_error {
         return Err(e).context("the simulated rig stopped");
     }
@@ -114,6 +140,9 @@ fn viewer(args: &DemoArgs, demo: &Demo) -> anyhow::Result<Option<super::viewer::
 /// headless, a status line every 2 s live) and shown.
 struct Frames<'a> {
     demo: &'a Demo,
+    /// The MCAP file (`--mcap`), and why writing it failed (which stops the run).
+    mcap: Option<McapSink>,
+    failure: Option<flexshape_mcap::McapError>,
     headless: bool,
     viewer: Option<super::viewer::Live>,
     tally: Tally,
@@ -138,6 +167,10 @@ impl Frames<'_> {
             self.last_status = Instant::now();
             let line = self.figures.status_line(&p, &self.tally, errors.as_ref());
             println!("{line}");
+        }
+        if let Some(Err(e)) = self.mcap.as_mut().map(|m| m.write(&record, &p)) {
+            self.failure = Some(e);
+            return ControlFlow::Break(());
         }
         if let Some(v) = &mut self.viewer {
             let truth = errors.as_ref().map(|e| (e.centerline_rms, e.tip));

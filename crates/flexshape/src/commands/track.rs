@@ -11,7 +11,8 @@ use std::ops::ControlFlow;
 
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
-use flexshape_track::output::{SinkSpec, Sinks};
+use flexshape_mcap::{McapOptions, McapSink};
+use flexshape_track::output::{SinkSpec, Sinks, within};
 use flexshape_track::{
     Input, ModelFrame, Pipeline, Processed, RecordStatus, SummaryLine, Tally, TrackRecord,
     TrackSummary,
@@ -40,6 +41,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
             .map(super::model::load_frame)
             .transpose()?,
         sinks: Sinks::open(&spec, &input.files)?,
+        mcap: open_mcap(args, &input)?,
         viewer: super::viewer::start(&args.viewer, &pipeline)?,
         bar: progress(input.source.as_ref()),
         tally: Tally::new(),
@@ -63,6 +65,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     frames.sinks.finish(&SummaryLine {
         summary: summary.clone(),
     })?;
+    if let Some(mcap) = frames.mcap.take() {
+        mcap.finish()?;
+    }
     if let Some(e) = frames.failure {
         return Err(e);
     }
@@ -103,10 +108,36 @@ fn open(args: &TrackArgs) -> anyhow::Result<(Input, Pipeline)> {
     Ok((input, pipeline))
 }
 
+/// The MCAP file `--mcap` asks for, never one of the inputs.
+fn open_mcap(args: &TrackArgs, input: &Input) -> anyhow::Result<Option<McapSink>> {
+    let Some(path) = &args.mcap else {
+        return Ok(None);
+    };
+    if let Some(i) = input.files.iter().find(|i| within(path, i)) {
+        bail!(
+            "--mcap {} is or lies in the input {}: write it elsewhere",
+            path.display(),
+            i.display()
+        );
+    }
+    let cameras: Vec<_> = input
+        .rig
+        .cameras
+        .iter()
+        .map(|c| (c.name.clone(), c.camera.clone()))
+        .collect();
+    let options = McapOptions {
+        images: args.mcap_images,
+        overwrite: args.overwrite,
+    };
+    Ok(Some(McapSink::create(path, &cameras, options)?))
+}
+
 /// What happens to each tracked frame, in input order.
 struct Frames {
     model_frame: Option<ModelFrame>,
     sinks: Sinks,
+    mcap: Option<McapSink>,
     viewer: Option<super::viewer::Live>,
     bar: ProgressBar,
     tally: Tally,
@@ -142,6 +173,10 @@ impl Frames {
         self.tally.add(&record);
         self.bar.inc(1);
         if let Err(e) = self.sinks.write(&record, &p) {
+            self.failure = Some(anyhow::Error::new(e));
+            return ControlFlow::Break(());
+        }
+        if let Some(Err(e)) = self.mcap.as_mut().map(|m| m.write(&record, &p)) {
             self.failure = Some(anyhow::Error::new(e));
             return ControlFlow::Break(());
         }
