@@ -64,6 +64,29 @@ fn stereo_photographs_calibrate_into_a_rig() {
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("calibration.json")).unwrap())
             .unwrap();
+    // ROS's CameraInfo YAML beside OpenCV's files reads back as the rig's intrinsics.
+    let rig = flexshape_rig::Rig::load(&out.join("rig.toml")).unwrap();
+    let ros: Vec<_> = ["left", "right"]
+        .map(|c| out.join("ros").join(format!("{c}.yaml")))
+        .to_vec();
+    let read = flexshape_rig::import::read(
+        flexshape_rig::import::Format::CameraInfo,
+        &ros,
+        flexshape_rig::import::ImportOptions::default(),
+    )
+    .unwrap();
+    for (got, want) in read.cameras.iter().zip(&rig.cameras) {
+        let (a, b) = (&got.camera.intrinsics, &want.camera.intrinsics);
+        assert_eq!((a.width, a.height), (b.width, b.height));
+        for (x, y) in [(a.fx, b.fx), (a.fy, b.fy), (a.cx, b.cx), (a.cy, b.cy)] {
+            assert!((x - y).abs() < 1e-6, "{x} {y}");
+        }
+        let (da, db) = (a.distortion.to_opencv(), b.distortion.to_opencv());
+        assert!(
+            da.iter().zip(&db).all(|(x, y)| (x - y).abs() < 1e-9),
+            "{da:?} {db:?}"
+        );
+    }
     // OpenCV on the same images: rms 0.128 / 0.131 px, fx 516.55 / 518.25; baseline 3.87
     // squares = 96.8 mm.
     for (k, fx) in [(0, 516.55), (1, 518.25)] {

@@ -306,6 +306,15 @@ impl RigCalibration {
         self.rig
             .save(&rig_path)
             .map_err(|e| failed(&rig_path)(&e))?;
+        // Beside OpenCV's files, ROS's: CameraInfo YAML per camera (intrinsics only).
+        let ros = dir.join("ros");
+        flexshape_rig::import::export(
+            &self.rig,
+            flexshape_rig::import::ExportFormat::CameraInfo,
+            &ros,
+            flexshape_rig::import::Unit::Millimetre,
+        )
+        .map_err(|e| failed(&ros)(&e))?;
         let json = dir.join("calibration.json");
         let text = serde_json::to_string_pretty(&self.reports).map_err(|e| failed(&json)(&e))?;
         std::fs::write(&json, text).map_err(|e| failed(&json)(&e))?;
@@ -334,7 +343,7 @@ impl RigCalibration {
     pub fn summary(&self, dir: &Path) -> String {
         let mut text: String = self.reports.iter().map(CameraReport::summary).collect();
         text.push_str(&format!(
-            "wrote {} (rig.toml, one .yml per camera, calibration.json, calibration.txt, residuals.png/svg)\n",
+            "wrote {} (rig.toml, one .yml per camera, ros/NAME.yaml (ROS CameraInfo), calibration.json, calibration.txt, residuals.png/svg)\n",
             dir.display()
         ));
         text
