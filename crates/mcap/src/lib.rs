@@ -11,6 +11,7 @@
 //! | `/tf_static` | `tf2_msgs/msg/TFMessage` | every camera's pose in `world` (its optical frame, OpenCV's axes) |
 //! | `/flexshape/CAM/camera_info` | `sensor_msgs/msg/CameraInfo` | every frame, beside its image |
 //! | `/flexshape/CAM/image` | `sensor_msgs/msg/Image` (`rgb8`) | with [`McapOptions::images`] |
+//! | `/flexshape/CAM/silhouette` | `sensor_msgs/msg/Image` (`mono8`, object 255) | with [`McapOptions::images`] |
 //!
 //! A message's log time is the frame's capture time where the input knows it, else when the
 //! chain finished it; the frame number is its sequence number.
@@ -74,7 +75,8 @@ pub enum McapError {
 /// What goes into the file beyond the shapes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct McapOptions {
-    /// Every camera's image (`rgb8`; about 0.9 MB per 640×480 image, uncompressed).
+    /// Every camera's image (`rgb8`; about 0.9 MB per 640×480 image, uncompressed) and
+    /// silhouette (`mono8`).
     pub images: bool,
     /// Replace an existing file.
     pub overwrite: bool,
@@ -87,8 +89,8 @@ struct Channels {
     hull: u16,
     record: u16,
     tf: u16,
-    /// Per camera: camera info, and image when asked for.
-    cameras: Vec<(u16, Option<u16>)>,
+    /// Per camera: camera info, and image and silhouette when asked for.
+    cameras: Vec<(u16, Option<(u16, u16)>)>,
 }
 
 /// An MCAP file being written, one frame at a time.
@@ -140,7 +142,10 @@ impl McapSink {
             )
             .map_err(mcap)?;
             let image = match options.images {
-                true => Some(add(&msgs::IMAGE, &format!("/flexshape/{name}/image")).map_err(mcap)?),
+                true => Some((
+                    add(&msgs::IMAGE, &format!("/flexshape/{name}/image")).map_err(mcap)?,
+                    add(&msgs::IMAGE, &format!("/flexshape/{name}/silhouette")).map_err(mcap)?,
+                )),
                 false => None,
             };
             per_camera.push((info, image));
@@ -206,31 +211,29 @@ impl McapSink {
         }
         for i in 0..self.cameras.len() {
             let (name, camera) = &self.cameras[i];
+            let name = name.clone();
             let k = &camera.intrinsics;
             let info = msgs::camera_info(
                 stamp,
-                name,
+                &name,
                 (k.width, k.height),
                 &k.distortion.to_opencv(),
                 [k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0],
             );
-            let image = match (self.channels.cameras[i].1, p.images.get(i)) {
-                (Some(channel), Some(img)) => Some((
-                    channel,
-                    msgs::image(
-                        stamp,
-                        name,
-                        img.dimensions(),
-                        "rgb8",
-                        3 * img.width(),
-                        img.as_raw(),
-                    ),
-                )),
-                _ => None,
-            };
             self.put(self.channels.cameras[i].0, sequence, stamp, &info)?;
-            if let Some((channel, msg)) = image {
-                self.put(channel, sequence, stamp, &msg)?;
+            let Some((image, silhouette)) = self.channels.cameras[i].1 else {
+                continue;
+            };
+            if let Some(img) = p.images.get(i) {
+                let (w, h) = img.dimensions();
+                let msg = msgs::image(stamp, &name, (w, h), "rgb8", 3 * w, img.as_raw());
+                self.put(image, sequence, stamp, &msg)?;
+            }
+            if let Some(s) = p.result.as_ref().ok().and_then(|t| t.silhouettes.get(i)) {
+                let mask = s.object.to_gray();
+                let (w, h) = mask.dimensions();
+                let msg = msgs::image(stamp, &name, (w, h), "mono8", w, mask.as_raw());
+                self.put(silhouette, sequence, stamp, &msg)?;
             }
         }
         Ok(())

@@ -107,6 +107,7 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
             3,
         ),
         ("/flexshape/cam2/image", "sensor_msgs/msg/Image", 3),
+        ("/flexshape/cam1/silhouette", "sensor_msgs/msg/Image", 3),
         ("/flexshape/record", "flexshape.TrackRecord", 3),
     ];
     for (topic, schema, count) in expect {
@@ -154,6 +155,20 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
     assert_eq!(d, k.distortion.to_opencv());
     let kk: Vec<f64> = (0..9).map(|_| r.f64()).collect();
     assert_eq!([kk[0], kk[2], kk[4], kk[5]], [k.fx, k.cx, k.fy, k.cy]);
+
+    // The silhouette is a mono8 image of the camera's size with the object in it.
+    let (_, _, data, _) = &by_topic["/flexshape/cam1/silhouette"][0];
+    let mut r = Reader { b: data, at: 4 };
+    assert_eq!(r.header().2, "cam1");
+    let k = &cameras[1].1.intrinsics;
+    assert_eq!((r.u32(), r.u32()), (k.height, k.width));
+    assert_eq!(r.string(), "mono8");
+    r.at += 1; // is_bigendian
+    assert_eq!(r.u32(), k.width);
+    let n = r.u32() as usize;
+    assert_eq!(n, (k.width * k.height) as usize);
+    let object = data[r.at..r.at + n].iter().filter(|&&v| v == 255).count();
+    assert!(object > 1000 && object < n / 10, "{object} object pixels");
 
     // The record channel holds the JSON record itself.
     let (_, _, data, _) = &by_topic["/flexshape/record"][2];
