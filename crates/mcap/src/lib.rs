@@ -20,8 +20,7 @@
 //! use flexshape_mcap::{McapOptions, McapSink};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let rig = flexshape_rig::Rig::load(std::path::Path::new("rig.toml"))?;
-//! let cameras: Vec<_> = rig.cameras.iter().map(|c| (c.name.clone(), c.camera.clone())).collect();
-//! let mut sink = McapSink::create("shapes.mcap".as_ref(), &cameras, McapOptions::default())?;
+//! let mut sink = McapSink::create("shapes.mcap".as_ref(), &rig, McapOptions::default())?;
 //! // For every tracked frame: sink.write(&record, &processed)?;
 //! sink.finish()?;
 //! # Ok(())
@@ -37,6 +36,7 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use flexshape_camera::Camera;
+use flexshape_rig::Rig;
 use flexshape_track::{Processed, TrackRecord};
 use mcap::records::MessageHeader;
 use nalgebra::UnitQuaternion;
@@ -103,12 +103,13 @@ pub struct McapSink {
 }
 
 impl McapSink {
-    /// Creates `path` for a rig of `cameras` (name and model, rig order).
-    pub fn create(
-        path: &Path,
-        cameras: &[(String, Camera)],
-        options: McapOptions,
-    ) -> Result<Self, McapError> {
+    /// Creates `path` for `rig`'s cameras.
+    pub fn create(path: &Path, rig: &Rig, options: McapOptions) -> Result<Self, McapError> {
+        let cameras: Vec<(String, Camera)> = rig
+            .cameras
+            .iter()
+            .map(|c| (c.name.clone(), c.camera.clone()))
+            .collect();
         if path.exists() && !options.overwrite {
             return Err(McapError::Exists(path.to_path_buf()));
         }
@@ -135,7 +136,7 @@ impl McapSink {
         let hull = add(&msgs::POINT_CLOUD2, "/flexshape/hull").map_err(mcap)?;
         let tf = add(&msgs::TF_MESSAGE, "/tf_static").map_err(mcap)?;
         let mut per_camera = Vec::new();
-        for (name, _) in cameras {
+        for (name, _) in &cameras {
             let info = add(
                 &msgs::CAMERA_INFO,
                 &format!("/flexshape/{name}/camera_info"),
@@ -171,7 +172,7 @@ impl McapSink {
                 tf,
                 cameras: per_camera,
             },
-            cameras: cameras.to_vec(),
+            cameras,
             tf_written: false,
         })
     }

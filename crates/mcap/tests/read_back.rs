@@ -54,9 +54,8 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
     let demo = Demo::new(SimConfig::default(), model, None, 1).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("run.mcap");
-    let cameras: Vec<_> = demo
-        .simulator()
-        .rig()
+    let rig = demo.simulator().rig();
+    let cameras: Vec<_> = rig
         .cameras
         .iter()
         .map(|c| (c.name.clone(), c.camera.clone()))
@@ -65,7 +64,7 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
         images: true,
         overwrite: false,
     };
-    let mut sink = McapSink::create(&path, &cameras, options).unwrap();
+    let mut sink = McapSink::create(&path, rig, options).unwrap();
     let mut records = Vec::new();
     let mut source = demo.on_demand(Some(3), 30.0);
     flexshape_track::run(
@@ -176,6 +175,6 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
     assert_eq!(json["frame"], records[2].frame);
 
     // An existing file is not replaced unless asked.
-    let again = McapSink::create(&path, &cameras, McapOptions::default());
+    let again = McapSink::create(&path, rig, McapOptions::default());
     assert!(again.is_err_and(|e| e.to_string().contains("--overwrite")));
 }

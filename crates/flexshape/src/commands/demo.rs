@@ -57,18 +57,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     };
     let mcap = match &args.mcap {
         Some(path) => {
-            let cameras: Vec<_> = demo
-                .simulator()
-                .rig()
-                .cameras
-                .iter()
-                .map(|c| (c.name.clone(), c.camera.clone()))
-                .collect();
             let options = McapOptions {
                 images: true,
                 overwrite: true,
             };
-            Some(McapSink::create(path, &cameras, options)?)
+            Some(McapSink::create(path, demo.simulator().rig(), options)?)
         }
         None => None,
     };

@@ -120,17 +120,11 @@ fn open_mcap(args: &TrackArgs, input: &Input) -> anyhow::Result<Option<McapSink>
             i.display()
         );
     }
-    let cameras: Vec<_> = input
-        .rig
-        .cameras
-        .iter()
-        .map(|c| (c.name.clone(), c.camera.clone()))
-        .collect();
     let options = McapOptions {
         images: args.mcap_images,
         overwrite: args.overwrite,
     };
-    Ok(Some(McapSink::create(path, &cameras, options)?))
+    Ok(Some(McapSink::create(path, &input.rig, options)?))
 }
 
 /// What happens to each tracked frame, in input order.
