@@ -196,10 +196,16 @@ impl Forward {
         )
     }
 
+    /// The tensions (N, six decimals) and the slack tendons' indices as text.
+    fn texts(&self) -> (Vec<String>, Vec<String>) {
+        let tensions = self.tensions.iter().map(|t| format!("{t:.6}")).collect();
+        let slack = self.slack.iter().map(|i| i.to_string()).collect();
+        (tensions, slack)
+    }
+
     /// `κx,κz,ε0,ε1` (1/mm), the tensions (N), and the slack tendons separated by spaces.
     pub fn csv_row(&self) -> String {
-        let tensions: Vec<String> = self.tensions.iter().map(|t| format!("{t:.6}")).collect();
-        let slack: Vec<String> = self.slack.iter().map(|i| i.to_string()).collect();
+        let (tensions, slack) = self.texts();
         format!(
             "{:.9},{:.9},{:.9},{:.9},{},{}",
             self.q[0],
@@ -215,8 +221,7 @@ impl Forward {
 /// Three lines: the configuration, the tensions, the slack tendons.
 impl std::fmt::Display for Forward {
     fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-        let tensions: Vec<String> = self.tensions.iter().map(|t| format!("{t:.6}")).collect();
-        let slack: Vec<String> = self.slack.iter().map(|i| i.to_string()).collect();
+        let (tensions, slack) = self.texts();
         write!(
             f,
             "κx {:.6} 1/mm, κz {:.6} 1/mm, ε0 {:.6}, ε1 {:.6}\ntensions (N): {}\nslack tendons: {}",

@@ -49,6 +49,23 @@ pub fn within(path: &Path, input: &Path) -> bool {
     canonical.is_some_and(|c| c == input || (input.is_dir() && c.starts_with(&input)))
 }
 
+/// Refuses output `path` when it is one of `inputs` or lies inside one.
+pub fn refuse_inputs(path: &Path, inputs: &[PathBuf]) -> Result<(), TrackError> {
+    match inputs.iter().find(|i| within(path, i)) {
+        Some(input) => Err(out_err!(
+            "{} is {} {}: write the output elsewhere",
+            path.display(),
+            if input.is_dir() {
+                "inside the input folder"
+            } else {
+                "the input"
+            },
+            input.display()
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Where records go: the JSON Lines stream, and optionally CSV rows and PLY clouds.
 pub struct Sinks {
     out: Output,
@@ -65,18 +82,7 @@ impl Sinks {
     pub fn open(args: &SinkSpec, inputs: &[PathBuf]) -> Result<Self, TrackError> {
         let outputs = [Some(&args.out), args.csv.as_ref(), args.ply.as_ref()];
         for path in outputs.into_iter().flatten() {
-            if let Some(input) = inputs.iter().find(|i| within(path, i)) {
-                return Err(out_err!(
-                    "{} is {} {}: write the output elsewhere",
-                    path.display(),
-                    if input.is_dir() {
-                        "inside the input folder"
-                    } else {
-                        "the input"
-                    },
-                    input.display()
-                ));
-            }
+            refuse_inputs(path, inputs)?;
         }
         if args.csv.as_ref() == Some(&args.out) {
             if args.out == Path::new("-") {

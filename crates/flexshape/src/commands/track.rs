@@ -12,7 +12,7 @@ use std::ops::ControlFlow;
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
 use flexshape_mcap::{McapOptions, McapSink};
-use flexshape_track::output::{SinkSpec, Sinks, within};
+use flexshape_track::output::{SinkSpec, Sinks, refuse_inputs};
 use flexshape_track::{
     Input, ModelFrame, Pipeline, Processed, RecordStatus, SummaryLine, Tally, TrackRecord,
     TrackSummary,
@@ -113,13 +113,7 @@ fn open_mcap(args: &TrackArgs, input: &Input) -> anyhow::Result<Option<McapSink>
     let Some(path) = &args.mcap else {
         return Ok(None);
     };
-    if let Some(i) = input.files.iter().find(|i| within(path, i)) {
-        bail!(
-            "--mcap {} is or lies in the input {}: write it elsewhere",
-            path.display(),
-            i.display()
-        );
-    }
+    refuse_inputs(path, &input.files).context("--mcap")?;
     let options = McapOptions {
         images: args.mcap_images,
         overwrite: args.overwrite,
