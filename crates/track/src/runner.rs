@@ -161,8 +161,9 @@ struct Puller<'a, S: ?Sized> {
 }
 
 /// Runs every frame of `source` through `pipeline` on `workers` threads (at least 1), handing
-/// each result to `sink` in input order. Stops taking frames when `stop` is set or the sink
-/// breaks; frames already taken still reach the sink, so nothing processed is lost.
+/// each result to `sink` in input order. Stops taking frames when `stop` is set (frames
+/// already taken still reach the sink, so nothing processed is lost) or when the sink breaks
+/// (it is handed nothing more).
 pub fn run<S: FrameSource + ?Sized>(
     source: &mut S,
     pipeline: &Pipeline,
@@ -210,7 +211,9 @@ pub fn run<S: FrameSource + ?Sized>(
         drop(tx);
         let mut pending = BTreeMap::new();
         let mut next = 0u64;
-        for (seq, processed) in rx {
+        // A sink that said stop sees nothing more: leaving the loop drops the receiver, and
+        // the workers' next sends end them.
+        'handing: for (seq, processed) in rx {
             pending.insert(seq, processed);
             while let Some(p) = pending.remove(&next) {
                 next += 1;
@@ -218,12 +221,13 @@ pub fn run<S: FrameSource + ?Sized>(
                 let flow = sink(p);
                 let Ok(mut w) = window.lock() else { return };
                 w.handed = next;
-                if flow.is_break() {
-                    w.closed = true;
-                    end.stopped = true;
-                }
+                w.closed |= flow.is_break();
                 drop(w);
                 moved.notify_all();
+                if flow.is_break() {
+                    end.stopped = true;
+                    break 'handing;
+                }
             }
         }
     });

@@ -1,0 +1,80 @@
+//! NumPy arrays to and from the library's images and point lists.
+
+use image::RgbImage;
+use numpy::ndarray::{Array1, Array2, Array3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray3, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+/// An RGB image from a `(height, width, 3)` `uint8` array (copied: the pipeline keeps its
+/// images in its own layout); `what` names it in an error.
+pub(crate) fn image_from(array: &PyReadonlyArray3<'_, u8>, what: &str) -> PyResult<RgbImage> {
+    let shape = array.shape();
+    if shape[2] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{what}: an image must have shape (height, width, 3), RGB, uint8; got {shape:?}"
+        )));
+    }
+    let (height, width) = (shape[0], shape[1]);
+    // `as_slice` also takes Fortran order (column-major bytes): only C order is copied whole.
+    let bytes = match array.as_slice() {
+        Ok(contiguous) if array.is_c_contiguous() => contiguous.to_vec(),
+        // Strided or Fortran-ordered: copied in row-major order.
+        _ => array.as_array().iter().copied().collect(),
+    };
+    let size = |n: usize| {
+        u32::try_from(n).map_err(|_| PyValueError::new_err(format!("{what}: too large")))
+    };
+    RgbImage::from_raw(size(width)?, size(height)?, bytes)
+        .ok_or_else(|| PyValueError::new_err(format!("{what}: the pixels do not fill the image")))
+}
+
+/// Images from a list of arrays, one per camera; `what` names them in errors.
+pub(crate) fn images_from(
+    arrays: Vec<PyReadonlyArray3<'_, u8>>,
+    what: &str,
+) -> PyResult<Vec<RgbImage>> {
+    arrays
+        .iter()
+        .enumerate()
+        .map(|(k, a)| image_from(a, &format!("{what}[{k}]")))
+        .collect()
+}
+
+/// An RGB image as a `(height, width, 3)` `uint8` array.
+pub(crate) fn image_to<'py>(py: Python<'py>, image: &RgbImage) -> Bound<'py, PyArray3<u8>> {
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    Array3::from_shape_vec((h, w, 3), image.as_raw().clone())
+        .expect("an RgbImage holds height × width × 3 bytes")
+        .into_pyarray(py)
+}
+
+/// Rows of `K` numbers (e.g. points, pixels) as an `(N, K)` `float64` array.
+pub(crate) fn rows_to<'py, const K: usize>(
+    py: Python<'py>,
+    rows: &[[f64; K]],
+) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = rows.iter().flatten().copied().collect();
+    Array2::from_shape_vec((rows.len(), K), flat)
+        .expect("N rows hold K N numbers")
+        .into_pyarray(py)
+}
+
+/// Numbers as a 1-D `float64` array.
+pub(crate) fn vector_to<'py>(py: Python<'py>, values: &[f64]) -> Bound<'py, PyArray1<f64>> {
+    Array1::from_vec(values.to_vec()).into_pyarray(py)
+}
+
+/// A JSON text as Python objects (dicts, lists, numbers, strings, None), by Python's `json`.
+pub(crate) fn json_to_python<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyAny>> {
+    py.import("json")?.call_method1("loads", (text,))
+}
+
+/// `value` as Python objects through its documented JSON form.
+pub(crate) fn to_python<'py>(
+    py: Python<'py>,
+    value: &impl serde::Serialize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_string(value).map_err(|e| crate::fail(&e))?;
+    json_to_python(py, &text)
+}

@@ -1,0 +1,265 @@
+//! Rigs, tracking a recording, tracking frames from the lab's own cameras, reading records.
+
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use flexshape_rig::Rig;
+use flexshape_silhouette::BackgroundModel;
+use flexshape_track::{Pipeline, Recent, Recording, TrackRecord};
+use nalgebra::Point3;
+use numpy::{PyArray2, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyBool;
+
+use crate::arrays::{images_from, rows_to};
+use crate::record::PyRecord;
+use crate::{chain, fail, fail_with};
+
+/// A camera rig: every camera's intrinsics, lens distortion and pose in one world frame, the
+/// carving volume and the processing settings (the `rig.toml` of docs/formats.md).
+#[pyclass(name = "Rig", module = "flexshape", frozen)]
+#[derive(Clone)]
+pub(crate) struct PyRig {
+    pub(crate) rig: Rig,
+}
+
+#[pymethods]
+impl PyRig {
+    /// Opens a rig: a rig TOML file, or a folder of OpenCV camera files (with the default
+    /// volume). Files in such a folder that are not camera files are skipped.
+    #[staticmethod]
+    fn open(path: PathBuf) -> PyResult<Self> {
+        let (rig, _skipped) = Rig::open(&path).map_err(|e| {
+            fail_with(format!(
+                "{} is not a valid rig: {}",
+                path.display(),
+                chain(&e)
+            ))
+        })?;
+        Ok(PyRig { rig })
+    }
+
+    /// The cameras' names, in the rig's order (the order images are given in).
+    #[getter]
+    fn cameras(&self) -> Vec<String> {
+        self.rig.cameras.iter().map(|c| c.name.clone()).collect()
+    }
+
+    /// Each camera's image size, `(width, height)` px, in the rig's order.
+    #[getter]
+    fn image_sizes(&self) -> Vec<(u32, u32)> {
+        self.rig
+            .cameras
+            .iter()
+            .map(|c| (c.camera.intrinsics.width, c.camera.intrinsics.height))
+            .collect()
+    }
+
+    /// Projects world points `(N, 3)` (mm) into camera `camera` (index in the rig's order) with
+    /// its lens distortion: `(N, 2)` pixels, OpenCV's convention (pixel (0, 0) is the centre of
+    /// the top-left pixel); NaN for a point behind the camera.
+    fn project<'py>(
+        &self,
+        py: Python<'py>,
+        camera: usize,
+        points: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let cam = &self
+            .rig
+            .cameras
+            .get(camera)
+            .ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "camera {camera}: the rig has {} cameras",
+                    self.rig.cameras.len()
+                ))
+            })?
+            .camera;
+        if points.shape()[1] != 3 {
+            return Err(PyValueError::new_err(format!(
+                "points: give an (N, 3) array of world points, mm; got {:?}",
+                points.shape()
+            )));
+        }
+        let pixels: Vec<[f64; 2]> = points
+            .as_array()
+            .rows()
+            .into_iter()
+            .map(|p| match cam.project(&Point3::new(p[0], p[1], p[2])) {
+                Ok(q) => [q.pixel.x, q.pixel.y],
+                Err(_) => [f64::NAN, f64::NAN],
+            })
+            .collect();
+        Ok(rows_to(py, &pixels))
+    }
+
+    /// The rig in a few lines: each camera, where it looks from, and the volume.
+    fn summary(&self) -> String {
+        self.rig.summary()
+    }
+
+    fn __repr__(&self) -> String {
+        let names: Vec<String> = self.cameras().iter().map(|n| format!("'{n}'")).collect();
+        format!("Rig(cameras=[{}])", names.join(", "))
+    }
+}
+
+/// Follows the tube from frame to frame in the images of the lab's own cameras: each frame
+/// starts from the newest right shape (no carving while it follows) and falls back to the
+/// whole chain (silhouettes, carving, the hull's centerline, the fit) when that shape does not
+/// explain the images.
+#[pyclass(name = "Tracker", module = "flexshape")]
+pub(crate) struct PyTracker {
+    pipeline: Pipeline,
+    recent: Recent,
+    next_frame: u64,
+}
+
+#[pymethods]
+impl PyTracker {
+    /// A tracker for `rig`, with one background image per camera (the empty scene, `(height,
+    /// width, 3)` `uint8` RGB, in the rig's order). `follow=False` runs the whole chain on
+    /// every frame.
+    #[new]
+    #[pyo3(signature = (rig, backgrounds, follow = true))]
+    fn new(
+        rig: &PyRig,
+        backgrounds: Vec<PyReadonlyArray3<'_, u8>>,
+        follow: bool,
+    ) -> PyResult<Self> {
+        let images = images_from(backgrounds, "backgrounds")?;
+        if images.len() != rig.rig.cameras.len() {
+            return Err(PyValueError::new_err(format!(
+                "backgrounds: give one image per camera ({}), got {}",
+                rig.rig.cameras.len(),
+                images.len()
+            )));
+        }
+        let models = BackgroundModel::each(&images).map_err(|e| fail(&e))?;
+        let pipeline = Pipeline::new(&rig.rig, &models, &rig.rig.volume).map_err(|e| fail(&e))?;
+        Self::with(pipeline, follow)
+    }
+
+    /// A tracker for the rig and backgrounds of a recording folder (as `flexshape simulate`
+    /// or `flexshape capture` writes it).
+    #[staticmethod]
+    #[pyo3(signature = (path, follow = true))]
+    fn from_recording(path: PathBuf, follow: bool) -> PyResult<Self> {
+        let recording = Recording::open(&path).map_err(|e| fail(&e))?;
+        Self::with(recording.pipeline().map_err(|e| fail(&e))?, follow)
+    }
+
+    /// One frame: one image per camera in the rig's order, each `(height, width, 3)` `uint8`
+    /// RGB. `frame` numbers it (default: one more than the last). Returns its record.
+    #[pyo3(signature = (images, frame = None))]
+    fn process(
+        &mut self,
+        py: Python<'_>,
+        images: Vec<PyReadonlyArray3<'_, u8>>,
+        frame: Option<u64>,
+    ) -> PyResult<PyRecord> {
+        let images = images_from(images, "images")?;
+        let n = frame.unwrap_or(self.next_frame);
+        let (pipeline, recent) = (&self.pipeline, &mut self.recent);
+        let record = py.detach(|| {
+            let refs: Vec<&image::RgbImage> = images.iter().collect();
+            let prior = recent.for_frame(n);
+            let tracked = pipeline.process_after(&refs, prior.as_deref())?;
+            recent.update(n, tracked.prior());
+            Ok::<_, flexshape_track::TrackError>(TrackRecord::from_tracked(n, &tracked))
+        });
+        let record = record.map_err(|e| fail_with(format!("frame {n}: {}", chain(&e))))?;
+        self.next_frame = n + 1;
+        Ok(PyRecord::new(record))
+    }
+
+    /// Forgets the frames seen so far: the next frame starts from its own hull.
+    fn reset(&mut self) {
+        self.recent = Recent::new(&self.pipeline);
+    }
+
+    /// Whether frames may start from an earlier frame's shape (the fit's tracking is on and
+    /// at least two cameras see the tube).
+    #[getter]
+    fn follows(&self) -> bool {
+        self.pipeline.tracks()
+    }
+}
+
+impl PyTracker {
+    fn with(pipeline: Pipeline, follow: bool) -> PyResult<Self> {
+        let pipeline = pipeline.following(follow).map_err(|e| fail(&e))?;
+        Ok(PyTracker {
+            recent: Recent::new(&pipeline),
+            pipeline,
+            next_frame: 0,
+        })
+    }
+}
+
+/// Tracks a recording folder as `flexshape track REC` does, on `threads` threads, and returns
+/// its records in frame order. `on_record(record)` (optional) sees each as it comes; returning
+/// False stops early. Ctrl-C stops too (raising KeyboardInterrupt); a frame that cannot be read
+/// ends the run with an error naming it.
+#[pyfunction]
+#[pyo3(signature = (recording, threads = 2, on_record = None))]
+pub(crate) fn track(
+    py: Python<'_>,
+    recording: PathBuf,
+    threads: usize,
+    on_record: Option<Bound<'_, PyAny>>,
+) -> PyResult<Vec<PyRecord>> {
+    let mut opened = Recording::open(&recording).map_err(|e| fail(&e))?;
+    let pipeline = opened.pipeline().map_err(|e| fail(&e))?;
+    let callback = on_record.map(Bound::unbind);
+    let stop = AtomicBool::new(false);
+    let mut records = Vec::new();
+    let mut raised: Option<PyErr> = None;
+    let end = py.detach(|| {
+        flexshape_track::run(&mut opened.source, &pipeline, threads, &stop, |processed| {
+            let record = TrackRecord::from_processed(&processed);
+            let go_on = Python::attach(|py| -> PyResult<bool> {
+                py.check_signals()?;
+                let Some(cb) = &callback else {
+                    return Ok(true);
+                };
+                let answer = cb.call1(py, (PyRecord::new(record.clone()),))?;
+                // Only False stops: None (no return) goes on.
+                let answer = answer.bind(py);
+                Ok(!answer.is_instance_of::<PyBool>() || answer.extract::<bool>()?)
+            });
+            records.push(record);
+            match go_on {
+                Ok(true) => ControlFlow::Continue(()),
+                Ok(false) => ControlFlow::Break(()),
+                Err(e) => {
+                    raised = Some(e);
+                    stop.store(true, Ordering::Relaxed);
+                    ControlFlow::Break(())
+                }
+            }
+        })
+    });
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    if let Some(e) = end.input_error {
+        return Err(fail_with(format!(
+            "{} after {} frames: {}",
+            recording.display(),
+            end.frames,
+            chain(&e)
+        )));
+    }
+    Ok(records.into_iter().map(PyRecord::new).collect())
+}
+
+/// The records of a JSON Lines file written by `flexshape track` (or `demo --jsonl`), in
+/// order; a malformed line is an error naming it.
+#[pyfunction]
+pub(crate) fn read_records(path: PathBuf) -> PyResult<Vec<PyRecord>> {
+    let records = flexshape_track::read_records(&path).map_err(|e| fail(&e))?;
+    Ok(records.into_iter().map(|(_, r)| PyRecord::new(r)).collect())
+}
