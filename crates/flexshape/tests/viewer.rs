@@ -219,6 +219,7 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
     .await;
     assert_eq!(text_of(&c, "conn").await, "live");
     assert_eq!(text_of(&c, "status").await, "ok");
+    overlays_lie_on_the_silhouettes(&c).await;
     let (frame, tip) = (text_of(&c, "frame").await, text_of(&c, "tip").await);
     let seen = eval(&c, "return Number(document.body.dataset.frames);").await;
     wait_for(
@@ -265,6 +266,81 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
     assert!(
         out.contains("against truth") && out.contains("dropped"),
         "{out}"
+    );
+}
+
+/// Over every camera's frame the page draws the fitted tube's outline, centerline, bands and
+/// tip: the ink lies on that camera's silhouette (97 % of it within 3 px of the page's 256-px
+/// image), the camera's residual and overlap are shown, and the overlay and the silhouette
+/// blend follow their toggles.
+async fn overlays_lie_on_the_silhouettes(c: &Client) {
+    let ink = "const out = [];
+        for (let i = 0; i < 3; i++) {
+          const o = document.getElementById('overlay-' + i), s = document.getElementById('sil-' + i);
+          const w = o.width, h = o.height, t = document.createElement('canvas');
+          t.width = w; t.height = h;
+          const tc = t.getContext('2d'); tc.drawImage(s, 0, 0, w, h);
+          const sil = tc.getImageData(0, 0, w, h).data, ov = o.getContext('2d').getImageData(0, 0, w, h).data;
+          let ink = 0, near = 0;
+          for (let y = 0; y < h; y++) for (let x = 0; x < w; x++) {
+            if (ov[4 * (y * w + x) + 3] < 128) continue;
+            ink++;
+            let hit = false;
+            for (let dy = -3; dy <= 3 && !hit; dy++) for (let dx = -3; dx <= 3 && !hit; dx++) {
+              const X = x + dx, Y = y + dy;
+              if (X >= 0 && Y >= 0 && X < w && Y < h && sil[4 * (Y * w + X)] > 150) hit = true;
+            }
+            if (hit) near++;
+          }
+          out.push([ink, near]);
+        }
+        return out;";
+    // The images load a moment after the overlay is drawn: asked again until they agree.
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let on_silhouettes = |counts: &Value| {
+        counts.as_array().unwrap().iter().all(|pair| {
+            let (ink, near) = (pair[0].as_f64().unwrap(), pair[1].as_f64().unwrap());
+            ink > 150.0 && near > 0.97 * ink
+        })
+    };
+    let mut counts = eval(c, ink).await;
+    while !on_silhouettes(&counts) && Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        counts = eval(c, ink).await;
+    }
+    println!("overlay pixels (all, on the silhouette) per camera: {counts}");
+    assert!(on_silhouettes(&counts), "{counts}");
+    screenshot(c, "viewer-overlays.png").await;
+    let check = text_of(c, "check-1").await;
+    assert!(
+        check.starts_with("residual 0.") && check.contains("IoU 0.9"),
+        "{check}"
+    );
+    // Toggled off, the overlays are cleared at the next frame; the blend shows on request.
+    eval(
+        c,
+        "const t = document.getElementById('show-overlay'); t.checked = false;
+         t.dispatchEvent(new Event('change')); return true;",
+    )
+    .await;
+    let blank = "const o = document.getElementById('overlay-0');
+        const d = o.getContext('2d').getImageData(0, 0, o.width, o.height).data;
+        for (let i = 3; i < d.length; i += 4) if (d[i]) return false;
+        return true;";
+    assert_eq!(eval(c, blank).await, Value::Bool(true), "overlay off");
+    assert_eq!(
+        eval(c, "return document.getElementById('blend-0').hidden;").await,
+        Value::Bool(true)
+    );
+    eval(
+        c,
+        "for (const id of ['show-overlay', 'show-blend']) { const t = document.getElementById(id);
+           t.checked = true; t.dispatchEvent(new Event('change')); } return true;",
+    )
+    .await;
+    assert_eq!(
+        eval(c, "return document.getElementById('blend-0').hidden;").await,
+        Value::Bool(false)
     );
 }
 

@@ -4,6 +4,7 @@
 const $ = (id) => document.getElementById(id);
 let scene = null;
 let last = null;
+let shape = null;
 let received = 0;
 let yaw = -0.6, pitch = 0.45;
 
@@ -19,6 +20,7 @@ function connect() {
     if (typeof ev.data !== "string") return showImage(new Uint8Array(ev.data));
     const m = JSON.parse(ev.data);
     if (m.type === "hello") setup(m.scene);
+    else if (m.type === "overlays") { shape = m; drawOverlays(); }
     else if (m.type === "frame") {
       last = m;
       received += 1;
@@ -37,21 +39,78 @@ function setup(s) {
   s.cameras.forEach((name, i) => {
     const card = document.createElement("div");
     card.className = "cam";
-    card.innerHTML = `<h2>${name}</h2><div class="pair"><img id="frame-${i}" alt="${name} frame">` +
+    card.innerHTML = `<h2>${name}<span class="check" id="check-${i}"></span></h2><div class="pair">` +
+      `<div class="shot"><img id="frame-${i}" alt="${name} frame"><img id="blend-${i}" class="blend" alt="" hidden>` +
+      `<canvas id="overlay-${i}" width="256" height="192"></canvas></div>` +
       `<img id="sil-${i}" alt="${name} silhouette"></div>`;
     box.appendChild(card);
+  });
+  document.querySelectorAll("img.blend").forEach((img) => { img.hidden = !$("show-blend").checked; });
+}
+
+// The shape as each camera sees it, over its frame (the message comes right after that frame's
+// images): the outline where the fitted tube's sides are, its centerline, bands and tip
+// (pixels of the full image, OpenCV convention: (0, 0) is the top-left pixel's centre), and
+// how well it explains that camera.
+function drawOverlays() {
+  const m = shape;
+  if (!scene || !m) return;
+  const show = $("show-overlay").checked;
+  scene.cameras.forEach((_, i) => {
+    const c = $(`overlay-${i}`);
+    if (!c) return;
+    const g = c.getContext("2d");
+    g.clearRect(0, 0, c.width, c.height);
+    const check = (m.cameras || [])[i];
+    $(`check-${i}`).textContent = check ? `residual ${fmt(check.residual_px, 2)} px · IoU ${fmt(check.iou, 3)}` : "";
+    const o = (m.overlays || [])[i], size = (scene.image_sizes || [])[i];
+    if (!show || !o || !size) return;
+    // The image is drawn contained in the canvas's box: the same scale and letterbox here.
+    const k = Math.min(c.width / size[0], c.height / size[1]);
+    const [ox, oy] = [(c.width - size[0] * k) / 2, (c.height - size[1] * k) / 2];
+    const at = (p) => [ox + (p[0] + 0.5) * k, oy + (p[1] + 0.5) * k];
+    const line = (pts, colour, width, dash) => {
+      g.strokeStyle = colour; g.lineWidth = width; g.setLineDash(dash); g.beginPath();
+      let open = false;
+      for (const p of pts) {
+        if (!p) { open = false; continue; }
+        const [x, y] = at(p);
+        open ? g.lineTo(x, y) : g.moveTo(x, y); open = true;
+      }
+      g.stroke(); g.setLineDash([]);
+    };
+    o.sides.forEach((side) => line(side, "#5fd08a", 1.3, []));
+    line(o.centerline, "#4fa3ff", 1, [3, 3]);
+    for (const b of o.bands) {
+      const [x, y] = at(b);
+      g.strokeStyle = "#ffb84f"; g.lineWidth = 1.5; g.beginPath(); g.arc(x, y, 3.5, 0, 2 * Math.PI); g.stroke();
+    }
+    if (o.tip) {
+      const [x, y] = at(o.tip);
+      g.fillStyle = "#ff4fd8"; g.beginPath(); g.arc(x, y, 3, 0, 2 * Math.PI); g.fill();
+    }
   });
 }
 
 function showImage(bytes) {
   const kind = bytes[0], cam = bytes[1];
-  const img = $(`${kind === 0 ? "frame" : "sil"}-${cam}`);
-  if (!img) return;
-  const url = URL.createObjectURL(new Blob([bytes.subarray(2)], { type: kind === 0 ? "image/jpeg" : "image/png" }));
-  const old = img.src;
-  img.onload = () => { if (old.startsWith("blob:")) URL.revokeObjectURL(old); };
-  img.src = url;
-  img.dataset.updates = String(Number(img.dataset.updates || 0) + 1);
+  const targets = kind === 0 ? [`frame-${cam}`] : [`sil-${cam}`, `blend-${cam}`];
+  for (const id of targets) {
+    const img = $(id);
+    if (!img) continue;
+    const url = URL.createObjectURL(new Blob([bytes.subarray(2)], { type: kind === 0 ? "image/jpeg" : "image/png" }));
+    const old = img.src;
+    img.onload = () => { if (old.startsWith("blob:")) URL.revokeObjectURL(old); };
+    img.src = url;
+    img.dataset.updates = String(Number(img.dataset.updates || 0) + 1);
+  }
+}
+
+function toggles() {
+  $("show-overlay").addEventListener("change", drawOverlays);
+  $("show-blend").addEventListener("change", () => {
+    document.querySelectorAll("img.blend").forEach((img) => { img.hidden = !$("show-blend").checked; });
+  });
 }
 
 const fmt = (v, d) => (v === null || v === undefined || !isFinite(v)) ? "–" : v.toFixed(d);
@@ -232,4 +291,5 @@ function paint(g, c, px, scale, box) {
   });
 })();
 
+toggles();
 connect();

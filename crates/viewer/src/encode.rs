@@ -2,12 +2,17 @@
 //! and binary messages with each camera's frame (JPEG) and silhouette (PNG) at half size.
 
 use std::io::Cursor;
+use std::sync::Arc;
+
+use flexshape_camera::Camera;
 
 use flexshape_silhouette::Silhouette;
 use flexshape_track::{Processed, TrackRecord, Tracked};
 use image::codecs::jpeg::JpegEncoder;
 use image::{ImageFormat, RgbImage};
 use serde::Serialize;
+
+use crate::overlay::{CameraOverlay, overlays};
 
 /// Live figures shown beside the frame.
 #[derive(Debug, Clone, Default, Serialize)]
@@ -76,6 +81,7 @@ pub struct Update {
     tracked: Option<Tracked>,
     stats: Stats,
     steering: Option<Steering>,
+    cameras: Option<Arc<[Camera]>>,
 }
 
 impl Update {
@@ -88,7 +94,15 @@ impl Update {
             tracked: processed.result.ok(),
             stats,
             steering: None,
+            cameras: None,
         }
+    }
+
+    /// The same frame with the rig's cameras, so the page draws the shape over each camera's
+    /// image (the cameras in the order of the images).
+    pub fn with_cameras(mut self, cameras: Arc<[Camera]>) -> Self {
+        self.cameras = Some(cameras);
+        self
     }
 
     /// The same frame with the closed loop's state.
@@ -113,6 +127,36 @@ struct FrameMessage<'a> {
     cloud: Vec<f32>,
     /// Per cloud point: 0 outside bands, else the band's number.
     cloud_band: Vec<u16>,
+}
+
+#[derive(Serialize)]
+struct OverlaysMessage<'a> {
+    #[serde(rename = "type")]
+    kind: &'static str,
+    /// The frame the images just sent show.
+    frame: u64,
+    /// Per camera: the shape in its image, pixels.
+    overlays: Vec<CameraOverlay>,
+    /// Per camera: how well the fitted tube explains it (the record's `cameras`).
+    cameras: &'a [flexshape_fit::CameraCheck],
+}
+
+/// The JSON of the shape over each camera's image of `update` (when its cameras are known):
+/// sent after that frame's images.
+pub(crate) fn overlays_json(update: &Update) -> Option<String> {
+    let cameras = update.cameras.as_deref()?;
+    let tube = update
+        .tracked
+        .as_ref()
+        .and_then(|t| t.fit.as_ref())
+        .map(|f| &f.tube);
+    let message = OverlaysMessage {
+        kind: "overlays",
+        frame: update.record.frame,
+        overlays: overlays(cameras, tube, &update.record),
+        cameras: &update.record.cameras,
+    };
+    serde_json::to_string(&message).ok()
 }
 
 /// The JSON of a frame.

@@ -34,6 +34,7 @@ mod encode;
 mod limits;
 mod live;
 mod origin;
+mod overlay;
 mod server;
 
 use std::net::{SocketAddr, TcpListener};
@@ -45,6 +46,7 @@ use tokio::sync::watch;
 pub use encode::{Stats, Steering, SteeringSample, Update};
 pub use limits::Limits;
 pub use live::Live;
+pub use overlay::{CameraOverlay, overlays};
 
 /// Why the viewer could not start.
 #[derive(Debug, Error)]
@@ -72,11 +74,16 @@ pub enum ViewerError {
     Runtime(std::io::Error),
 }
 
-/// What the page shows around the frames: camera names and the carving volume.
+/// What the page shows around the frames: camera names and image sizes, and the carving
+/// volume.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Scene {
     /// Camera names, in the rig's order.
     pub cameras: Vec<String>,
+    /// Each camera's image `[width, height]`, pixels (the overlays' frame; empty when not
+    /// known).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub image_sizes: Vec<[u32; 2]>,
     /// The carving volume's corners, world mm: `[xmin, ymin, zmin, xmax, ymax, zmax]`.
     pub volume: [f64; 6],
     /// Voxel edge, mm.

@@ -2,7 +2,10 @@
 //! processed frame, with the frame rate it shows worked out here.
 
 use std::collections::VecDeque;
+use std::sync::Arc;
 use std::time::Instant;
+
+use flexshape_camera::Camera;
 
 use flexshape_track::{Pipeline, Processed, TrackRecord};
 
@@ -13,6 +16,8 @@ pub struct Live {
     viewer: Viewer,
     recent: VecDeque<Instant>,
     frames: usize,
+    /// The rig's cameras, for the overlays.
+    cameras: Arc<[Camera]>,
 }
 
 impl Scene {
@@ -22,6 +27,11 @@ impl Scene {
         let hi = v.max_corner();
         Scene {
             cameras: pipeline.camera_names().to_vec(),
+            image_sizes: pipeline
+                .cameras()
+                .iter()
+                .map(|c| [c.intrinsics.width, c.intrinsics.height])
+                .collect(),
             volume: [v.origin[0], v.origin[1], v.origin[2], hi.x, hi.y, hi.z],
             voxel: v.voxel_size[0],
         }
@@ -36,6 +46,7 @@ impl Live {
             viewer: Viewer::start(addr, allow_remote, Scene::of(pipeline))?,
             recent: VecDeque::new(),
             frames: 0,
+            cameras: pipeline.cameras().into(),
         })
     }
 
@@ -86,6 +97,6 @@ impl Live {
             truth_rms_mm: truth.map(|t| t.0),
             truth_tip_mm: truth.map(|t| t.1),
         };
-        Update::new(p, record, stats)
+        Update::new(p, record, stats).with_cameras(self.cameras.clone())
     }
 }

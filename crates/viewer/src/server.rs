@@ -12,7 +12,7 @@ use axum::response::{Html, IntoResponse};
 use axum::routing::get;
 use tokio::sync::watch;
 
-use crate::encode::{Update, frame_json, image_messages};
+use crate::encode::{Update, frame_json, image_messages, overlays_json};
 use crate::limits::{Limited, Limits};
 use crate::{Scene, origin};
 
@@ -28,6 +28,9 @@ const IMAGE_EVERY: Duration = Duration::from_millis(150);
 struct Encoded {
     frame: Option<Arc<str>>,
     images: Option<Arc<Vec<Vec<u8>>>>,
+    /// The shape over those images (text, sent after them): drawn over the frame it belongs
+    /// to, not over the newest frame's figures.
+    overlays: Option<Arc<str>>,
     /// Increases when `images` changes.
     image_seq: u64,
 }
@@ -117,6 +120,7 @@ async fn encode_newest(
     let mut last_images = tokio::time::Instant::now() - IMAGE_EVERY;
     let mut image_seq = 0;
     let mut images: Option<Arc<Vec<Vec<u8>>>> = None;
+    let mut overlays: Option<Arc<str>> = None;
     while updates.changed().await.is_ok() {
         let Some(update) = updates.borrow_and_update().clone() else {
             continue;
@@ -124,21 +128,26 @@ async fn encode_newest(
         let with_images = last_images.elapsed() >= IMAGE_EVERY;
         let encoded = tokio::task::spawn_blocking(move || {
             let frame: Arc<str> = frame_json(&update).into();
-            let imgs = with_images.then(|| Arc::new(image_messages(&update)));
+            let imgs = with_images.then(|| {
+                let shape = overlays_json(&update).map(Arc::from);
+                (Arc::new(image_messages(&update)), shape)
+            });
             (frame, imgs)
         })
         .await;
         let Ok((frame, new_images)) = encoded else {
             continue;
         };
-        if let Some(i) = new_images {
+        if let Some((i, shape)) = new_images {
             images = Some(i);
+            overlays = shape;
             image_seq += 1;
             last_images = tokio::time::Instant::now();
         }
         out.send_replace(Arc::new(Encoded {
             frame: Some(frame),
             images: images.clone(),
+            overlays: overlays.clone(),
             image_seq,
         }));
         tokio::time::sleep(FRAME_EVERY).await;
@@ -189,6 +198,14 @@ async fn stream(mut socket: WebSocket, state: AppState) {
                 {
                     return;
                 }
+            }
+            if let Some(shape) = &newest.overlays
+                && socket
+                    .send(Message::Text(shape.as_ref().into()))
+                    .await
+                    .is_err()
+            {
+                return;
             }
             sent_images = newest.image_seq;
         }

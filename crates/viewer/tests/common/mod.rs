@@ -31,6 +31,7 @@ pub async fn next_message(socket: &mut Socket) -> Message {
 pub fn scene() -> Scene {
     Scene {
         cameras: vec!["cam0".into()],
+        image_sizes: Vec::new(),
         volume: [-128.0, -128.0, -128.0, 128.0, 128.0, 128.0],
         voxel: 1.0,
     }
