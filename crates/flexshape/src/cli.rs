@@ -643,6 +643,9 @@ pub struct ViewerArgs {
     /// Allow the viewer on a non-loopback address (anyone who can reach it sees the cameras).
     #[arg(long)]
     pub allow_remote: bool,
+    /// End when the input ends instead of keeping the last frame on the viewer until Ctrl-C.
+    #[arg(long, requires = "viewer")]
+    pub viewer_exit: bool,
 }
 
 /// Settings of the simulated rig shared by `demo` and `simulate`.

@@ -430,3 +430,57 @@ fn the_viewer_stays_on_loopback_unless_told() {
     let e = common::fails(&["demo", "--viewer", "localhost", "--frames", "1"]);
     assert!(e.contains("HOST:PORT"), "{e}");
 }
+
+/// `track --viewer`: after the last frame the page stays up with it until Ctrl-C (the records
+/// and the summary already written), which then ends the run successfully; `--viewer-exit`
+/// ends with the input.
+#[test]
+fn track_keeps_the_viewer_until_ctrl_c_unless_told() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    common::run(&["simulate", "--out", rec.to_str().unwrap(), "--frames", "3"]);
+    let out = dir.path().join("shapes.jsonl");
+    let (mut track, url) = spawn_with_viewer(&[
+        "track",
+        rec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--viewer",
+        "127.0.0.1:0",
+    ]);
+    let start = Instant::now();
+    let finished = || {
+        std::fs::read_to_string(&out).is_ok_and(|t| t.lines().any(|l| l.contains("\"summary\"")))
+    };
+    while !finished() {
+        assert!(start.elapsed() < Duration::from_secs(60), "tracking ends");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    std::thread::sleep(Duration::from_millis(800));
+    assert!(
+        track.0.try_wait().unwrap().is_none(),
+        "still serving after the last frame"
+    );
+    let addr = url.trim_start_matches("http://").trim_end_matches('/');
+    let mut page = std::net::TcpStream::connect(addr).expect("the viewer still answers");
+    std::io::Write::write_all(
+        &mut page,
+        format!("GET / HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n").as_bytes(),
+    )
+    .unwrap();
+    let mut reply = String::new();
+    std::io::Read::read_to_string(&mut page, &mut reply).unwrap();
+    assert!(reply.starts_with("HTTP/1.1 200"), "{reply:.80}");
+    interrupt(&mut track);
+    let lines = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(lines.lines().count(), 4, "3 records and the summary");
+
+    let o = Command::new(env!("CARGO_BIN_EXE_flexshape"))
+        .args(["track", rec.to_str().unwrap(), "--out", "-"])
+        .args(["--viewer", "127.0.0.1:0", "--viewer-exit"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let e = common::fails(&["track", rec.to_str().unwrap(), "--viewer-exit"]);
+    assert!(e.contains("--viewer"), "{e}");
+}

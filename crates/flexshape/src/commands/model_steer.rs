@@ -3,7 +3,7 @@
 
 use std::collections::VecDeque;
 use std::ops::ControlFlow;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use anyhow::{Context, ensure};
 use flexshape_sim::SimConfig;
@@ -74,12 +74,7 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
     } else {
         println!("\n{summary}");
     }
-    if let Some(l) = &frames.live {
-        eprintln!("viewer: the last frame stays at {} until Ctrl-C", l.url());
-        while !stop.requested() {
-            std::thread::sleep(Duration::from_millis(100));
-        }
-    }
+    super::viewer::linger(frames.live.as_ref(), &args.viewer, &stop);
     Ok(())
 }
 

@@ -72,11 +72,13 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         return Err(e);
     }
     eprintln!("{}", summary.line(input.source.is_live(), end.stopped));
+    let interrupted = stop.requested();
+    super::viewer::linger(frames.viewer.as_ref(), &args.viewer, &stop);
     if let Some(e) = end.input_error {
         bail!("the input broke after {} frames: {e}", summary.frames);
     }
     // An interrupted run, or one in which every frame failed, did not do what was asked.
-    if stop.requested() {
+    if interrupted {
         bail!(
             "interrupted after {} frames (every record written is whole, the summary says `stopped`)",
             summary.frames
