@@ -257,6 +257,7 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
     .await;
     let after = eval(&c, "return document.getElementById('view3d').toDataURL();").await;
     assert_ne!(before, after, "the 3-D view turns");
+    views_fit_the_tube_and_zoom(&c).await;
 
     screenshot(&c, "viewer.png").await;
     c.close().await.unwrap();
@@ -266,6 +267,50 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
     assert!(
         out.contains("against truth") && out.contains("dropped"),
         "{out}"
+    );
+}
+
+/// The views frame the tube (closer than the whole volume in the top view: 1.8× on this demo), the
+/// wheel zooms one view (its grid follows), and a double click returns to the fitted view.
+async fn views_fit_the_tube_and_zoom(c: &Client) {
+    let scale = |id: &str| format!("return Number(document.getElementById('{id}').dataset.scale);");
+    let grid = |id: &str| format!("return Number(document.getElementById('{id}').dataset.gridMm);");
+    let fitted = eval(c, &scale("top")).await.as_f64().unwrap();
+    let toggle = |on: bool| {
+        format!(
+            "const t = document.getElementById('fit-tube'); t.checked = {on};
+             t.dispatchEvent(new Event('change')); return true;"
+        )
+    };
+    eval(c, &toggle(false)).await;
+    let whole = eval(c, &scale("top")).await.as_f64().unwrap();
+    eval(c, &toggle(true)).await;
+    println!("top view: {fitted} px/mm fitted to the tube, {whole} px/mm for the volume");
+    assert!(
+        fitted > 1.5 * whole,
+        "the fitted view is closer: {fitted} against {whole} px/mm"
+    );
+    let before = eval(c, &grid("top")).await.as_f64().unwrap();
+    eval(
+        c,
+        "const v = document.getElementById('top'), r = v.getBoundingClientRect();
+         for (let i = 0; i < 3; i++) v.dispatchEvent(new WheelEvent('wheel', {deltaY: -400,
+           clientX: r.left + r.width / 2, clientY: r.top + r.height / 2, bubbles: true, cancelable: true}));
+         return true;",
+    )
+    .await;
+    let zoomed = eval(c, &grid("top")).await.as_f64().unwrap();
+    assert!(zoomed < before, "zoomed in: grid {zoomed} mm, was {before}");
+    eval(
+        c,
+        "document.getElementById('top').dispatchEvent(new MouseEvent('dblclick', {bubbles: true}));
+         return true;",
+    )
+    .await;
+    assert_eq!(
+        eval(c, "return [zoomPan.top.zoom, ...zoomPan.top.pan];").await,
+        json!([1, 0, 0]),
+        "back to the fitted view"
     );
 }
 

@@ -201,32 +201,78 @@ function drawSteering(st) {
 
 // Orthographic views: [canvas id, horizontal axis, vertical axis].
 const VIEWS = [["top", 0, 1], ["front", 0, 2], ["side", 1, 2]];
+// Per view: zoom factor and pan (canvas pixels) the user set; reset by a double click.
+const zoomPan = Object.fromEntries(["top", "front", "side", "view3d"].map((id) => [id, { zoom: 1, pan: [0, 0] }]));
+
+// What the views frame: the tube with a margin (auto-fit, the default), or the whole volume.
+// Rounded to 10 mm so that the views do not twitch from frame to frame.
+function framed() {
+  const v = scene.volume;
+  const pts = last.record.centerline;
+  if (!$("fit-tube").checked || pts.length < 2) return v;
+  const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+  for (const p of pts) for (let i = 0; i < 3; i++) { lo[i] = Math.min(lo[i], p[i]); hi[i] = Math.max(hi[i], p[i]); }
+  const margin = 15;
+  return [0, 1, 2].map((i) => Math.floor((lo[i] - margin) / 10) * 10)
+    .concat([0, 1, 2].map((i) => Math.ceil((hi[i] + margin) / 10) * 10));
+}
+
+// A round step (1, 2 or 5 × 10^k mm) about a sixth of `span`.
+function gridStep(span) {
+  const raw = span / 6, k = Math.pow(10, Math.floor(Math.log10(raw)));
+  return [1, 2, 5, 10].map((m) => m * k).find((s) => s >= raw) || 10 * k;
+}
 
 function draw() {
   if (!scene || !last) return;
-  const v = scene.volume;
-  const span = Math.max(v[3] - v[0], v[4] - v[1], v[5] - v[2]);
+  const box = framed();
   for (const [id, a, b] of VIEWS) {
-    const c = $(id), g = c.getContext("2d");
-    const scale = (c.width - 20) / span;
-    const px = (p) => [10 + (p[a] - v[a]) * scale, c.height - 10 - (p[b] - v[b]) * scale];
+    const c = $(id), g = c.getContext("2d"), zp = zoomPan[id];
+    const span = Math.max(box[a + 3] - box[a], box[b + 3] - box[b], 40);
+    const scale = (c.width - 20) / span * zp.zoom;
+    const [ca, cb] = [(box[a] + box[a + 3]) / 2, (box[b] + box[b + 3]) / 2];
+    const px = (p) => [c.width / 2 + (p[a] - ca) * scale + zp.pan[0], c.height / 2 - (p[b] - cb) * scale + zp.pan[1]];
+    g.clearRect(0, 0, c.width, c.height);
+    grid(g, c, px, scale, a, b);
     paint(g, c, px, scale);
   }
-  const c = $("view3d"), g = c.getContext("2d");
-  const centre = [0, 1, 2].map((i) => (v[i] + v[i + 3]) / 2);
-  const scale = (c.width - 20) / (span * 1.75);
+  const c = $("view3d"), g = c.getContext("2d"), zp = zoomPan.view3d;
+  const centre = [0, 1, 2].map((i) => (box[i] + box[i + 3]) / 2);
+  const diag = Math.hypot(box[3] - box[0], box[4] - box[1], box[5] - box[2]);
+  const scale = (c.width - 20) / Math.max(diag, 40) * zp.zoom;
   const [cy, sy, cp, sp] = [Math.cos(yaw), Math.sin(yaw), Math.cos(pitch), Math.sin(pitch)];
-  const px = (p) => {
+  // Screen x, screen y and depth (larger is farther) of a world point.
+  const project = (p) => {
     const x = p[0] - centre[0], y = p[1] - centre[1], z = p[2] - centre[2];
     const x1 = cy * x - sy * y, y1 = sy * x + cy * y;
-    const up = cp * z - sp * y1;
-    return [c.width / 2 + x1 * scale, c.height / 2 - up * scale];
+    const up = cp * z - sp * y1, depth = sp * z + cp * y1;
+    return [c.width / 2 + x1 * scale + zp.pan[0], c.height / 2 - up * scale + zp.pan[1], depth];
   };
-  paint(g, c, px, scale, v);
+  g.clearRect(0, 0, c.width, c.height);
+  paint(g, c, project, scale, scene.volume);
+}
+
+// Grid lines every round step and a scale bar, in an orthographic view.
+function grid(g, c, px, scale, a, b) {
+  const step = gridStep(c.width / scale);
+  const origin = px([0, 0, 0]);
+  g.strokeStyle = "#262a33"; g.lineWidth = 1;
+  const first = (o, s) => o - Math.ceil(o / (step * s)) * step * s;
+  for (let x = first(origin[0], scale); x < c.width; x += step * scale) {
+    g.beginPath(); g.moveTo(x, 0); g.lineTo(x, c.height); g.stroke();
+  }
+  for (let y = first(origin[1], scale); y < c.height; y += step * scale) {
+    g.beginPath(); g.moveTo(0, y); g.lineTo(c.width, y); g.stroke();
+  }
+  const len = step * scale, y = c.height - 8;
+  g.strokeStyle = "#c8ccd6"; g.fillStyle = "#c8ccd6"; g.lineWidth = 2;
+  g.beginPath(); g.moveTo(8, y); g.lineTo(8 + len, y); g.stroke();
+  g.font = "11px system-ui"; g.fillText(`${step} mm`, 12 + len, y + 4);
+  c.dataset.gridMm = String(step);
+  c.dataset.scale = scale.toFixed(4);
 }
 
 function paint(g, c, px, scale, box) {
-  g.clearRect(0, 0, c.width, c.height);
   if (box) {
     g.strokeStyle = "#3a4050"; g.lineWidth = 1;
     const corners = [];
@@ -245,9 +291,13 @@ function paint(g, c, px, scale, box) {
   }
   const cloud = last.cloud, bands = last.cloud_band;
   const dot = Math.max(1.5, scene.voxel * scale);
-  for (let i = 0; i < bands.length; i++) {
-    const [x, y] = px([cloud[3 * i], cloud[3 * i + 1], cloud[3 * i + 2]]);
-    g.fillStyle = bands[i] ? "rgba(255,90,90,0.8)" : "rgba(154,163,181,0.35)";
+  const points = [];
+  for (let i = 0; i < bands.length; i++) points.push(px([cloud[3 * i], cloud[3 * i + 1], cloud[3 * i + 2]]).concat([bands[i]]));
+  // Far points first, so that near ones cover them (the 3-D view gives a depth).
+  if (points.length && points[0].length === 4) points.sort((p, q) => q[2] - p[2]);
+  for (const p of points) {
+    const [x, y, band] = [p[0], p[1], p[p.length - 1]];
+    g.fillStyle = band ? "rgba(255,90,90,0.8)" : "rgba(154,163,181,0.35)";
     g.fillRect(x - dot / 2, y - dot / 2, dot, dot);
   }
   const r = last.record;
@@ -278,17 +328,41 @@ function paint(g, c, px, scale, box) {
   }
 }
 
-(function rotate() {
-  const c = $("view3d");
-  let drag = null;
-  c.addEventListener("pointerdown", (e) => { drag = [e.clientX, e.clientY, yaw, pitch]; c.setPointerCapture(e.pointerId); });
-  c.addEventListener("pointerup", () => { drag = null; });
-  c.addEventListener("pointermove", (e) => {
-    if (!drag) return;
-    yaw = drag[2] + (e.clientX - drag[0]) * 0.01;
-    pitch = Math.max(-1.5, Math.min(1.5, drag[3] + (e.clientY - drag[1]) * 0.01));
-    draw();
-  });
+// Drag turns the 3-D view (shift-drag pans it) and pans the others; the wheel zooms about the
+// pointer; a double click returns to the fitted view.
+(function navigate() {
+  for (const id of ["top", "front", "side", "view3d"]) {
+    const c = $(id), zp = zoomPan[id];
+    let drag = null;
+    c.addEventListener("pointerdown", (e) => {
+      drag = { x: e.clientX, y: e.clientY, yaw, pitch, pan: zp.pan.slice(), turn: id === "view3d" && !e.shiftKey };
+      c.setPointerCapture && c.setPointerCapture(e.pointerId);
+    });
+    c.addEventListener("pointerup", () => { drag = null; });
+    c.addEventListener("pointermove", (e) => {
+      if (!drag) return;
+      const [dx, dy] = [e.clientX - drag.x, e.clientY - drag.y];
+      if (drag.turn) {
+        yaw = drag.yaw + dx * 0.01;
+        pitch = Math.max(-1.5, Math.min(1.5, drag.pitch + dy * 0.01));
+      } else {
+        zp.pan = [drag.pan[0] + dx, drag.pan[1] + dy];
+      }
+      draw();
+    });
+    c.addEventListener("wheel", (e) => {
+      e.preventDefault();
+      const k = Math.exp(-e.deltaY * 0.0015);
+      const r = c.getBoundingClientRect();
+      // Keep the point under the pointer where it is.
+      const [mx, my] = [(e.clientX - r.left) * c.width / r.width - c.width / 2, (e.clientY - r.top) * c.height / r.height - c.height / 2];
+      zp.pan = [mx - (mx - zp.pan[0]) * k, my - (my - zp.pan[1]) * k];
+      zp.zoom *= k;
+      draw();
+    }, { passive: false });
+    c.addEventListener("dblclick", () => { zp.zoom = 1; zp.pan = [0, 0]; draw(); });
+  }
+  $("fit-tube").addEventListener("change", draw);
 })();
 
 toggles();
