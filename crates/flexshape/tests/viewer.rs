@@ -258,7 +258,38 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
     let after = eval(&c, "return document.getElementById('view3d').toDataURL();").await;
     assert_ne!(before, after, "the 3-D view turns");
     views_fit_the_tube_and_zoom(&c).await;
+    // The time series: a line in every panel (below its title) and the stage bar.
+    let inked = eval(
+        &c,
+        "const c = document.getElementById('series'), w = c.width;
+         const d = c.getContext('2d').getImageData(0, 0, w, c.height).data;
+         const ink = (top, bottom) => { let n = 0;
+           for (let y = top; y < bottom; y++) for (let x = 60; x < w - 12; x++) {
+             const i = 4 * (y * w + x);
+             if (d[i + 3] > 0 && !(d[i] === 58 && d[i + 1] === 64 && d[i + 2] === 80)) n++; }
+           return n; };
+         return [ink(18, 72), ink(94, 128), ink(150, 184), ink(206, 240), ink(262, 306),
+                 ink(330, 346), Number(c.dataset.points)];",
+    )
+    .await;
+    println!("time series ink per panel, and frames remembered: {inked}");
+    let inked: Vec<f64> = inked
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!(inked[6] >= 6.0, "frames remembered: {}", inked[6]);
+    assert!(
+        inked[..5].iter().all(|&n| n > 100.0) && inked[5] > 5000.0,
+        "{inked:?}"
+    );
 
+    eval(
+        &c,
+        "document.getElementById('series').scrollIntoView(); return true;",
+    )
+    .await;
     screenshot(&c, "viewer.png").await;
     c.close().await.unwrap();
 

@@ -26,7 +26,9 @@ function connect() {
       received += 1;
       document.body.dataset.frames = String(received);
       figures(m);
+      remember(m);
       draw();
+      drawSeries();
       if (m.steering) drawSteering(m.steering);
     }
   };
@@ -197,6 +199,82 @@ function drawSteering(st) {
     line((s) => s.commanded_kappa[i], colour, yk, false);
     line((s) => s.sensed_kappa ? s.sensed_kappa[i] : null, colour, yk, true);
   });
+}
+
+// The record's figures over the last SERIES_S seconds (by arrival), for the time-series plots.
+const SERIES_S = 30;
+const history = [];
+const CAMERA_COLOURS = ["#4fa3ff", "#5fd08a", "#ffb84f", "#c08bff", "#ff6b6b", "#5fd0d0", "#d0d05f", "#c8ccd6"];
+
+function remember(m) {
+  const r = m.record, now = performance.now() / 1000;
+  history.push({
+    t: now,
+    tip: r.tip,
+    curvature: r.arc_fit ? r.arc_fit.curvature * 1000 : null,
+    fps: m.stats.fps,
+    latency: m.stats.latency_ms,
+    residuals: (r.cameras || []).map((c) => c.residual_px),
+    stages: r.timings_ms,
+  });
+  while (history.length && history[0].t < now - SERIES_S) history.shift();
+}
+
+// Panels stacked over the last SERIES_S seconds, and the newest frame's stage times as a bar.
+function drawSeries() {
+  const c = $("series"), g = c.getContext("2d");
+  g.clearRect(0, 0, c.width, c.height);
+  if (!history.length) return;
+  const now = history[history.length - 1].t;
+  const [left, right] = [52, c.width - 10];
+  const x = (t) => right - (now - t) / SERIES_S * (right - left);
+  g.font = "11px system-ui";
+  const panel = (top, bottom, title, lines) => {
+    g.strokeStyle = "#3a4050"; g.lineWidth = 1; g.strokeRect(left, top, right - left, bottom - top);
+    const values = lines.flatMap((l) => history.map(l.value)).filter((v) => v != null && isFinite(v));
+    if (!values.length) return;
+    let [lo, hi] = [Math.min(...values), Math.max(...values)];
+    if (hi - lo < 1e-9) { lo -= 1; hi += 1; }
+    const y = (v) => bottom - 3 - (v - lo) / (hi - lo) * (bottom - top - 6);
+    g.fillStyle = "#8a90a0";
+    g.fillText(title, left + 4, top + 11);
+    g.fillText(fmt(hi, 2), 2, top + 9); g.fillText(fmt(lo, 2), 2, bottom - 1);
+    for (const l of lines) {
+      g.strokeStyle = l.colour; g.lineWidth = 1.5; g.beginPath();
+      let open = false;
+      for (const h of history) {
+        const v = l.value(h);
+        if (v == null || !isFinite(v)) { open = false; continue; }
+        open ? g.lineTo(x(h.t), y(v)) : g.moveTo(x(h.t), y(v)); open = true;
+      }
+      g.stroke();
+    }
+  };
+  // The tip about its mean over the window, so that a millimetre shows.
+  const mean = [0, 1, 2].map((i) => {
+    const v = history.filter((h) => h.tip).map((h) => h.tip[i]);
+    return v.length ? v.reduce((a, b) => a + b, 0) / v.length : 0;
+  });
+  panel(4, 74, "tip − mean (mm)", ["#ff6b6b", "#5fd08a", "#4fa3ff"].map((colour, i) => ({ colour, value: (h) => h.tip ? h.tip[i] - mean[i] : null })));
+  panel(80, 130, "curvature (1/m)", [{ colour: "#ffb84f", value: (h) => h.curvature }]);
+  panel(136, 186, "frames/s", [{ colour: "#c8ccd6", value: (h) => h.fps }]);
+  panel(192, 242, "latency (ms)", [{ colour: "#ffb84f", value: (h) => h.latency }]);
+  const cams = Math.max(0, ...history.map((h) => h.residuals.length));
+  panel(248, 308, "outline residual per camera (px)", [...Array(cams).keys()].map((i) => ({ colour: CAMERA_COLOURS[i % 8], value: (h) => h.residuals[i] })));
+  // This frame's time per stage.
+  const stages = history[history.length - 1].stages || {};
+  const names = ["silhouettes", "carve", "bands", "shape", "fit"];
+  const total = names.reduce((a, n) => a + (stages[n] || 0), 0);
+  let at = left;
+  const top = 330, width = right - left;
+  g.fillStyle = "#8a90a0"; g.fillText(`this frame's stages: ${fmt(total, 2)} ms`, left, top - 5);
+  names.forEach((n, i) => {
+    const w = total > 0 ? (stages[n] || 0) / total * width : 0;
+    g.fillStyle = CAMERA_COLOURS[(i + 3) % 8]; g.fillRect(at, top, w, 16);
+    if (w > 60) { g.fillStyle = "#14161b"; g.fillText(`${n} ${fmt(stages[n], 2)}`, at + 4, top + 12); }
+    at += w;
+  });
+  c.dataset.points = String(history.length);
 }
 
 // Orthographic views: [canvas id, horizontal axis, vertical axis].
