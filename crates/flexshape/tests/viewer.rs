@@ -258,6 +258,31 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
     let after = eval(&c, "return document.getElementById('view3d').toDataURL();").await;
     assert_ne!(before, after, "the 3-D view turns");
     views_fit_the_tube_and_zoom(&c).await;
+    // The cameras' frusta in 3-D, on request: each camera's colour appears in the view.
+    let colours = |on: bool| {
+        format!(
+            "const t = document.getElementById('show-cameras'); t.checked = {on};
+             t.dispatchEvent(new Event('change'));
+             const v = document.getElementById('view3d');
+             const d = v.getContext('2d').getImageData(0, 0, v.width, v.height).data;
+             const count = (r, g, b) => {{ let n = 0; for (let i = 0; i < d.length; i += 4)
+               if (d[i + 3] > 200 && Math.abs(d[i] - r) < 8 && Math.abs(d[i + 1] - g) < 8
+                   && Math.abs(d[i + 2] - b) < 8) n++;
+               return n; }};
+             return [Number(v.dataset.frusta), count(230, 216, 90), count(90, 216, 230),
+                     count(216, 140, 255)];"
+        )
+    };
+    let (without, with) = (
+        eval(&c, &colours(false)).await,
+        eval(&c, &colours(true)).await,
+    );
+    println!("frusta shown, and pixels of each camera's colour: {without} without, {with} with");
+    assert_eq!((without[0].clone(), with[0].clone()), (json!(0), json!(3)));
+    assert!(
+        (1..4).all(|i| with[i].as_f64().unwrap() > without[i].as_f64().unwrap() + 40.0),
+        "{without} {with}"
+    );
     // The time series: a line in every panel (below its title) and the stage bar.
     let inked = eval(
         &c,

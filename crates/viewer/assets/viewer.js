@@ -204,7 +204,8 @@ function drawSteering(st) {
 // The record's figures over the last SERIES_S seconds (by arrival), for the time-series plots.
 const SERIES_S = 30;
 const history = [];
-const CAMERA_COLOURS = ["#4fa3ff", "#5fd08a", "#ffb84f", "#c08bff", "#ff6b6b", "#5fd0d0", "#d0d05f", "#c8ccd6"];
+// Per camera (frusta, residual lines): apart from the shape's own colours.
+const CAMERA_COLOURS = ["#e6d85a", "#5ad8e6", "#d88cff", "#ff8c5a", "#9ae65a", "#ff5a9a", "#5a8cff", "#c8ccd6"];
 
 function remember(m) {
   const r = m.record, now = performance.now() / 1000;
@@ -315,8 +316,14 @@ function draw() {
     paint(g, c, px, scale);
   }
   const c = $("view3d"), g = c.getContext("2d"), zp = zoomPan.view3d;
-  const centre = [0, 1, 2].map((i) => (box[i] + box[i + 3]) / 2);
-  const diag = Math.hypot(box[3] - box[0], box[4] - box[1], box[5] - box[2]);
+  // With the cameras shown, the 3-D view frames them too.
+  const frusta = $("show-cameras").checked ? (scene.frusta || []) : [];
+  const box3 = box.slice();
+  for (const f of frusta) for (let i = 0; i < 3; i++) {
+    box3[i] = Math.min(box3[i], f.centre[i]); box3[i + 3] = Math.max(box3[i + 3], f.centre[i]);
+  }
+  const centre = [0, 1, 2].map((i) => (box3[i] + box3[i + 3]) / 2);
+  const diag = Math.hypot(box3[3] - box3[0], box3[4] - box3[1], box3[5] - box3[2]);
   const scale = (c.width - 20) / Math.max(diag, 40) * zp.zoom;
   const [cy, sy, cp, sp] = [Math.cos(yaw), Math.sin(yaw), Math.cos(pitch), Math.sin(pitch)];
   // Screen x, screen y and depth (larger is farther) of a world point.
@@ -328,6 +335,26 @@ function draw() {
   };
   g.clearRect(0, 0, c.width, c.height);
   paint(g, c, project, scale, scene.volume);
+  frusta.forEach((f, i) => drawFrustum(g, project, f, scene.cameras[i], CAMERA_COLOURS[i % 8], centre));
+  c.dataset.frusta = String(frusta.length);
+}
+
+// A camera as a pyramid from its centre toward what it sees, a quarter of the way to the
+// middle of the view, with its name.
+function drawFrustum(g, project, f, name, colour, target) {
+  const reach = 0.25 * Math.hypot(...[0, 1, 2].map((i) => target[i] - f.centre[i]));
+  const [ax, ay, az] = f.axes;
+  const corner = ([x, y]) => [0, 1, 2].map((i) => f.centre[i] + reach * (az[i] + x * ax[i] + y * ay[i]));
+  const apex = project(f.centre), base = f.corners.map((q) => project(corner(q)));
+  g.strokeStyle = colour; g.lineWidth = 1.2; g.beginPath();
+  base.forEach((p, k) => {
+    g.moveTo(apex[0], apex[1]); g.lineTo(p[0], p[1]);
+    const q = base[(k + 1) % 4]; g.moveTo(p[0], p[1]); g.lineTo(q[0], q[1]);
+  });
+  g.stroke();
+  // The image's top edge drawn thicker: which way is up in that camera.
+  g.lineWidth = 3; g.beginPath(); g.moveTo(base[0][0], base[0][1]); g.lineTo(base[1][0], base[1][1]); g.stroke();
+  g.fillStyle = colour; g.font = "11px system-ui"; g.fillText(name, apex[0] + 4, apex[1] - 4);
 }
 
 // Grid lines every round step and a scale bar, in an orthographic view.
@@ -441,6 +468,7 @@ function paint(g, c, px, scale, box) {
     c.addEventListener("dblclick", () => { zp.zoom = 1; zp.pan = [0, 0]; draw(); });
   }
   $("fit-tube").addEventListener("change", draw);
+  $("show-cameras").addEventListener("change", draw);
 })();
 
 toggles();

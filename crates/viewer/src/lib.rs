@@ -84,10 +84,46 @@ pub struct Scene {
     /// known).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub image_sizes: Vec<[u32; 2]>,
+    /// Each camera's place and view in the world, for the 3-D view's frusta (empty when not
+    /// known).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub frusta: Vec<Frustum>,
     /// The carving volume's corners, world mm: `[xmin, ymin, zmin, xmax, ymax, zmax]`.
     pub volume: [f64; 6],
     /// Voxel edge, mm.
     pub voxel: f64,
+}
+
+/// Where a camera is and what it sees, world frame: its centre (mm), its axes (x right, y down,
+/// z along the optical axis; unit vectors) and the image's corners as `(x, y)` of the
+/// normalized image plane at `z = 1` (top-left, top-right, bottom-right, bottom-left; without
+/// lens distortion).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Frustum {
+    /// Camera centre, world mm.
+    pub centre: [f64; 3],
+    /// The camera's x, y and z axes in the world frame.
+    pub axes: [[f64; 3]; 3],
+    /// The image corners on the plane `z = 1`.
+    pub corners: [[f64; 2]; 4],
+}
+
+impl Frustum {
+    /// The frustum of `camera`.
+    pub fn of(camera: &flexshape_camera::Camera) -> Self {
+        let k = &camera.intrinsics;
+        let r = camera.pose.rotation.matrix();
+        let c = camera.centre();
+        // Pixel (u, v) on the plane z = 1; the image's edges are half a pixel beyond the
+        // outer pixels' centres.
+        let at = |u: f64, v: f64| [(u - k.cx) / k.fx, (v - k.cy) / k.fy];
+        let (w, h) = (f64::from(k.width) - 0.5, f64::from(k.height) - 0.5);
+        Frustum {
+            centre: [c.x, c.y, c.z],
+            axes: std::array::from_fn(|i| [r[(i, 0)], r[(i, 1)], r[(i, 2)]]),
+            corners: [at(-0.5, -0.5), at(w, -0.5), at(w, h), at(-0.5, h)],
+        }
+    }
 }
 
 /// A running viewer. Dropping it leaves the server running until the process ends.

@@ -9,7 +9,7 @@ use flexshape_camera::Camera;
 
 use flexshape_track::{Pipeline, Processed, TrackRecord};
 
-use crate::{Scene, Stats, Steering, Update, Viewer, ViewerError};
+use crate::{Frustum, Scene, Stats, Steering, Update, Viewer, ViewerError};
 
 /// A started viewer and the recent frame times it shows as frames per second.
 pub struct Live {
@@ -32,6 +32,7 @@ impl Scene {
                 .iter()
                 .map(|c| [c.intrinsics.width, c.intrinsics.height])
                 .collect(),
+            frusta: pipeline.cameras().iter().map(Frustum::of).collect(),
             volume: [v.origin[0], v.origin[1], v.origin[2], hi.x, hi.y, hi.z],
             voxel: v.voxel_size[0],
         }

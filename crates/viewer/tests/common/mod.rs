@@ -32,6 +32,7 @@ pub fn scene() -> Scene {
     Scene {
         cameras: vec!["cam0".into()],
         image_sizes: Vec::new(),
+        frusta: Vec::new(),
         volume: [-128.0, -128.0, -128.0, 128.0, 128.0, 128.0],
         voxel: 1.0,
     }
