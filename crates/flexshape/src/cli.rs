@@ -45,6 +45,9 @@ pub enum Command {
     /// Validation experiments (paper, Section III): `points`, `shape`, or `--simulate` to run
     /// both on the simulated rig and compare with the paper's figures.
     Validate(ValidateArgs),
+    /// Play a tracking output (JSON Lines) back in the viewer at its recorded pace, with pause,
+    /// step and seek on the page; Ctrl-C ends.
+    View(ViewArgs),
     /// Figures of a tracking output (PNG + SVG): all shapes in three views with bands and
     /// tips, the circular-arc fits against the curves, and per-stage time histograms.
     Report(ReportArgs),
@@ -57,6 +60,21 @@ pub enum Command {
         #[command(subcommand)]
         command: RigCommand,
     },
+}
+
+#[derive(Debug, Args)]
+pub struct ViewArgs {
+    /// The records: a `flexshape track` JSON Lines file.
+    pub records: PathBuf,
+    /// Serve the viewer at ADDR (port 0 picks a free port).
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8080")]
+    pub viewer: String,
+    /// Allow the viewer on a non-loopback address (anyone who can reach it sees the records).
+    #[arg(long)]
+    pub allow_remote: bool,
+    /// Playback speed: 1 is the recorded pace, 2 twice as fast.
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
 }
 
 #[derive(Debug, Args)]

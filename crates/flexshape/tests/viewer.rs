@@ -585,3 +585,77 @@ fn track_keeps_the_viewer_until_ctrl_c_unless_told() {
     let e = common::fails(&["track", rec.to_str().unwrap(), "--viewer-exit"]);
     assert!(e.contains("--viewer"), "{e}");
 }
+
+/// `view FILE.jsonl`: the records play back at their pace; the page pauses, steps and seeks.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_record_stream_replays_with_pause_step_and_seek() {
+    if !browser_or_skip() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let rec = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", rec, "--frames", "8", "--motion", "4"]);
+    let shapes = dir.path().join("shapes.jsonl");
+    let shapes = shapes.to_str().unwrap();
+    common::run(&["track", rec, "--out", shapes]);
+    let (mut view, url) = spawn_with_viewer(&["view", shapes, "--viewer", "127.0.0.1:0"]);
+    let (c, _driver, _profile) = browser().await;
+    c.goto(&url).await.unwrap();
+    let long = Duration::from_secs(60);
+    wait_for(
+        &c,
+        "return !document.getElementById('replay').hidden && Number(document.body.dataset.frames) >= 2;",
+        long,
+        "the replay playing",
+    )
+    .await;
+    let click = |id: &str| format!("document.getElementById('{id}').click(); return true;");
+    eval(&c, &click("replay-play")).await;
+    wait_for(
+        &c,
+        "return document.getElementById('replay-play').textContent === 'play';",
+        long,
+        "paused",
+    )
+    .await;
+    let paused = text_of(&c, "frame").await.parse::<u64>().unwrap();
+    eval(&c, &click("replay-next")).await;
+    let next = if paused == 7 { 7 } else { paused + 1 };
+    wait_for(
+        &c,
+        &format!("return document.getElementById('frame').textContent === '{next}';"),
+        long,
+        "one record on",
+    )
+    .await;
+    eval(
+        &c,
+        "const s = document.getElementById('replay-seek'); s.value = '2';
+         s.dispatchEvent(new Event('input')); return true;",
+    )
+    .await;
+    wait_for(
+        &c,
+        "return document.getElementById('frame').textContent === '2' &&
+                document.getElementById('replay-at').textContent === '3 / 8';",
+        long,
+        "record 2 after seeking",
+    )
+    .await;
+    // Still paused: nothing moves on by itself.
+    tokio::time::sleep(Duration::from_millis(600)).await;
+    assert_eq!(text_of(&c, "frame").await, "2");
+    eval(&c, &click("replay-play")).await;
+    wait_for(
+        &c,
+        "return Number(document.getElementById('frame').textContent) > 2;",
+        long,
+        "playing on",
+    )
+    .await;
+    c.close().await.unwrap();
+    interrupt(&mut view);
+    let e = common::fails(&["view", rec]);
+    assert!(e.contains(rec), "{e}");
+}

@@ -8,8 +8,11 @@ let shape = null;
 let received = 0;
 let yaw = -0.6, pitch = 0.45;
 
+let socket = null;
+
 function connect() {
   const ws = new WebSocket(`ws://${location.host}/ws`);
+  socket = ws;
   ws.binaryType = "arraybuffer";
   ws.onopen = () => { $("conn").textContent = "live"; $("conn").className = "ok"; };
   ws.onclose = () => {
@@ -26,6 +29,7 @@ function connect() {
       received += 1;
       document.body.dataset.frames = String(received);
       figures(m);
+      if (m.replay) showReplay(m.replay);
       remember(m);
       draw();
       drawSeries();
@@ -36,6 +40,8 @@ function connect() {
 
 function setup(s) {
   scene = s;
+  $("replay").hidden = !s.replay;
+  if (s.replay) $("replay-seek").max = String(s.replay - 1);
   const box = $("cameras");
   box.innerHTML = "";
   s.cameras.forEach((name, i) => {
@@ -106,6 +112,26 @@ function showImage(bytes) {
     img.src = url;
     img.dataset.updates = String(Number(img.dataset.updates || 0) + 1);
   }
+}
+
+// A replay's place, and its controls sent back to the server.
+function showReplay(r) {
+  $("replay-at").textContent = `${r.index + 1} / ${r.frames}`;
+  $("replay-play").textContent = r.playing ? "pause" : "play";
+  $("replay-play").dataset.playing = String(r.playing);
+  if (document.activeElement !== $("replay-seek")) $("replay-seek").value = String(r.index);
+}
+
+function control(message) {
+  if (socket && socket.readyState === WebSocket.OPEN) socket.send(JSON.stringify(message));
+}
+
+function replayControls() {
+  $("replay-play").addEventListener("click", () =>
+    control({ control: $("replay-play").dataset.playing === "true" ? "pause" : "play" }));
+  $("replay-back").addEventListener("click", () => control({ control: "step", by: -1 }));
+  $("replay-next").addEventListener("click", () => control({ control: "step", by: 1 }));
+  $("replay-seek").addEventListener("input", () => control({ control: "seek", index: Number($("replay-seek").value) }));
 }
 
 function toggles() {
@@ -472,4 +498,5 @@ function paint(g, c, px, scale, box) {
 })();
 
 toggles();
+replayControls();
 connect();

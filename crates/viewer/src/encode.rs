@@ -82,6 +82,7 @@ pub struct Update {
     stats: Stats,
     steering: Option<Steering>,
     cameras: Option<Arc<[Camera]>>,
+    replay: Option<crate::ReplayState>,
 }
 
 impl Update {
@@ -95,7 +96,27 @@ impl Update {
             stats,
             steering: None,
             cameras: None,
+            replay: None,
         }
+    }
+
+    /// A frame known only by its record (a replayed record stream): no images, no cloud.
+    pub fn of_record(record: TrackRecord, stats: Stats) -> Self {
+        Update {
+            record,
+            images: Vec::new(),
+            tracked: None,
+            stats,
+            steering: None,
+            cameras: None,
+            replay: None,
+        }
+    }
+
+    /// The same frame as a replay shows it.
+    pub fn with_replay(mut self, state: crate::ReplayState) -> Self {
+        self.replay = Some(state);
+        self
     }
 
     /// The same frame with the rig's cameras, so the page draws the shape over each camera's
@@ -123,6 +144,9 @@ struct FrameMessage<'a> {
     stats: &'a Stats,
     #[serde(skip_serializing_if = "Option::is_none")]
     steering: Option<&'a Steering>,
+    /// Where a replay is.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    replay: Option<crate::ReplayState>,
     /// Flat x, y, z, … of voxel centres, 0.1 mm resolution.
     cloud: Vec<f32>,
     /// Per cloud point: 0 outside bands, else the band's number.
@@ -175,6 +199,7 @@ pub(crate) fn frame_json(update: &Update) -> String {
         record: &update.record,
         stats: &update.stats,
         steering: update.steering.as_ref(),
+        replay: update.replay,
         cloud,
         cloud_band,
     };

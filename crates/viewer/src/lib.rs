@@ -35,6 +35,7 @@ mod limits;
 mod live;
 mod origin;
 mod overlay;
+mod replay;
 mod server;
 
 use std::net::{SocketAddr, TcpListener};
@@ -47,6 +48,7 @@ pub use encode::{Stats, Steering, SteeringSample, Update};
 pub use limits::Limits;
 pub use live::Live;
 pub use overlay::{CameraOverlay, overlays};
+pub use replay::{Control, ReplayState, replay, scene_of};
 
 /// Why the viewer could not start.
 #[derive(Debug, Error)]
@@ -92,6 +94,9 @@ pub struct Scene {
     pub volume: [f64; 6],
     /// Voxel edge, mm.
     pub voxel: f64,
+    /// Records of a replay (`flexshape view`): the page shows its controls and sends them back.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub replay: Option<usize>,
 }
 
 /// Where a camera is and what it sees, world frame: its centre (mm), its axes (x right, y down,
@@ -131,6 +136,7 @@ pub struct Viewer {
     url: String,
     addr: SocketAddr,
     mailbox: watch::Sender<Option<Arc<Update>>>,
+    controls: Option<std::sync::mpsc::Receiver<Control>>,
 }
 
 impl Viewer {
@@ -168,6 +174,14 @@ impl Viewer {
             .set_nonblocking(true)
             .map_err(|error| ViewerError::Bind { addr, error })?;
         let (mailbox, updates) = watch::channel(None);
+        // A replay's page sends controls back; a live viewer's page sends none.
+        let (controls_tx, controls) = match scene.replay {
+            Some(_) => {
+                let (tx, rx) = std::sync::mpsc::channel();
+                (Some(tx), Some(rx))
+            }
+            None => (None, None),
+        };
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .thread_name("viewer")
@@ -176,7 +190,9 @@ impl Viewer {
             .map_err(ViewerError::Runtime)?;
         std::thread::Builder::new()
             .name("viewer".into())
-            .spawn(move || runtime.block_on(server::serve(listener, scene, updates, limits)))
+            .spawn(move || {
+                runtime.block_on(server::serve(listener, scene, updates, limits, controls_tx))
+            })
             .map_err(ViewerError::Runtime)?;
         let host = if bound.ip().is_unspecified() {
             "127.0.0.1".to_string()
@@ -187,6 +203,7 @@ impl Viewer {
             url: format!("http://{host}:{}/", bound.port()),
             addr: bound,
             mailbox,
+            controls,
         })
     }
 
@@ -198,6 +215,11 @@ impl Viewer {
     /// The bound socket address.
     pub fn addr(&self) -> SocketAddr {
         self.addr
+    }
+
+    /// The controls the page of a replay sends (its scene's `replay` set), once.
+    pub fn take_controls(&mut self) -> Option<std::sync::mpsc::Receiver<Control>> {
+        self.controls.take()
     }
 
     /// Offers a frame to the browsers; replaces any frame not yet encoded. Never blocks.

@@ -33,6 +33,7 @@ impl Scene {
                 .map(|c| [c.intrinsics.width, c.intrinsics.height])
                 .collect(),
             frusta: pipeline.cameras().iter().map(Frustum::of).collect(),
+            replay: None,
             volume: [v.origin[0], v.origin[1], v.origin[2], hi.x, hi.y, hi.z],
             voxel: v.voxel_size[0],
         }

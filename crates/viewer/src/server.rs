@@ -14,7 +14,7 @@ use tokio::sync::watch;
 
 use crate::encode::{Update, frame_json, image_messages, overlays_json};
 use crate::limits::{Limited, Limits};
-use crate::{Scene, origin};
+use crate::{Control, Scene, origin};
 
 const PAGE: &str = include_str!("../assets/index.html");
 const SCRIPT: &str = include_str!("../assets/viewer.js");
@@ -41,6 +41,8 @@ struct AppState {
     encoded: watch::Receiver<Arc<Encoded>>,
     /// How often a WebSocket is pinged: well within the idle limit.
     ping: Duration,
+    /// Where a replay's controls go (none for a live viewer).
+    controls: Option<std::sync::mpsc::Sender<Control>>,
 }
 
 /// Serves until the process ends.
@@ -49,6 +51,7 @@ pub(crate) async fn serve(
     scene: Scene,
     updates: watch::Receiver<Option<Arc<Update>>>,
     limits: Limits,
+    controls: Option<std::sync::mpsc::Sender<Control>>,
 ) {
     let hello = serde_json::json!({"type": "hello", "scene": scene}).to_string();
     let (encoded_tx, encoded) = watch::channel(Arc::new(Encoded::default()));
@@ -57,6 +60,7 @@ pub(crate) async fn serve(
         hello: hello.into(),
         encoded,
         ping: limits.idle() / 3,
+        controls,
     };
     let guard = match listener.local_addr() {
         Ok(a) => origin::Guard {
@@ -166,6 +170,7 @@ async fn stream(mut socket: WebSocket, state: AppState) {
         hello,
         mut encoded,
         ping,
+        controls,
     } = state;
     if socket
         .send(Message::Text(hello.as_ref().into()))
@@ -221,6 +226,14 @@ async fn stream(mut socket: WebSocket, state: AppState) {
                 }
                 message = socket.recv() => match message {
                     Some(Ok(Message::Close(_))) | Some(Err(_)) | None => return,
+                    Some(Ok(Message::Text(text))) => {
+                        // A replay's control; anything else a page sends is ignored.
+                        if let (Some(tx), Ok(control)) =
+                            (&controls, serde_json::from_str::<Control>(text.as_str()))
+                        {
+                            let _ = tx.send(control);
+                        }
+                    }
                     Some(Ok(_)) => {}
                 },
                 _ = pings.tick() => {

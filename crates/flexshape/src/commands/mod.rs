@@ -19,6 +19,7 @@ mod silhouettes;
 mod simulate;
 mod track;
 mod validate;
+mod view;
 mod viewer;
 
 use flexshape_sim::{Catheter, RenderSettings, SimConfig, SimRigConfig};
@@ -51,6 +52,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             None => anyhow::bail!("give `--simulate`, or a subcommand: `points` or `shape`"),
         },
         Command::Report(args) => report::run(&args),
+        Command::View(args) => view::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
         Command::Rig { command } => match command {
             RigCommand::Check(args) => rig_check::run(&args),

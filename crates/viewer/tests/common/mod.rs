@@ -33,6 +33,7 @@ pub fn scene() -> Scene {
         cameras: vec!["cam0".into()],
         image_sizes: Vec::new(),
         frusta: Vec::new(),
+        replay: None,
         volume: [-128.0, -128.0, -128.0, 128.0, 128.0, 128.0],
         voxel: 1.0,
     }

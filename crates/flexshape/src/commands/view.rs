@@ -1,0 +1,38 @@
+//! `flexshape view`: a tracking output played back in the viewer (`flexshape_viewer::replay`).
+
+use anyhow::{Context, ensure};
+use flexshape_viewer::{Viewer, replay, scene_of};
+
+use crate::cli::ViewArgs;
+use crate::interrupt::Interrupt;
+
+pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
+    ensure!(
+        args.speed.is_finite() && args.speed > 0.0,
+        "--speed {}: give a positive factor (1 is the recorded pace)",
+        args.speed
+    );
+    let records: Vec<_> = flexshape_track::read_records(&args.records)?
+        .into_iter()
+        .map(|(_, r)| r)
+        .collect();
+    ensure!(
+        !records.is_empty(),
+        "{} holds no records: give a `flexshape track` JSON Lines file",
+        args.records.display()
+    );
+    let stop = Interrupt::install();
+    let mut viewer = Viewer::start(&args.viewer, args.allow_remote, scene_of(&records))
+        .context("cannot start the viewer")?;
+    eprintln!("viewer: {}", viewer.url());
+    eprintln!(
+        "playing {} records at {}× their pace; pause, step and seek on the page; Ctrl-C ends",
+        records.len(),
+        args.speed
+    );
+    let controls = viewer
+        .take_controls()
+        .context("the viewer of a replay takes controls")?;
+    replay(&viewer, &records, args.speed, &controls, stop.flag());
+    Ok(())
+}
