@@ -603,32 +603,16 @@ async fn a_record_stream_replays_with_pause_step_and_seek() {
     let (c, _driver, _profile) = browser().await;
     c.goto(&url).await.unwrap();
     let long = Duration::from_secs(60);
+    // The page may connect after the 2-s stream has ended (it then pauses on the last record):
+    // seeking, stepping and playing work from wherever it is.
     wait_for(
         &c,
-        "return !document.getElementById('replay').hidden && Number(document.body.dataset.frames) >= 2;",
+        "return !document.getElementById('replay').hidden && Number(document.body.dataset.frames) >= 1;",
         long,
-        "the replay playing",
+        "the replay",
     )
     .await;
     let click = |id: &str| format!("document.getElementById('{id}').click(); return true;");
-    eval(&c, &click("replay-play")).await;
-    wait_for(
-        &c,
-        "return document.getElementById('replay-play').textContent === 'play';",
-        long,
-        "paused",
-    )
-    .await;
-    let paused = text_of(&c, "frame").await.parse::<u64>().unwrap();
-    eval(&c, &click("replay-next")).await;
-    let next = if paused == 7 { 7 } else { paused + 1 };
-    wait_for(
-        &c,
-        &format!("return document.getElementById('frame').textContent === '{next}';"),
-        long,
-        "one record on",
-    )
-    .await;
     eval(
         &c,
         "const s = document.getElementById('replay-seek'); s.value = '2';
@@ -638,9 +622,26 @@ async fn a_record_stream_replays_with_pause_step_and_seek() {
     wait_for(
         &c,
         "return document.getElementById('frame').textContent === '2' &&
-                document.getElementById('replay-at').textContent === '3 / 8';",
+                document.getElementById('replay-at').textContent === '3 / 8' &&
+                document.getElementById('replay-play').textContent === 'play';",
         long,
-        "record 2 after seeking",
+        "record 2, paused, after seeking",
+    )
+    .await;
+    eval(&c, &click("replay-next")).await;
+    wait_for(
+        &c,
+        "return document.getElementById('frame').textContent === '3';",
+        long,
+        "one record on",
+    )
+    .await;
+    eval(&c, &click("replay-back")).await;
+    wait_for(
+        &c,
+        "return document.getElementById('frame').textContent === '2';",
+        long,
+        "one record back",
     )
     .await;
     // Still paused: nothing moves on by itself.

@@ -54,6 +54,7 @@ function setup(s) {
     box.appendChild(card);
   });
   document.querySelectorAll("img.blend").forEach((img) => { img.hidden = !$("show-blend").checked; });
+  fitCanvases();
 }
 
 // The shape as each camera sees it, over its frame (the message comes right after that frame's
@@ -132,6 +133,24 @@ function replayControls() {
   $("replay-back").addEventListener("click", () => control({ control: "step", by: -1 }));
   $("replay-next").addEventListener("click", () => control({ control: "step", by: 1 }));
   $("replay-seek").addEventListener("input", () => control({ control: "seek", index: Number($("replay-seek").value) }));
+}
+
+// Canvases drawn at the size they are shown: views square, the time series and the steering
+// plot at their own height, each camera's overlay as large as its frame.
+function fitCanvases() {
+  let changed = false;
+  const size = (c, w, h) => {
+    if (!(w > 0 && h > 0)) return; // hidden: sized when shown
+    w = Math.round(w); h = Math.round(h);
+    if (c.width !== w || c.height !== h) { c.width = w; c.height = h; changed = true; }
+  };
+  for (const id of ["top", "front", "side", "view3d"]) size($(id), $(id).clientWidth, $(id).clientWidth);
+  for (const id of ["series", "steerplot"]) size($(id), $(id).clientWidth, $(id).height);
+  document.querySelectorAll(".cam .shot").forEach((shot) => {
+    const c = shot.querySelector("canvas");
+    if (c) size(c, shot.clientWidth, shot.clientHeight);
+  });
+  if (changed) { draw(); drawSeries(); drawOverlays(); if (last && last.steering) drawSteering(last.steering); }
 }
 
 function toggles() {
@@ -499,4 +518,7 @@ function paint(g, c, px, scale, box) {
 
 toggles();
 replayControls();
+new ResizeObserver(fitCanvases).observe(document.body);
+window.addEventListener("resize", fitCanvases);
+fitCanvases();
 connect();
