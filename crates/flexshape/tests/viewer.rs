@@ -412,6 +412,21 @@ async fn overlays_lie_on_the_silhouettes(c: &Client) {
     println!("overlay pixels (all, on the silhouette) per camera: {counts}");
     assert!(on_silhouettes(&counts), "{counts}");
     screenshot(c, "viewer-overlays.png").await;
+    // The simulated truth comes with the frame and over each camera's image.
+    let truth = eval(
+        c,
+        "return [last.truth_centerline.length, ...shape.overlays.map((o) => o.truth.filter((p) => p).length)];",
+    )
+    .await;
+    println!("truth points in the frame and over each camera: {truth}");
+    assert!(
+        truth
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|n| n.as_f64().unwrap() > 50.0),
+        "{truth}"
+    );
     let check = text_of(c, "check-1").await;
     assert!(
         check.starts_with("residual 0.") && check.contains("IoU 0.9"),

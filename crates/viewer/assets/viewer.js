@@ -88,6 +88,7 @@ function drawOverlays() {
       }
       g.stroke(); g.setLineDash([]);
     };
+    if (o.truth) line(o.truth, "#ffffff", 1, [1, 3]);
     o.sides.forEach((side) => line(side, "#5fd08a", 1.3, []));
     line(o.centerline, "#4fa3ff", 1, [3, 3]);
     for (const b of o.bands) {
@@ -451,6 +452,13 @@ function paint(g, c, px, scale, box) {
     g.fillRect(x - dot / 2, y - dot / 2, dot, dot);
   }
   const r = last.record;
+  const truth = last.truth_centerline;
+  if (truth && truth.length > 1) {
+    // The truth under the measured centerline, wider and white: where they part, it shows.
+    g.strokeStyle = "rgba(255,255,255,0.85)"; g.lineWidth = 5; g.beginPath();
+    truth.forEach((p, i) => { const [x, y] = px(p); i ? g.lineTo(x, y) : g.moveTo(x, y); });
+    g.stroke();
+  }
   if (r.centerline.length > 1) {
     g.strokeStyle = "#4fa3ff"; g.lineWidth = 2.5; g.beginPath();
     r.centerline.forEach((p, i) => { const [x, y] = px(p); i ? g.lineTo(x, y) : g.moveTo(x, y); });

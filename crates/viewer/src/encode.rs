@@ -83,6 +83,31 @@ pub struct Update {
     steering: Option<Steering>,
     cameras: Option<Arc<[Camera]>>,
     replay: Option<crate::ReplayState>,
+    /// The true centerline (simulated input), thinned to about every 1.5 mm.
+    truth: Option<Vec<[f64; 3]>>,
+}
+
+/// Spacing of the true centerline's points sent to the page, mm.
+const TRUTH_STEP_MM: f64 = 1.5;
+
+/// The true centerline thinned for the page (a point every `TRUTH_STEP_MM` or more), its
+/// tip kept.
+fn thinned(centerline: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let mut out: Vec<[f64; 3]> = Vec::new();
+    for &p in centerline {
+        let far = out.last().is_none_or(|q: &[f64; 3]| {
+            (0..3).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>() >= TRUTH_STEP_MM.powi(2)
+        });
+        if far {
+            out.push(p);
+        }
+    }
+    if let (Some(&tip), Some(kept)) = (centerline.last(), out.last())
+        && tip != *kept
+    {
+        out.push(tip);
+    }
+    out
 }
 
 impl Update {
@@ -97,6 +122,7 @@ impl Update {
             steering: None,
             cameras: None,
             replay: None,
+            truth: processed.truth.map(|t| thinned(&t.centerline)),
         }
     }
 
@@ -110,7 +136,18 @@ impl Update {
             steering: None,
             cameras: None,
             replay: None,
+            truth: None,
         }
+    }
+
+    /// The same frame with its true centerline kept only within 10 mm of the box `volume`
+    /// (`[xmin, ymin, zmin, xmax, ymax, zmax]`, world mm): a simulated catheter runs on far
+    /// outside what the cameras watch.
+    pub fn with_truth_within(mut self, volume: [f64; 6]) -> Self {
+        if let Some(t) = &mut self.truth {
+            t.retain(|p| (0..3).all(|i| p[i] >= volume[i] - 10.0 && p[i] <= volume[i + 3] + 10.0));
+        }
+        self
     }
 
     /// The same frame as a replay shows it.
@@ -147,6 +184,9 @@ struct FrameMessage<'a> {
     /// Where a replay is.
     #[serde(skip_serializing_if = "Option::is_none")]
     replay: Option<crate::ReplayState>,
+    /// The true centerline (simulated input), world mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    truth_centerline: Option<&'a [[f64; 3]]>,
     /// Flat x, y, z, … of voxel centres, 0.1 mm resolution.
     cloud: Vec<f32>,
     /// Per cloud point: 0 outside bands, else the band's number.
@@ -177,7 +217,7 @@ pub(crate) fn overlays_json(update: &Update) -> Option<String> {
     let message = OverlaysMessage {
         kind: "overlays",
         frame: update.record.frame,
-        overlays: overlays(cameras, tube, &update.record),
+        overlays: overlays(cameras, tube, &update.record, update.truth.as_deref()),
         cameras: &update.record.cameras,
     };
     serde_json::to_string(&message).ok()
@@ -200,6 +240,7 @@ pub(crate) fn frame_json(update: &Update) -> String {
         stats: &update.stats,
         steering: update.steering.as_ref(),
         replay: update.replay,
+        truth_centerline: update.truth.as_deref(),
         cloud,
         cloud_band,
     };

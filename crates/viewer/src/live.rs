@@ -18,6 +18,8 @@ pub struct Live {
     frames: usize,
     /// The rig's cameras, for the overlays.
     cameras: Arc<[Camera]>,
+    /// The carving volume, `[xmin, ymin, zmin, xmax, ymax, zmax]`, world mm.
+    volume: [f64; 6],
 }
 
 impl Scene {
@@ -44,8 +46,10 @@ impl Live {
     /// Serves the viewer of `pipeline`'s frames at `addr` (`HOST:PORT`; a non-loopback
     /// address only with `allow_remote`).
     pub fn start(addr: &str, allow_remote: bool, pipeline: &Pipeline) -> Result<Self, ViewerError> {
+        let scene = Scene::of(pipeline);
         Ok(Live {
-            viewer: Viewer::start(addr, allow_remote, Scene::of(pipeline))?,
+            volume: scene.volume,
+            viewer: Viewer::start(addr, allow_remote, scene)?,
             recent: VecDeque::new(),
             frames: 0,
             cameras: pipeline.cameras().into(),
@@ -99,6 +103,8 @@ impl Live {
             truth_rms_mm: truth.map(|t| t.0),
             truth_tip_mm: truth.map(|t| t.1),
         };
-        Update::new(p, record, stats).with_cameras(self.cameras.clone())
+        Update::new(p, record, stats)
+            .with_cameras(self.cameras.clone())
+            .with_truth_within(self.volume)
     }
 }

@@ -27,6 +27,9 @@ pub struct CameraOverlay {
     pub bands: Vec<[f32; 2]>,
     /// The tip.
     pub tip: Option<[f32; 2]>,
+    /// The true centerline's image (simulated input; empty otherwise).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub truth: Line,
 }
 
 /// A point on the tube: centre, unit tangent, radius (mm; 0 when unknown).
@@ -34,11 +37,12 @@ type Station = (Point3<f64>, Vector3<f64>, f64);
 
 /// Each camera's overlay of the frame: from the fitted `tube` when there is one (its own
 /// radii, steps included), else from the record's centerline (outline sides only when the
-/// record gives a radius).
+/// record gives a radius), with the `truth` centerline's image when it is known.
 pub fn overlays(
     cameras: &[Camera],
     tube: Option<&Tube>,
     record: &TrackRecord,
+    truth: Option<&[[f64; 3]]>,
 ) -> Vec<CameraOverlay> {
     let stations = match tube {
         Some(t) => tube_stations(t),
@@ -72,6 +76,11 @@ pub fn overlays(
                     .filter_map(|b| pixel(&Point3::from(b.position)))
                     .collect(),
                 tip: record.tip.and_then(|t| pixel(&Point3::from(t))),
+                truth: truth
+                    .unwrap_or_default()
+                    .iter()
+                    .map(|&p| pixel(&Point3::from(p)))
+                    .collect(),
             }
         })
         .collect()
