@@ -601,7 +601,8 @@ fn track_keeps_the_viewer_until_ctrl_c_unless_told() {
     assert!(e.contains("--viewer"), "{e}");
 }
 
-/// `view FILE.jsonl`: the records play back at their pace; the page pauses, steps and seeks.
+/// `view FILE.jsonl`: the records play back at their pace; the page pauses, steps and seeks; a
+/// recording plays the same after it is tracked.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_record_stream_replays_with_pause_step_and_seek() {
     if !browser_or_skip() {
@@ -672,6 +673,22 @@ async fn a_record_stream_replays_with_pause_step_and_seek() {
     .await;
     c.close().await.unwrap();
     interrupt(&mut view);
-    let e = common::fails(&["view", rec]);
-    assert!(e.contains(rec), "{e}");
+    // A recording is tracked first and played the same way.
+    let (mut view, url) = spawn_with_viewer(&["view", rec, "--viewer", "127.0.0.1:0"]);
+    let (c, _driver, _profile) = browser().await;
+    c.goto(&url).await.unwrap();
+    wait_for(
+        &c,
+        "return !document.getElementById('replay').hidden &&
+                document.getElementById('replay-at').textContent.endsWith(' / 8');",
+        long,
+        "the recording's 8 records",
+    )
+    .await;
+    c.close().await.unwrap();
+    interrupt(&mut view);
+    let empty = dir.path().join("empty.jsonl");
+    std::fs::write(&empty, "").unwrap();
+    let e = common::fails(&["view", empty.to_str().unwrap()]);
+    assert!(e.contains("holds no records"), "{e}");
 }

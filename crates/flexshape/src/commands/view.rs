@@ -1,6 +1,8 @@
-//! `flexshape view`: a tracking output played back in the viewer (`flexshape_viewer::replay`).
+//! `flexshape view`: a tracking output, or a recording tracked on the spot, played back in the
+//! viewer (`flexshape_viewer::replay`).
 
 use anyhow::{Context, ensure};
+use flexshape_lab::identify::records_of;
 use flexshape_viewer::{Viewer, replay, scene_of};
 
 use crate::cli::ViewArgs;
@@ -12,16 +14,21 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         "--speed {}: give a positive factor (1 is the recorded pace)",
         args.speed
     );
-    let records: Vec<_> = flexshape_track::read_records(&args.records)?
+    let stop = Interrupt::install();
+    if args.records.is_dir() {
+        eprintln!("tracking {} …", args.records.display());
+    }
+    // A JSON Lines file is read; a recording folder is tracked here first.
+    let records: Vec<_> = records_of(&args.records, super::cores(), stop.flag())
+        .with_context(|| args.records.display().to_string())?
         .into_iter()
         .map(|(_, r)| r)
         .collect();
     ensure!(
         !records.is_empty(),
-        "{} holds no records: give a `flexshape track` JSON Lines file",
+        "{} holds no records: give a `flexshape track` JSON Lines file or a recording",
         args.records.display()
     );
-    let stop = Interrupt::install();
     let mut viewer = Viewer::start(&args.viewer, args.allow_remote, scene_of(&records))
         .context("cannot start the viewer")?;
     eprintln!("viewer: {}", viewer.url());
