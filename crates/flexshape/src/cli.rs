@@ -45,8 +45,9 @@ pub enum Command {
     /// Validation experiments (paper, Section III): `points`, `shape`, or `--simulate` to run
     /// both on the simulated rig and compare with the paper's figures.
     Validate(ValidateArgs),
-    /// Play a tracking output (JSON Lines), or a recording tracked first, back in the viewer at
-    /// its recorded pace, with pause, step and seek on the page; Ctrl-C ends.
+    /// Play a tracking output (JSON Lines), or a recording (each frame tracked as it is shown),
+    /// back in the viewer at its recorded pace, with pause, step and seek on the page; Ctrl-C
+    /// ends.
     View(ViewArgs),
     /// Figures of a tracking output (PNG + SVG): all shapes in three views with bands and
     /// tips, the circular-arc fits against the curves, and per-stage time histograms.
@@ -64,8 +65,8 @@ pub enum Command {
 
 #[derive(Debug, Args)]
 pub struct ViewArgs {
-    /// The records: a `flexshape track` JSON Lines file, or a recording folder (tracked first;
-    /// its replay shows the shapes and figures, not the images — `track REC --viewer` does).
+    /// The records: a `flexshape track` JSON Lines file (shapes and figures), or a recording
+    /// folder (its images too).
     pub records: PathBuf,
     /// Serve the viewer at ADDR (port 0 picks a free port).
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8080")]

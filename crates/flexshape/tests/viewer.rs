@@ -602,7 +602,7 @@ fn track_keeps_the_viewer_until_ctrl_c_unless_told() {
 }
 
 /// `view FILE.jsonl`: the records play back at their pace; the page pauses, steps and seeks; a
-/// recording plays the same after it is tracked.
+/// recording plays the same, with its images, each frame tracked as it is shown.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_record_stream_replays_with_pause_step_and_seek() {
     if !browser_or_skip() {
@@ -673,7 +673,8 @@ async fn a_record_stream_replays_with_pause_step_and_seek() {
     .await;
     c.close().await.unwrap();
     interrupt(&mut view);
-    // A recording is tracked first and played the same way.
+    // A recording plays the same, each frame tracked as it is shown: with its images and the
+    // shape over them; a seek lands on the frame asked for.
     let (mut view, url) = spawn_with_viewer(&["view", rec, "--viewer", "127.0.0.1:0"]);
     let (c, _driver, _profile) = browser().await;
     c.goto(&url).await.unwrap();
@@ -682,7 +683,23 @@ async fn a_record_stream_replays_with_pause_step_and_seek() {
         "return !document.getElementById('replay').hidden &&
                 document.getElementById('replay-at').textContent.endsWith(' / 8');",
         long,
-        "the recording's 8 records",
+        "the recording's 8 frames",
+    )
+    .await;
+    eval(
+        &c,
+        "const s = document.getElementById('replay-seek'); s.value = '5';
+         s.dispatchEvent(new Event('input')); return true;",
+    )
+    .await;
+    wait_for(
+        &c,
+        "const i = document.getElementById('frame-0');
+         return document.getElementById('frame').textContent === '5' && !!i &&
+                i.naturalWidth === 320 && typeof shape === 'object' && shape !== null &&
+                shape.frame === 5 && shape.overlays[0].sides[0].length > 50;",
+        long,
+        "frame 5 with its images and the shape over them",
     )
     .await;
     c.close().await.unwrap();

@@ -30,6 +30,12 @@ impl RecordingSource {
     pub fn reader(&self) -> &RecordingReader {
         &self.reader
     }
+
+    /// Makes the frame at `index` (its place in the recording, from 0; clamped to the last)
+    /// the next one read: random access for a replay.
+    pub fn seek(&mut self, index: usize) {
+        self.next = index.min(self.reader.frames().len().saturating_sub(1));
+    }
 }
 
 impl FrameSource for RecordingSource {

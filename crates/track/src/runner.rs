@@ -51,8 +51,14 @@ pub struct Processed {
 }
 
 impl Processed {
-    /// A frame the source could not read (numbered by its place in the input).
-    fn unreadable(seq: u64, reason: String, dropped: u64) -> Self {
+    /// One frame set (e.g. the one a replay seeks to) through `pipeline`, from `prior` when
+    /// there is one, as [`run`] processes each.
+    pub fn of(pipeline: &Pipeline, set: FrameSet, prior: Option<&Prior>) -> Self {
+        process(pipeline, set, 0, prior)
+    }
+
+    /// A frame the source could not read (numbered by its place in the input), and why.
+    pub fn unreadable(seq: u64, reason: String, dropped: u64) -> Self {
         Processed {
             frame: seq,
             name: None,

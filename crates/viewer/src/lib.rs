@@ -48,7 +48,7 @@ pub use encode::{Stats, Steering, SteeringSample, Update};
 pub use limits::Limits;
 pub use live::Live;
 pub use overlay::{CameraOverlay, overlays};
-pub use replay::{Control, ReplayState, replay, scene_of};
+pub use replay::{Control, RecordStream, RecordingReplay, ReplayState, Replayed, replay, scene_of};
 
 /// Why the viewer could not start.
 #[derive(Debug, Error)]

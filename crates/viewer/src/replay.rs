@@ -1,15 +1,132 @@
-//! Playing a record stream back in the viewer (`flexshape view FILE.jsonl`): at its recorded
-//! pace (the records' capture or processing times) times a speed, with pause, step and seek
-//! from the page.
+//! Playing back in the viewer (`flexshape view`): a record stream, or a recording whose frames
+//! are tracked as they are shown (with their images and overlays), at the recorded pace (capture
+//! or processing times) times a speed, with pause, step and seek from the page.
 
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
-use flexshape_track::TrackRecord;
+use flexshape_camera::Camera;
+use flexshape_input::FrameSource;
+use flexshape_track::{Pipeline, Processed, Recording, TrackError, TrackRecord};
 use serde::{Deserialize, Serialize};
 
 use crate::{Scene, Stats, Update, Viewer};
+
+/// What a replay plays, frame by frame.
+pub trait Replayed {
+    /// Frames in it.
+    fn frames(&self) -> usize;
+    /// Recorded time from frame `index` to the next, s (the default pace when not known).
+    fn gap_s(&self, index: usize) -> f64;
+    /// The viewer's frame `index` (from 0), shown at `state`.
+    fn frame(&mut self, index: usize, state: ReplayState) -> Update;
+    /// What the page shows around the frames.
+    fn scene(&self) -> Scene;
+}
+
+/// A record stream (a `flexshape track` JSON Lines file): shapes and figures, no images.
+pub struct RecordStream(pub Vec<TrackRecord>);
+
+impl Replayed for RecordStream {
+    fn frames(&self) -> usize {
+        self.0.len()
+    }
+
+    fn gap_s(&self, index: usize) -> f64 {
+        match (self.0.get(index), self.0.get(index + 1)) {
+            (Some(a), Some(b)) => {
+                let times = [(a.captured_s, b.captured_s), (a.processed_s, b.processed_s)];
+                paced(times.iter().find_map(|&(x, y)| Some(y? - x?)))
+            }
+            _ => DEFAULT_GAP_S,
+        }
+    }
+
+    fn frame(&mut self, index: usize, state: ReplayState) -> Update {
+        let record = &self.0[index];
+        Update::of_record(
+            record.clone(),
+            stats(state, record.latency_ms.unwrap_or(0.0)),
+        )
+        .with_replay(state)
+    }
+
+    fn scene(&self) -> Scene {
+        scene_of(&self.0)
+    }
+}
+
+/// A recording folder, each frame tracked when it is shown (from its own hull: a seek may land
+/// anywhere), with its images, silhouettes and overlays.
+pub struct RecordingReplay {
+    recording: Recording,
+    pipeline: Pipeline,
+    cameras: Arc<[Camera]>,
+    /// Capture times by frame number (`timestamps.csv`), s.
+    times: BTreeMap<u64, f64>,
+}
+
+impl RecordingReplay {
+    /// Opens the recording at `dir` as `flexshape track` would track it.
+    pub fn open(dir: &Path) -> Result<Self, TrackError> {
+        let recording = Recording::open(dir)?;
+        let pipeline = recording.pipeline()?;
+        let times = recording
+            .source
+            .reader()
+            .read_timestamps()
+            .unwrap_or_default();
+        Ok(RecordingReplay {
+            cameras: pipeline.cameras().into(),
+            recording,
+            pipeline,
+            times,
+        })
+    }
+}
+
+impl Replayed for RecordingReplay {
+    fn frames(&self) -> usize {
+        self.recording.source.reader().frames().len()
+    }
+
+    fn gap_s(&self, index: usize) -> f64 {
+        let frames = self.recording.source.reader().frames();
+        match (frames.get(index), frames.get(index + 1)) {
+            (Some(a), Some(b)) => {
+                paced(self.times.get(b).zip(self.times.get(a)).map(|(y, x)| y - x))
+            }
+            _ => DEFAULT_GAP_S,
+        }
+    }
+
+    fn frame(&mut self, index: usize, state: ReplayState) -> Update {
+        self.recording.source.seek(index);
+        let processed = match self.recording.source.next_frame() {
+            Some(Ok(set)) => Processed::of(&self.pipeline, set, None),
+            Some(Err(e)) => Processed::unreadable(index as u64, e.to_string(), 0),
+            None => Processed::unreadable(index as u64, "no such frame".into(), 0),
+        };
+        let record = TrackRecord::from_processed(&processed);
+        let volume = self.scene().volume;
+        let stats = stats(state, processed.latency_ms);
+        Update::new(processed, record, stats)
+            .with_cameras(self.cameras.clone())
+            .with_truth_within(volume)
+            .with_replay(state)
+    }
+
+    fn scene(&self) -> Scene {
+        Scene {
+            replay: Some(self.frames()),
+            ..Scene::of(&self.pipeline)
+        }
+    }
+}
 
 /// What the page asks of a replay (a WebSocket text message such as `{"control": "pause"}`,
 /// `{"control": "step", "by": -1}` or `{"control": "seek", "index": 12}`).
@@ -86,19 +203,20 @@ pub fn scene_of(records: &[TrackRecord]) -> Scene {
     }
 }
 
-/// Plays `records` in `viewer` at `speed` times their recorded pace, obeying `controls`, until
-/// `stop` is set; at the end it pauses on the last record (the page can go back).
+/// Plays `played` in `viewer` at `speed` times its recorded pace, obeying `controls`, until
+/// `stop` is set; at the end it pauses on the last frame (the page can go back).
 pub fn replay(
     viewer: &Viewer,
-    records: &[TrackRecord],
+    played: &mut dyn Replayed,
     speed: f64,
     controls: &Receiver<Control>,
     stop: &AtomicBool,
 ) {
-    if records.is_empty() {
+    let frames = played.frames();
+    if frames == 0 {
         return;
     }
-    let last = records.len() - 1;
+    let last = frames - 1;
     let (mut index, mut playing) = (0usize, true);
     let mut shown: Option<usize> = None;
     let mut next_at = Instant::now();
@@ -113,17 +231,14 @@ pub fn replay(
             }
             let state = ReplayState {
                 index,
-                frames: records.len(),
+                frames,
                 playing,
             };
-            viewer.publish(update(&records[index], state));
+            let started = Instant::now();
+            viewer.publish(played.frame(index, state));
             shown = Some(index);
-            let gap = if index < last {
-                gap_s(&records[index], &records[index + 1])
-            } else {
-                DEFAULT_GAP_S
-            };
-            next_at = Instant::now() + Duration::from_secs_f64(gap / speed);
+            // The recorded gap counts from when the frame was asked for: tracking it takes part.
+            next_at = started + Duration::from_secs_f64(played.gap_s(index) / speed);
         }
         let wait = if playing {
             next_at.saturating_duration_since(Instant::now())
@@ -157,29 +272,23 @@ pub fn replay(
     }
 }
 
-/// The recorded time between two records, s: their capture times, else their processing
-/// times, else the default pace; at most `MAX_GAP_S`.
-fn gap_s(a: &TrackRecord, b: &TrackRecord) -> f64 {
-    let times = [(a.captured_s, b.captured_s), (a.processed_s, b.processed_s)];
-    times
-        .iter()
-        .find_map(|&(x, y)| Some(y? - x?))
-        .filter(|d| d.is_finite() && *d >= 0.0)
+/// A recorded gap, s, at most `MAX_GAP_S`; the default pace when unknown or negative.
+fn paced(gap: Option<f64>) -> f64 {
+    gap.filter(|d| d.is_finite() && *d >= 0.0)
         .unwrap_or(DEFAULT_GAP_S)
         .min(MAX_GAP_S)
 }
 
-/// The viewer's frame of `record` at `state`.
-fn update(record: &TrackRecord, state: ReplayState) -> Update {
-    let stats = Stats {
+/// The figures shown beside a replayed frame.
+fn stats(state: ReplayState, latency_ms: f64) -> Stats {
+    Stats {
         frames: state.index + 1,
         fps: 0.0,
-        latency_ms: record.latency_ms.unwrap_or(0.0),
+        latency_ms,
         dropped: 0,
         truth_rms_mm: None,
         truth_tip_mm: None,
-    };
-    Update::of_record(record.clone(), stats).with_replay(state)
+    }
 }
 
 #[cfg(test)]

@@ -27,6 +27,8 @@ const IMAGE_EVERY: Duration = Duration::from_millis(150);
 #[derive(Default)]
 struct Encoded {
     frame: Option<Arc<str>>,
+    /// Increases when `frame` changes.
+    frame_seq: u64,
     images: Option<Arc<Vec<Vec<u8>>>>,
     /// The shape over those images (text, sent after them): drawn over the frame it belongs
     /// to, not over the newest frame's figures.
@@ -116,32 +118,57 @@ async fn checked(
     }
 }
 
-/// Encodes the newest update at a capped rate, on a blocking thread.
+/// Encodes the newest update at a capped rate, on a blocking thread. Images go at most every
+/// `IMAGE_EVERY`; when the newest update's were skipped for that, they follow once the interval
+/// has passed, even if no newer update comes (a paused replay, the last frame of a run): the
+/// page never keeps showing an older frame's images under the newest shape.
 async fn encode_newest(
     mut updates: watch::Receiver<Option<Arc<Update>>>,
     out: watch::Sender<Arc<Encoded>>,
 ) {
     let mut last_images = tokio::time::Instant::now() - IMAGE_EVERY;
-    let mut image_seq = 0;
+    let (mut frame_seq, mut image_seq) = (0, 0);
+    let mut frame: Option<Arc<str>> = None;
     let mut images: Option<Arc<Vec<Vec<u8>>>> = None;
     let mut overlays: Option<Arc<str>> = None;
-    while updates.changed().await.is_ok() {
-        let Some(update) = updates.borrow_and_update().clone() else {
+    let mut newest: Option<Arc<Update>> = None;
+    let mut images_behind = false;
+    loop {
+        let fresh = if images_behind {
+            tokio::select! {
+                changed = updates.changed() => changed.is_ok().then_some(true),
+                _ = tokio::time::sleep_until(last_images + IMAGE_EVERY) => Some(false),
+            }
+        } else {
+            updates.changed().await.is_ok().then_some(true)
+        };
+        let Some(fresh) = fresh else {
+            return;
+        };
+        if fresh {
+            newest = updates.borrow_and_update().clone();
+        }
+        let Some(update) = newest.clone() else {
             continue;
         };
         let with_images = last_images.elapsed() >= IMAGE_EVERY;
         let encoded = tokio::task::spawn_blocking(move || {
-            let frame: Arc<str> = frame_json(&update).into();
+            let json: Option<Arc<str>> = fresh.then(|| frame_json(&update).into());
             let imgs = with_images.then(|| {
                 let shape = overlays_json(&update).map(Arc::from);
                 (Arc::new(image_messages(&update)), shape)
             });
-            (frame, imgs)
+            (json, imgs)
         })
         .await;
-        let Ok((frame, new_images)) = encoded else {
+        let Ok((json, new_images)) = encoded else {
             continue;
         };
+        if let Some(json) = json {
+            frame = Some(json);
+            frame_seq += 1;
+        }
+        images_behind = new_images.is_none();
         if let Some((i, shape)) = new_images {
             images = Some(i);
             overlays = shape;
@@ -149,7 +176,8 @@ async fn encode_newest(
             last_images = tokio::time::Instant::now();
         }
         out.send_replace(Arc::new(Encoded {
-            frame: Some(frame),
+            frame: frame.clone(),
+            frame_seq,
             images: images.clone(),
             overlays: overlays.clone(),
             image_seq,
@@ -179,18 +207,22 @@ async fn stream(mut socket: WebSocket, state: AppState) {
     {
         return;
     }
-    let mut sent_images = 0;
+    let (mut sent_frame, mut sent_images) = (0, 0);
     let mut pings = tokio::time::interval(ping);
     pings.tick().await;
     loop {
         let newest = encoded.borrow_and_update().clone();
-        if let Some(frame) = &newest.frame
-            && socket
+        if newest.frame_seq != sent_frame
+            && let Some(frame) = &newest.frame
+        {
+            if socket
                 .send(Message::Text(frame.as_ref().into()))
                 .await
                 .is_err()
-        {
-            return;
+            {
+                return;
+            }
+            sent_frame = newest.frame_seq;
         }
         if newest.image_seq != sent_images
             && let Some(images) = &newest.images

@@ -1,9 +1,8 @@
-//! `flexshape view`: a tracking output, or a recording tracked on the spot, played back in the
-//! viewer (`flexshape_viewer::replay`).
+//! `flexshape view`: a tracking output, or a recording tracked frame by frame as it is shown,
+//! played back in the viewer (`flexshape_viewer::replay`).
 
 use anyhow::{Context, ensure};
-use flexshape_lab::identify::records_of;
-use flexshape_viewer::{Viewer, replay, scene_of};
+use flexshape_viewer::{RecordStream, RecordingReplay, Replayed, Viewer, replay};
 
 use crate::cli::ViewArgs;
 use crate::interrupt::Interrupt;
@@ -15,31 +14,35 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         args.speed
     );
     let stop = Interrupt::install();
-    if args.records.is_dir() {
-        eprintln!("tracking {} …", args.records.display());
-    }
-    // A JSON Lines file is read; a recording folder is tracked here first.
-    let records: Vec<_> = records_of(&args.records, super::cores(), stop.flag())
-        .with_context(|| args.records.display().to_string())?
-        .into_iter()
-        .map(|(_, r)| r)
-        .collect();
+    // A recording is tracked frame by frame as it is shown; a JSON Lines file is read.
+    let mut played: Box<dyn Replayed> = if args.records.is_dir() {
+        Box::new(
+            RecordingReplay::open(&args.records)
+                .with_context(|| format!("cannot replay {}", args.records.display()))?,
+        )
+    } else {
+        let records: Vec<_> = flexshape_track::read_records(&args.records)?
+            .into_iter()
+            .map(|(_, r)| r)
+            .collect();
+        Box::new(RecordStream(records))
+    };
     ensure!(
-        !records.is_empty(),
+        played.frames() > 0,
         "{} holds no records: give a `flexshape track` JSON Lines file or a recording",
         args.records.display()
     );
-    let mut viewer = Viewer::start(&args.viewer, args.allow_remote, scene_of(&records))
+    let mut viewer = Viewer::start(&args.viewer, args.allow_remote, played.scene())
         .context("cannot start the viewer")?;
     eprintln!("viewer: {}", viewer.url());
     eprintln!(
-        "playing {} records at {}× their pace; pause, step and seek on the page; Ctrl-C ends",
-        records.len(),
+        "playing {} frames at {}× their pace; pause, step and seek on the page; Ctrl-C ends",
+        played.frames(),
         args.speed
     );
     let controls = viewer
         .take_controls()
         .context("the viewer of a replay takes controls")?;
-    replay(&viewer, &records, args.speed, &controls, stop.flag());
+    replay(&viewer, played.as_mut(), args.speed, &controls, stop.flag());
     Ok(())
 }
