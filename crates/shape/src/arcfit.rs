@@ -4,7 +4,7 @@
 //! curve's. Also a two-piece (piecewise constant curvature) fit.
 
 use flexshape_curve::{Frame, Section};
-use flexshape_lsq::{LevenbergMarquardt, Residuals, minimize};
+use flexshape_lsq::{Normal, NormalEquations, Settings, minimize_normal};
 use nalgebra::{DMatrix, DVector, Matrix3, Point3, Rotation3, Vector3};
 
 use crate::centerline::Centerline;
@@ -34,7 +34,7 @@ pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> 
     let kappa0 = chord_curvature(&frame, data[data.len() - 1].1, length);
     let mut one = Problem::new(&data, frame, vec![length], settings.free_base, &kappa0);
     // The residuals report the fit's quality whatever the termination reason.
-    one.params = minimize(&one, one.params.clone(), solver()).x;
+    one.solve();
     let base = one.base();
     let kappa = [one.params[0], one.params[1]];
     let (mean, max) = one.residual_stats();
@@ -48,7 +48,7 @@ pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> 
         settings.free_base,
         &init,
     );
-    two.params = minimize(&two, two.params.clone(), solver()).x;
+    two.solve();
     let (mean2, max2) = two.residual_stats();
     let curvature = kappa[0].hypot(kappa[1]);
     let axes = base.rotation.matrix();
@@ -75,12 +75,14 @@ pub(crate) fn fit(curve: &Centerline, start: f64, settings: &ArcFitSettings) -> 
     })
 }
 
-/// The solver: converged once a step changes the cost or the parameters by less than 1e-10
-/// of themselves (the library's default asks for machine precision, which costs a third more
-/// steps for changes far below a micrometre).
-fn solver() -> LevenbergMarquardt<f64> {
-    LevenbergMarquardt::new().with_ftol(1e-10).with_xtol(1e-10)
-}
+/// When the solver stops: once a step changes the cost or the parameters by less than 1e-10
+/// of themselves (machine precision costs a third more steps for changes far below a
+/// micrometre).
+const SOLVER: Settings = Settings {
+    max_iterations: 100,
+    ftol: 1e-10,
+    xtol: 1e-10,
+};
 
 /// The section frame at a curve point: y along the tangent, x the reference direction made
 /// perpendicular to it (world z if the reference is nearly along the tangent), z = x × y.
@@ -129,6 +131,36 @@ fn local_position([kx, kz]: [f64; 2], u: f64) -> Vector3<f64> {
     let sin = angle.sin();
     let side = 2.0 * (angle / 2.0).sin().powi(2) / k;
     Vector3::new(-kz / k * side, sin / k, kx / k * side)
+}
+
+/// [`local_position`] and its derivatives by `κx` and `κz`. With `θ = κu`,
+/// `f = (1 − cos θ)/κ²` and `g = sin θ/κ` the position is `(−κz·f, g, κx·f)`; `f'(κ)/κ` and
+/// `g'(κ)/κ` are taken from their series below θ = 0.05, where the closed forms cancel.
+fn local_position_and_jacobian([kx, kz]: [f64; 2], u: f64) -> (Vector3<f64>, [Vector3<f64>; 2]) {
+    let position = local_position([kx, kz], u);
+    let k = kx.hypot(kz);
+    let angle = k * u;
+    let (f, fk, gk) = if angle.abs() < 0.05 {
+        let a2 = angle * angle;
+        let u2 = u * u;
+        (
+            0.5 * u2 * (1.0 - a2 / 12.0 + a2 * a2 / 360.0),
+            u2 * u2 * (-1.0 / 12.0 + a2 / 180.0 - a2 * a2 / 6720.0),
+            u2 * u * (-1.0 / 3.0 + a2 / 30.0 - a2 * a2 / 840.0),
+        )
+    } else {
+        let (sin, cos) = angle.sin_cos();
+        let c1 = 2.0 * (angle / 2.0).sin().powi(2);
+        let (k2, k3) = (k * k, k * k * k);
+        (
+            c1 / k2,
+            u * sin / k3 - 2.0 * c1 / (k2 * k2),
+            u * cos / k2 - sin / k3,
+        )
+    };
+    let d_kx = Vector3::new(-kz * fk * kx, gk * kx, f + kx * kx * fk);
+    let d_kz = Vector3::new(-f - kz * kz * fk, gk * kz, kx * kz * fk);
+    (position, [d_kx, d_kz])
 }
 
 /// Least squares over `[κ per piece…, tilt x, tilt z, offset x, y, z]`.
@@ -221,60 +253,116 @@ impl<'a> Problem<'a> {
     }
 }
 
-impl Residuals for Problem<'_> {
-    fn residuals(&self, x: &DVector<f64>) -> Option<DVector<f64>> {
-        Some(self.residuals_of(x))
+impl Problem<'_> {
+    /// Fits the parameters from where they are.
+    fn solve(&mut self) {
+        if let Some(solution) = minimize_normal(&*self, self.params.clone(), &SOLVER) {
+            self.params = solution.x;
+        }
     }
 
-    fn jacobian(&self, x: &DVector<f64>) -> Option<DMatrix<f64>> {
-        let n = x.len();
-        let at = self.residuals_of(x);
-        let mut j = DMatrix::zeros(at.len(), n);
-        // The curvatures: forward differences (the model is smooth, and LM needs no more
-        // precision).
+    /// The residuals at `p` and their Jacobian (rows: residuals, columns: parameters). A point
+    /// of piece `i` moves with its own curvatures through its place in the piece, and with an
+    /// earlier piece's through that piece's end frame (position in closed form, rotation by
+    /// central differences of a 3×3 matrix); the base moves the whole section rigidly.
+    fn residuals_and_jacobian(&self, p: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
         let pieces = 2 * self.lengths.len();
-        for k in 0..pieces {
-            let h = 1e-7 * x[k].abs().max(1e-2);
-            let mut moved = x.clone();
-            moved[k] += h;
-            j.set_column(k, &((self.residuals_of(&moved) - &at) / h));
+        let kappa = |i: usize| [p[2 * i], p[2 * i + 1]];
+        // Per piece: its base frame, where it starts, and its end frame's derivatives by its
+        // curvatures (position, rotation) in that base frame.
+        let mut bases = Vec::with_capacity(self.lengths.len());
+        let (mut frame, mut start) = (self.base_of(p), 0.0);
+        for (i, &length) in self.lengths.iter().enumerate() {
+            let section = |k: [f64; 2]| Section {
+                length,
+                kappa: k,
+                strain: 0.0,
+            };
+            let (_, d_end) = local_position_and_jacobian(kappa(i), length);
+            let d_turn: [Matrix3<f64>; 2] = std::array::from_fn(|c| {
+                let h = 1e-6;
+                let (mut up, mut down) = (kappa(i), kappa(i));
+                up[c] += h;
+                down[c] -= h;
+                (section(up).local_frame(length).rotation.matrix()
+                    - section(down).local_frame(length).rotation.matrix())
+                    / (2.0 * h)
+            });
+            bases.push((frame, start, d_end, d_turn));
+            frame = frame.compose(&section(kappa(i)).local_frame(length));
+            start += length;
         }
-        if !self.free_base {
-            return Some(j);
-        }
-        // The base moves the whole section rigidly: an offset moves every point by the
-        // section frame's axis; a tilt turns every point's place in the tilted base frame.
-        let base = self.base_of(x);
         let axes = self.frame.rotation.matrix();
         let tilt_of = |p: &DVector<f64>| {
             Rotation3::from_scaled_axis(Vector3::new(p[pieces], 0.0, p[pieces + 1]))
         };
-        let tilt = tilt_of(x);
-        let turned: Vec<Matrix3<f64>> = (0..2)
-            .map(|t| {
-                let h = 1e-7;
-                let mut moved = x.clone();
-                moved[pieces + t] += h;
-                axes * (tilt_of(&moved).matrix() - tilt.matrix()) / h
-            })
-            .collect();
+        let turned: Vec<Matrix3<f64>> = if self.free_base {
+            let tilt = tilt_of(p);
+            (0..2)
+                .map(|t| {
+                    let h = 1e-7;
+                    let mut moved = p.clone();
+                    moved[pieces + t] += h;
+                    axes * (tilt_of(&moved).matrix() - tilt.matrix()) / h
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let base = bases[0].0;
         let to_base = base.rotation.inverse();
-        for (i, (_, x)) in self.data.iter().enumerate() {
-            let m = Vector3::new(at[3 * i], at[3 * i + 1], at[3 * i + 2]) + Vector3::from(*x);
-            let local = to_base * (m - base.position.coords);
-            for (t, d) in turned.iter().enumerate() {
-                let v = d * local;
-                for c in 0..3 {
-                    j[(3 * i + c, pieces + t)] = v[c];
+        let mut r = DVector::zeros(3 * self.data.len());
+        let mut j = DMatrix::zeros(3 * self.data.len(), p.len());
+        for (n, (u, x)) in self.data.iter().enumerate() {
+            let i = bases.iter().rposition(|b| *u >= b.1).unwrap_or(0);
+            let (frame, from, ..) = &bases[i];
+            let (local, d_local) = local_position_and_jacobian(kappa(i), u - from);
+            let m = frame.position + frame.rotation * local;
+            let mut column = |c: usize, v: Vector3<f64>| {
+                for row in 0..3 {
+                    j[(3 * n + row, c)] = v[row];
+                }
+            };
+            for (c, d) in d_local.iter().enumerate() {
+                column(2 * i + c, frame.rotation * d);
+            }
+            for (e, (earlier, _, d_end, d_turn)) in bases[..i].iter().enumerate() {
+                // The point in the frame at the end of piece `e`.
+                let (next, ..) = &bases[e + 1];
+                let rest = next.rotation.inverse() * (m - next.position);
+                for c in 0..2 {
+                    column(2 * e + c, earlier.rotation * (d_end[c] + d_turn[c] * rest));
                 }
             }
-            for o in 0..3 {
-                for c in 0..3 {
-                    j[(3 * i + c, pieces + 2 + o)] = axes[(c, o)];
+            if self.free_base {
+                let in_base = to_base * (m - base.position);
+                for (t, d) in turned.iter().enumerate() {
+                    column(pieces + t, d * in_base);
                 }
+                for o in 0..3 {
+                    column(pieces + 2 + o, axes.column(o).into_owned());
+                }
+            }
+            for row in 0..3 {
+                r[3 * n + row] = m[row] - x[row];
             }
         }
-        Some(j)
+        (r, j)
+    }
+}
+
+impl NormalEquations for Problem<'_> {
+    fn cost(&self, x: &DVector<f64>) -> Option<f64> {
+        Some(0.5 * self.residuals_of(x).norm_squared())
+    }
+
+    fn normal(&self, x: &DVector<f64>) -> Option<Normal> {
+        let (r, j) = self.residuals_and_jacobian(x);
+        Some(Normal {
+            jtj: j.tr_mul(&j),
+            jtr: j.tr_mul(&r),
+            cost: 0.5 * r.norm_squared(),
+        })
     }
 }
 
@@ -306,8 +394,8 @@ mod tests {
         }
     }
 
-    /// The Jacobian (differences for the curvatures, the rigid base's columns in closed form)
-    /// matches forward differences of every parameter, one piece and two, tilted and not.
+    /// The analytic Jacobian matches central differences of the residuals for every
+    /// parameter: one piece and two, tilted base, straight, gently and strongly bent.
     #[test]
     fn the_jacobian_matches_differences_of_the_residuals() {
         let data: Vec<(f64, [f64; 3])> = (0..=40)
@@ -319,20 +407,43 @@ mod tests {
             .collect();
         let frame = section_frame([1.0, 2.0, 3.0], [0.1, 1.0, 0.2], [0.0, 0.0, 1.0]);
         for lengths in [vec![80.0], vec![30.0, 50.0]] {
-            let kappa = vec![0.01; 2 * lengths.len()];
-            let problem = Problem::new(&data, frame, lengths, true, &kappa);
-            let mut p = problem.params.clone();
-            let k = p.len();
-            (p[k - 5], p[k - 4], p[k - 3], p[k - 2], p[k - 1]) = (0.05, -0.08, 0.4, -0.2, 0.3);
-            let j = problem.jacobian(&p).unwrap();
-            let at = problem.residuals(&p).unwrap();
-            for c in 0..k {
-                let h = 1e-6;
-                let mut moved = p.clone();
-                moved[c] += h;
-                let column = (problem.residuals_of(&moved) - &at) / h;
-                let err = (j.column(c) - &column).amax();
-                assert!(err < 1e-4 * column.amax().max(1.0), "column {c}: {err}");
+            for kappa in [[0.01, -0.004], [1e-6, 2e-6], [0.0, 0.0], [-0.03, 0.02]] {
+                let kappas: Vec<f64> = (0..lengths.len())
+                    .flat_map(|i| [kappa[0] * (1.0 + i as f64), kappa[1] - 0.002 * i as f64])
+                    .collect();
+                let problem = Problem::new(&data, frame, lengths.clone(), true, &kappas);
+                let mut p = problem.params.clone();
+                let k = p.len();
+                (p[k - 5], p[k - 4], p[k - 3], p[k - 2], p[k - 1]) = (0.05, -0.08, 0.4, -0.2, 0.3);
+                let (at, j) = problem.residuals_and_jacobian(&p);
+                assert!((&at - problem.residuals_of(&p)).amax() < 1e-12);
+                for c in 0..k {
+                    let h = 1e-6;
+                    let (mut up, mut down) = (p.clone(), p.clone());
+                    up[c] += h;
+                    down[c] -= h;
+                    let column =
+                        (problem.residuals_of(&up) - problem.residuals_of(&down)) / (2.0 * h);
+                    let err = (j.column(c) - &column).amax();
+                    assert!(
+                        err < 1e-5 * column.amax().max(1.0),
+                        "{lengths:?} {kappa:?} column {c}: {err}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The series branch of the derivatives joins the closed form at θ = 0.05.
+    #[test]
+    fn the_curvature_derivatives_are_continuous_at_the_series_switch() {
+        let u = 100.0;
+        for dir in [[1.0, 0.0], [0.6, -0.8]] {
+            let k = |a: f64| [dir[0] * a / u, dir[1] * a / u];
+            let (_, below) = local_position_and_jacobian(k(0.05 - 1e-9), u);
+            let (_, above) = local_position_and_jacobian(k(0.05 + 1e-9), u);
+            for c in 0..2 {
+                assert!((below[c] - above[c]).norm() < 1e-6 * below[c].norm().max(1.0));
             }
         }
     }
