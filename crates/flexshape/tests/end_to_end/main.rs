@@ -1,0 +1,15 @@
+//! The `flexshape` binary end to end, a module per command. One test binary rather than one
+//! per file: the tests share one build and link, and run side by side on every core (several
+//! of them mostly wait on a browser, ffmpeg or a camera played in real time).
+
+mod common;
+
+mod calibrate;
+mod capture;
+mod carve;
+mod cli;
+mod model_fit;
+mod rig_refine;
+mod track;
+mod validate;
+mod viewer;

@@ -1,0 +1,878 @@
+//! `flexshape track` on a simulated recording, checked against its ground truth.
+
+use crate::common;
+
+use std::path::Path;
+
+use common::flexshape;
+
+use flexshape_camera::nalgebra::Point3;
+use flexshape_curve::Polyline;
+use flexshape_recording::RecordingReader;
+use serde_json::Value;
+
+#[test]
+fn tracks_a_simulated_recording_within_the_shape_targets_and_survives_a_corrupt_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let o = flexshape(&["simulate", "--out", rec.to_str().unwrap(), "--frames", "5"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Frame 3 of cam1 is cut short on disk.
+    let broken = rec.join("frames/cam1/000003.png");
+    let bytes = std::fs::read(&broken).unwrap();
+    std::fs::write(&broken, &bytes[..bytes.len() / 2]).unwrap();
+    let out = dir.path().join("shapes.jsonl");
+    let o = flexshape(&[
+        "track",
+        rec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("frame 000003") && stderr.contains("000003.png"),
+        "{stderr}"
+    );
+    let lines: Vec<Value> = std::fs::read_to_string(&out)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 6, "five frames and a summary");
+    let reader = RecordingReader::open(&rec).unwrap();
+    let volume = reader.rig().volume;
+    for (n, rec) in lines[..5].iter().enumerate() {
+        assert_eq!(rec["frame"], n as u64);
+        if n == 3 {
+            assert_eq!(rec["status"], "error");
+            assert!(rec["reason"].as_str().unwrap().contains("cam1"), "{rec}");
+            continue;
+        }
+        assert_eq!(rec["status"], "ok", "{rec}");
+        let truth = reader.read_truth(n as u64).unwrap().unwrap();
+        let points: Vec<Point3<f64>> = rec["centerline"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| {
+                Point3::new(
+                    p[0].as_f64().unwrap(),
+                    p[1].as_f64().unwrap(),
+                    p[2].as_f64().unwrap(),
+                )
+            })
+            .collect();
+        // ≤ 1 mm spacing, as the format promises.
+        assert!(
+            points
+                .windows(2)
+                .all(|w| (w[1] - w[0]).norm() <= 1.0 + 1e-9)
+        );
+        let curve = Polyline::new(points).unwrap();
+        let d2: Vec<f64> = truth
+            .centerline
+            .iter()
+            .map(|&p| Point3::from(p))
+            .filter(|p| volume.contains(p))
+            .map(|p| curve.closest(&p).1.powi(2))
+            .collect();
+        let rms = (d2.iter().sum::<f64>() / d2.len() as f64).sqrt();
+        let tip = rec["tip"].as_array().unwrap();
+        let tip = Point3::new(
+            tip[0].as_f64().unwrap(),
+            tip[1].as_f64().unwrap(),
+            tip[2].as_f64().unwrap(),
+        );
+        let tip_error = (tip - Point3::from(truth.tip)).norm();
+        // The tube fitted to the images (the hull alone: ≤ 0.3 and 1.0).
+        assert_eq!(rec["method"], "fit");
+        assert!(rms <= 0.08, "frame {n}: centerline rms {rms:.3} mm");
+        assert!(tip_error <= 0.3, "frame {n}: tip {tip_error:.2} mm");
+        assert_eq!(rec["bands"].as_array().unwrap().len(), 2, "frame {n}");
+        assert!(rec["arc_fit"]["curvature"].as_f64().unwrap() > 0.0);
+    }
+    let summary = &lines[5]["summary"];
+    assert_eq!(summary["frames"], 5);
+    assert_eq!(summary["ok"], 4);
+    assert_eq!(summary["errors"], 1);
+    assert_eq!(summary["stages"].as_array().unwrap().len(), 5);
+}
+
+#[test]
+fn track_reports_missing_input_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = flexshape(&["track", dir.path().join("nothing").to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nothing"));
+    let rec = dir.path().join("rec");
+    assert!(
+        flexshape(&["simulate", "--out", rec.to_str().unwrap(), "--frames", "1"])
+            .status
+            .success()
+    );
+    std::fs::remove_file(rec.join("background/cam2.png")).unwrap();
+    let o = flexshape(&[
+        "track",
+        rec.to_str().unwrap(),
+        "--out",
+        dir.path().join("x.jsonl").to_str().unwrap(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("cam2") && e.contains("flexshape background"),
+        "{e}"
+    );
+    let o = flexshape(&["track", rec.to_str().unwrap(), "--volume", "1,2,3"]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("six numbers"));
+    // A rig.toml that is a folder is refused, naming it, not passed over for the defaults.
+    std::fs::remove_file(rec.join("rig.toml")).unwrap();
+    std::fs::create_dir(rec.join("rig.toml")).unwrap();
+    let o = flexshape(&["track", rec.to_str().unwrap()]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("rig.toml"), "{e}");
+}
+
+/// The JSON Lines of a run: records, then the summary.
+fn read_lines(path: &std::path::Path) -> (Vec<Value>, Value) {
+    let mut lines: Vec<Value> = std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let summary = lines.pop().unwrap()["summary"].clone();
+    assert!(summary.is_object(), "the last line is the summary");
+    (lines, summary)
+}
+
+#[test]
+fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "4"]);
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    let (csv, ply) = (path("shapes.csv"), path("clouds"));
+    common::run(&[
+        "track",
+        r,
+        "--out",
+        &path("rec.jsonl"),
+        "--csv",
+        &csv,
+        "--ply",
+        &ply,
+        "--threads",
+        "3",
+    ]);
+    let (from_recording, summary) = read_lines(dir.path().join("rec.jsonl").as_path());
+    assert_eq!(summary["ok"], 4);
+    // Start-up (rig, backgrounds, lookup tables) is reported apart from the frames' time.
+    let startup = summary["startup_s"].as_f64().unwrap();
+    assert!(startup > 0.0 && startup < summary["seconds"].as_f64().unwrap() + 60.0);
+    // No timestamps file: the capture time is the image file's.
+    let written = std::fs::metadata(rec.join("frames/cam0/000001.png"))
+        .unwrap()
+        .modified()
+        .unwrap()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64();
+    assert_eq!(from_recording[1]["captured_from"], "file_time");
+    assert!((from_recording[1]["captured_s"].as_f64().unwrap() - written).abs() < 1e-6);
+    // CSV: a header and one row per frame with the record's tip.
+    let rows: Vec<String> = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .map(String::from)
+        .collect();
+    assert_eq!(rows.len(), 5);
+    assert!(rows[0].starts_with("frame,image,status,tip_x"));
+    let cells: Vec<&str> = rows[2].split(',').collect();
+    assert_eq!((cells[0], cells[2]), ("1", "ok"));
+    let tip_x: f64 = cells[3].parse().unwrap();
+    assert!((tip_x - from_recording[1]["tip"][0].as_f64().unwrap()).abs() < 1e-3);
+    // PLY: one cloud per frame with the record's voxel count (binary: 17 bytes a point).
+    let bytes = std::fs::read(dir.path().join("clouds/000002.ply")).unwrap();
+    let header = String::from_utf8_lossy(&bytes[..bytes.len().min(400)]).into_owned();
+    assert!(header.contains("format binary_little_endian 1.0"));
+    let voxels = from_recording[2]["voxels"].as_u64().unwrap();
+    assert!(
+        header.contains(&format!("element vertex {voxels}\n")),
+        "PLY vertex count"
+    );
+
+    let rig = rec.join("rig.toml").display().to_string();
+    let bg = rec.join("background").display().to_string();
+    let cams = ["cam0", "cam1", "cam2"];
+    let folders: Vec<String> = cams
+        .iter()
+        .map(|c| format!("{c}={}", rec.join("frames").join(c).display()))
+        .collect();
+    // Tracks with one `flag NAME=…` per camera; the records and the summary.
+    let track_inputs = |flag: &str, inputs: &[String]| {
+        let out = path(&format!("{}.jsonl", flag.trim_start_matches('-')));
+        let mut args = vec!["track", "--rig", &rig, "--backgrounds", &bg, "--out", &out];
+        for i in inputs {
+            args.extend([flag, i]);
+        }
+        common::run(&args);
+        read_lines(Path::new(&out))
+    };
+    let (from_folders, _) = track_inputs("--images", &folders);
+    let same = |a: &[Value], b: &[Value], what: &str| {
+        assert_eq!(a.len(), b.len(), "{what}");
+        for (x, y) in a.iter().zip(b) {
+            assert_eq!(x["frame"], y["frame"], "{what}");
+            assert_eq!(
+                x["centerline"], y["centerline"],
+                "{what}: frame {}",
+                x["frame"]
+            );
+        }
+    };
+    same(&from_recording, &from_folders, "image folders");
+    assert_eq!(from_folders[3]["image"], "000003");
+
+    // Without a rig or backgrounds, or with a camera missing: clear errors.
+    let e = common::fails(&["track", "--images", &folders[0]]);
+    assert!(e.contains("--rig"), "{e}");
+    let e = common::fails(&["track", "--rig", &rig, "--images", &folders[0]]);
+    assert!(e.contains("--backgrounds"), "{e}");
+    let e = common::fails(&[
+        "track",
+        "--rig",
+        &rig,
+        "--backgrounds",
+        &bg,
+        "--images",
+        &folders[0],
+    ]);
+    assert!(
+        e.contains("camera `cam1`") && e.contains("--images cam1="),
+        "{e}"
+    );
+
+    if !common::ffmpeg_or_skip() {
+        return;
+    }
+    // One lossless video per camera gives exactly the recording's shapes.
+    let videos: Vec<String> = cams
+        .iter()
+        .map(|c| {
+            let video = dir.path().join(format!("{c}.mkv"));
+            let status = std::process::Command::new("ffmpeg")
+                .args(["-y", "-loglevel", "error", "-framerate", "10", "-i"])
+                .arg(rec.join("frames").join(c).join("%06d.png"))
+                .args(["-c:v", "png"])
+                .arg(&video)
+                .status()
+                .unwrap();
+            assert!(status.success());
+            format!("{c}={}", video.display())
+        })
+        .collect();
+    let (from_videos, _) = track_inputs("--video", &videos);
+    same(&from_recording, &from_videos, "videos");
+
+    // The same videos as live cameras (played in real time): each ffmpeg stream starts on its
+    // own, so (as with unsynchronised cameras) a set may pair neighbouring frames; every record
+    // is still a processed frame with its latency, and frames taken plus dropped are the
+    // video's.
+    let (live, summary) = track_inputs("--camera", &videos);
+    let statuses: Vec<&Value> = live.iter().map(|r| &r["status"]).collect();
+    assert!(!live.is_empty(), "{summary}");
+    assert!(
+        live.iter()
+            .all(|r| r["status"] != "error" && r["latency_ms"].as_f64().unwrap() > 0.0),
+        "{statuses:?}"
+    );
+    let taken = summary["frames"].as_u64().unwrap() + summary["dropped"].as_u64().unwrap();
+    assert!(taken <= 4, "{summary}");
+}
+
+#[test]
+fn videos_without_ffmpeg_name_the_package() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    common::run(&["simulate", "--out", rec.to_str().unwrap(), "--frames", "1"]);
+    let video = dir.path().join("cam.mp4");
+    std::fs::write(&video, b"whatever").unwrap();
+    let mut args = vec![
+        "track".to_string(),
+        "--rig".into(),
+        rec.join("rig.toml").display().to_string(),
+        "--backgrounds".into(),
+        rec.join("background").display().to_string(),
+    ];
+    for c in ["cam0", "cam1", "cam2"] {
+        args.extend(["--video".into(), format!("{c}={}", video.display())]);
+    }
+    // No ffmpeg on this PATH.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_flexshape"))
+        .args(&args)
+        .env("PATH", dir.path())
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        e.contains("`ffmpeg` program") && e.contains("apt install ffmpeg") && e.contains("cam0"),
+        "{e}"
+    );
+}
+
+/// `track --follow` on a smooth simulated motion: after the first frame every frame starts
+/// from the one before (nothing carved) and is as right; without `--follow` every frame is
+/// carved.
+#[test]
+fn follow_starts_each_frame_from_the_previous_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let o = flexshape(&[
+        "simulate",
+        "--out",
+        rec.to_str().unwrap(),
+        "--frames",
+        "4",
+        "--motion",
+        "120",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reader = RecordingReader::open(&rec).unwrap();
+    for follow in [true, false] {
+        let out = dir.path().join(format!("follow-{follow}.jsonl"));
+        let mut args = vec![
+            "track",
+            rec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--threads",
+            "1",
+        ];
+        if follow {
+            args.push("--follow");
+        }
+        let o = flexshape(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let records: Vec<Value> = std::fs::read_to_string(&out)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .filter(|v: &Value| v.get("frame").is_some())
+            .collect();
+        assert_eq!(records.len(), 4);
+        for (i, r) in records.iter().enumerate() {
+            assert_eq!(r["status"], "ok", "{r}");
+            // Capture times from the recording's timestamps (filmed at 120 Hz); the wall
+            // clock when each frame was done.
+            assert_eq!(r["captured_from"], "timestamps");
+            assert!((r["captured_s"].as_f64().unwrap() - i as f64 / 120.0).abs() < 1e-12);
+            assert!(r["processed_s"].as_f64().unwrap() > 1.7e9, "{r}");
+            let expected = if follow && i > 0 { "previous" } else { "hull" };
+            assert_eq!(r["start"], expected, "frame {i}");
+            assert_eq!(r["voxels"].as_u64().unwrap() == 0, expected == "previous");
+            assert_eq!(r.get("ghost_mm").is_none(), expected == "previous");
+            // As right as the truth says.
+            let truth = reader.read_truth(i as u64).unwrap().unwrap();
+            let tip: Vec<f64> = r["tip"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect();
+            let d = (Point3::new(tip[0], tip[1], tip[2]) - Point3::from(truth.tip)).norm();
+            assert!(d < 0.3, "frame {i}: tip {d:.3} mm off");
+        }
+    }
+}
+
+/// Masks from a lab's own segmentation instead of images and backgrounds: binary grey, colour
+/// and soft 8-bit masks all give the shape (no bands: a mask has no colour), and a mask of the
+/// wrong size is that frame's error, naming the file.
+#[test]
+fn masks_instead_of_images_give_the_shape_without_backgrounds() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    common::run(&["simulate", "--out", rec.to_str().unwrap(), "--frames", "3"]);
+    let reader = RecordingReader::open(&rec).unwrap();
+    let masks = dir.path().join("masks");
+    for cam in ["cam0", "cam1", "cam2"] {
+        std::fs::create_dir_all(masks.join(cam)).unwrap();
+        for frame in 0..3 {
+            let truth = rec.join(format!("truth/masks/{cam}/{frame:06}.png"));
+            let grey = image::open(&truth).unwrap().to_luma8();
+            let out = masks.join(format!("{cam}/{frame:06}.png"));
+            match cam {
+                // Binary grey, as thresholding writes it.
+                "cam0" => grey.save(&out).unwrap(),
+                // Colour (white on black).
+                "cam1" => image::DynamicImage::ImageLuma8(grey)
+                    .to_rgb8()
+                    .save(&out)
+                    .unwrap(),
+                // Soft, as a network's probabilities.
+                _ => image::imageops::blur(&grey, 0.7).save(&out).unwrap(),
+            }
+        }
+    }
+    // Frame 2 of cam2 at the wrong size.
+    image::GrayImage::new(320, 240)
+        .save(masks.join("cam2/000002.png"))
+        .unwrap();
+    let out = dir.path().join("masks.jsonl");
+    let mut args = vec![
+        "track".to_string(),
+        "--rig".into(),
+        rec.join("rig.toml").display().to_string(),
+        "--out".into(),
+        out.display().to_string(),
+    ];
+    for cam in ["cam0", "cam1", "cam2"] {
+        args.extend([
+            "--masks".into(),
+            format!("{cam}={}", masks.join(cam).display()),
+        ]);
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    common::run(&args);
+    let (records, summary) = read_lines(&out);
+    assert_eq!(summary["frames"], 3);
+    for (i, r) in records.iter().enumerate().take(2) {
+        // The rig expects two bands; masks show none.
+        assert_eq!(r["status"], "bands_missing", "frame {i}: {r}");
+        assert_eq!(r["start"], "hull");
+        let truth = reader.read_truth(i as u64).unwrap().unwrap();
+        let tip: Vec<f64> = r["tip"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        // Measured 0.03–0.17 mm over 10 frames of binary masks.
+        let d = (Point3::new(tip[0], tip[1], tip[2]) - Point3::from(truth.tip)).norm();
+        assert!(d < 0.3, "frame {i}: tip {d:.3} mm off");
+        // The outline of a binary mask is placed to within half a pixel.
+        for c in r["cameras"].as_array().unwrap() {
+            assert!(c["residual_px"].as_f64().unwrap() < 0.4, "{c}");
+        }
+    }
+    assert_eq!(records[2]["status"], "error");
+    let reason = records[2]["reason"].as_str().unwrap();
+    assert!(
+        reason.contains("000002.png") && reason.contains("320"),
+        "{reason}"
+    );
+    // A recording folder with masks/ instead of frames/ and background/.
+    let mrec = dir.path().join("mrec");
+    std::fs::create_dir_all(mrec.join("calibration")).unwrap();
+    std::fs::copy(rec.join("rig.toml"), mrec.join("rig.toml")).unwrap();
+    for cam in ["cam0", "cam1", "cam2"] {
+        let yml = format!("calibration/{cam}.yml");
+        std::fs::copy(rec.join(&yml), mrec.join(&yml)).unwrap();
+        std::fs::create_dir_all(mrec.join("masks").join(cam)).unwrap();
+        for frame in 0..2 {
+            let name = format!("{cam}/{frame:06}.png");
+            std::fs::copy(masks.join(&name), mrec.join("masks").join(&name)).unwrap();
+        }
+    }
+    let mout = dir.path().join("mrec.jsonl");
+    common::run(&[
+        "track",
+        mrec.to_str().unwrap(),
+        "--out",
+        mout.to_str().unwrap(),
+    ]);
+    let (from_folder, _) = read_lines(&mout);
+    assert_eq!(from_folder.len(), 2);
+    for (a, b) in from_folder.iter().zip(&records) {
+        assert_eq!(a["tip"], b["tip"]);
+    }
+    let e = common::fails(&[
+        "track",
+        mrec.to_str().unwrap(),
+        "--backgrounds",
+        rec.join("background").to_str().unwrap(),
+    ]);
+    assert!(e.contains("holds masks"), "{e}");
+    // Masks need no backgrounds, and refuse them.
+    let e = common::fails(&[
+        "track",
+        "--rig",
+        rec.join("rig.toml").to_str().unwrap(),
+        "--masks",
+        &format!("cam0={}", masks.join("cam0").display()),
+        "--backgrounds",
+        rec.join("background").to_str().unwrap(),
+    ]);
+    assert!(e.contains("--backgrounds"), "{e}");
+}
+
+/// Nothing already recorded is lost: outputs never replace an input, existing outputs only
+/// with `--overwrite`, and a file another process is writing is refused.
+#[test]
+fn outputs_never_replace_inputs_or_existing_files_unasked() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "1"]);
+    let rig = std::fs::read(rec.join("rig.toml")).unwrap();
+    let frame = rec.join("frames/cam0/000000.png");
+    let png = std::fs::read(&frame).unwrap();
+    for (out, what) in [
+        (rec.join("rig.toml"), "the input"),
+        (frame.clone(), "inside the input folder"),
+        (rec.join("calibration/cam0.yml"), "inside the input folder"),
+    ] {
+        let e = common::fails(&["track", r, "--out", out.to_str().unwrap(), "--overwrite"]);
+        assert!(e.contains(what) && e.contains("elsewhere"), "{e}");
+    }
+    assert_eq!(std::fs::read(rec.join("rig.toml")).unwrap(), rig);
+    assert_eq!(std::fs::read(&frame).unwrap(), png);
+    // Beside the inputs is fine; once.
+    let out = rec.join("shapes.jsonl");
+    let o = out.to_str().unwrap();
+    let ply = dir.path().join("clouds");
+    common::run(&["track", r, "-o", o, "--ply", ply.to_str().unwrap()]);
+    let first = std::fs::read_to_string(&out).unwrap();
+    let e = common::fails(&["track", r, "-o", o]);
+    assert!(
+        e.contains("already exists") && e.contains("--overwrite"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), first);
+    let other = dir.path().join("other.jsonl");
+    let e = common::fails(&[
+        "track",
+        r,
+        "-o",
+        other.to_str().unwrap(),
+        "--ply",
+        ply.to_str().unwrap(),
+    ]);
+    assert!(e.contains("PLY clouds"), "{e}");
+    // Clouds are renamed into place whole: nothing partial is left.
+    let names: Vec<String> = std::fs::read_dir(&ply)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["000000.ply"]);
+    common::run(&["track", r, "-o", o, "--overwrite"]);
+    let e = common::fails(&["track", r, "--csv", "-"]);
+    assert!(e.contains("both write to standard output"), "{e}");
+    // A file another process holds is refused, even with --overwrite.
+    let held = std::fs::File::create(&other).unwrap();
+    held.lock().unwrap();
+    let e = common::fails(&["track", r, "-o", other.to_str().unwrap(), "--overwrite"]);
+    assert!(e.contains("another process"), "{e}");
+}
+
+/// A volume the cameras do not look at is named, with the box they all see.
+#[test]
+fn a_volume_no_camera_sees_is_warned_about_with_one_they_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "1"]);
+    let out = dir.path().join("far.jsonl");
+    let o = flexshape(&[
+        "track",
+        r,
+        "-o",
+        out.to_str().unwrap(),
+        "--volume",
+        "2000,2000,2000,2100,2100,2100",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("8 of the volume's 8 corners are seen by no camera"),
+        "{err}"
+    );
+    assert!(err.contains("every camera sees --volume"), "{err}");
+    // The rig's own volume draws no warning.
+    let near = dir.path().join("near.jsonl");
+    let o = flexshape(&["track", r, "-o", near.to_str().unwrap()]);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("seen by no camera"));
+}
+
+/// A FIFO, a device or an image announcing 20000 × 20000 pixels in place of a frame or rig
+/// is refused without being read: the frame gets an error naming the file, the run goes on.
+#[cfg(unix)]
+#[test]
+fn special_and_huge_files_are_refused_without_reading_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "3"]);
+    let fifo = rec.join("frames/cam0/000001.png");
+    std::fs::remove_file(&fifo).unwrap();
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    // A PNG header of 20000 × 20000 with no pixel data.
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let chunk = |kind: &[u8], data: &[u8]| {
+        let mut c = (data.len() as u32).to_be_bytes().to_vec();
+        let mut body = kind.to_vec();
+        body.extend(data);
+        let mut crc = 0xFFFF_FFFFu32;
+        for &b in &body {
+            crc ^= b as u32;
+            for _ in 0..8 {
+                crc = if crc & 1 == 1 {
+                    0xEDB8_8320 ^ (crc >> 1)
+                } else {
+                    crc >> 1
+                };
+            }
+        }
+        c.extend(body);
+        c.extend((!crc).to_be_bytes());
+        c
+    };
+    let mut ihdr = 20000u32.to_be_bytes().to_vec();
+    ihdr.extend(20000u32.to_be_bytes());
+    ihdr.extend([8, 2, 0, 0, 0]);
+    png.extend(chunk(b"IHDR", &ihdr));
+    png.extend(chunk(b"IDAT", &[]));
+    std::fs::write(rec.join("frames/cam1/000002.png"), png).unwrap();
+    let out = dir.path().join("out.jsonl");
+    let o = flexshape(&["track", r, "-o", out.to_str().unwrap(), "--threads", "1"]);
+    assert!(o.status.success(), "{}", common::text(&o));
+    let (records, _) = read_lines(&out);
+    assert_eq!(records[0]["status"], "ok");
+    if made.is_ok_and(|s| s.success()) {
+        let reason = records[1]["reason"].as_str().unwrap();
+        assert!(
+            reason.contains("000001.png") && reason.contains("FIFO"),
+            "{reason}"
+        );
+    }
+    let reason = records[2]["reason"].as_str().unwrap();
+    assert!(
+        reason.contains("20000×20000") && reason.contains("640×480"),
+        "{reason}"
+    );
+    let e = common::fails(&["rig", "check", "/dev/zero"]);
+    assert!(e.contains("a device"), "{e}");
+}
+
+/// Honest exits: a run whose every frame failed, and a run stopped by SIGTERM, end non-zero
+/// with their records and the summary written.
+#[test]
+fn failed_and_terminated_runs_exit_non_zero_with_their_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "40"]);
+    // Every frame of a copy unreadable.
+    let bad = dir.path().join("bad");
+    common::run(&["simulate", "--out", bad.to_str().unwrap(), "--frames", "1"]);
+    std::fs::write(bad.join("frames/cam1/000000.png"), b"not a png").unwrap();
+    let out = dir.path().join("bad.jsonl");
+    let e = common::fails(&["track", bad.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(e.contains("every one of the 1 frames failed"), "{e}");
+    let (records, summary) = read_lines(&out);
+    assert_eq!((records.len(), summary["errors"].as_u64()), (1, Some(1)));
+    // SIGTERM: the frames in flight are finished, the summary says `stopped`.
+    #[cfg(unix)]
+    {
+        let out = dir.path().join("term.jsonl");
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_flexshape"))
+            .args(["track", r, "-o", out.to_str().unwrap(), "--threads", "1"])
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Once a frame is written, ask it to stop.
+        let start = std::time::Instant::now();
+        while std::fs::read_to_string(&out).map_or(0, |t| t.lines().count()) < 1
+            && start.elapsed().as_secs() < 60
+        {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        std::process::Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status()
+            .unwrap();
+        let status = child.wait().unwrap();
+        let (records, summary) = read_lines(&out);
+        if records.len() < 40 {
+            assert!(!status.success(), "a stopped run exits non-zero");
+            assert_eq!(summary["stopped"], true, "{summary}");
+        }
+    }
+}
+
+#[test]
+fn greyscale_frames_against_a_colour_background_are_warned_about_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "3"]);
+    // cam1's frames as a 16-bit greyscale camera would write them.
+    for n in 0..3 {
+        let path = rec.join(format!("frames/cam1/{n:06}.png"));
+        let grey = image::open(&path).unwrap().to_luma16();
+        grey.save(&path).unwrap();
+    }
+    let out = dir.path().join("grey.jsonl");
+    let o = flexshape(&["track", r, "-o", out.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert_eq!(
+        stderr
+            .matches("camera cam1: the frame is greyscale but its background is in colour")
+            .count(),
+        1,
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("camera cam0: the frame is greyscale"),
+        "{stderr}"
+    );
+}
+
+/// `simulate --radius-steps`: a catheter that steps up in radius behind its tip, whose rig says
+/// so; tracked `ok` with the tip section's radius in the records. Steps out of order are refused.
+#[test]
+fn a_simulated_stepped_catheter_tracks_with_the_rigs_radii() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&[
+        "simulate",
+        "--out",
+        r,
+        "--frames",
+        "2",
+        "--radius",
+        "2",
+        "--radius-steps",
+        "70:3",
+    ]);
+    let rig = std::fs::read_to_string(rec.join("rig.toml")).unwrap();
+    assert!(rig.contains("radius_steps"), "{rig}");
+    let out = dir.path().join("shapes.jsonl");
+    common::run(&["track", r, "--out", out.to_str().unwrap()]);
+    let (records, _) = read_lines(&out);
+    assert_eq!(records.len(), 2);
+    for rec in &records {
+        assert_eq!(rec["status"], "ok", "{rec}");
+        assert_eq!(rec["radius"].as_f64(), Some(2.0));
+    }
+    let bad = dir.path().join("bad");
+    let e = common::fails(&[
+        "simulate",
+        "--out",
+        bad.to_str().unwrap(),
+        "--frames",
+        "1",
+        "--radius-steps",
+        "70:3,50:4",
+    ]);
+    assert!(e.contains("radius_steps") && e.contains("step 1"), "{e}");
+}
+
+/// `--classifier` replaces the rig's silhouette classifier: a threshold no pixel reaches
+/// leaves nothing to carve, a usual one tracks as the rig's; what is not a classifier table
+/// is refused, naming what to write.
+#[test]
+fn the_classifier_is_chosen_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "1"]);
+    let statuses = |classifier: &str| {
+        let out = dir.path().join(format!("{}.jsonl", classifier.len()));
+        common::run(&[
+            "track",
+            r,
+            "--out",
+            out.to_str().unwrap(),
+            "--overwrite",
+            "--classifier",
+            classifier,
+        ]);
+        let (records, _) = read_lines(&out);
+        records
+            .iter()
+            .map(|r| r["status"].as_str().unwrap().to_string())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        statuses(r#"{ kind = "difference", min_difference = 255, noise_factor = 100 }"#),
+        ["no_object"]
+    );
+    assert_eq!(statuses(r#"{ kind = "colour_shadow" }"#), ["ok"]);
+    let e = common::fails(&["track", r, "--classifier", "difference"]);
+    assert!(e.contains("not a TOML table"), "{e}");
+    let e = common::fails(&["track", r, "--classifier", "{ min_difference = 3 }"]);
+    assert!(e.contains("needs a kind"), "{e}");
+    let e = common::fails(&["track", r, "--classifier", r#"{ kind = "magic" }"#]);
+    assert!(e.contains("--classifier") && e.contains("magic"), "{e}");
+}
+
+/// `track --mcap`: every frame's record and shape in the MCAP file (a frame that could not be
+/// read has its record and an empty marker array, no centerline), the cameras' poses once;
+/// the file is never one of the inputs (nor inside its folders), nor replaced without
+/// `--overwrite`.
+#[test]
+fn an_mcap_file_holds_every_frame_and_spares_the_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let o = flexshape(&["simulate", "--out", rec.to_str().unwrap(), "--frames", "4"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let broken = rec.join("frames/cam2/000002.png");
+    std::fs::write(&broken, b"not a png").unwrap();
+    let mcap = dir.path().join("run.mcap");
+    let out = dir.path().join("run.jsonl");
+    let args = [
+        "track",
+        rec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ];
+    let o = flexshape(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let bytes = std::fs::read(&mcap).unwrap();
+    let mut counts = std::collections::BTreeMap::<String, usize>::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        *counts.entry(m.unwrap().channel.topic.clone()).or_default() += 1;
+    }
+    assert_eq!(counts["/flexshape/record"], 4, "{counts:?}");
+    assert_eq!(counts["/flexshape/tube"], 4, "{counts:?}");
+    assert_eq!(counts["/flexshape/centerline"], 3, "{counts:?}");
+    assert_eq!(counts["/tf_static"], 1, "{counts:?}");
+    assert_eq!(counts["/flexshape/cam1/camera_info"], 4, "{counts:?}");
+    assert!(!counts.contains_key("/flexshape/cam1/image"), "{counts:?}");
+    // Not again without --overwrite; never into the recording.
+    let o = flexshape(&args);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--overwrite"));
+    // (The recording's root may hold outputs; its rig, frames and truth may not.)
+    let inside = rec.join("frames/run.mcap");
+    let o = flexshape(&[
+        "track",
+        rec.to_str().unwrap(),
+        "--out",
+        dir.path().join("again.jsonl").to_str().unwrap(),
+        "--mcap",
+        inside.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("input"));
+    assert!(!inside.exists());
+    let rig = rec.join("rig.toml");
+    let before = std::fs::read(&rig).unwrap();
+    let o = flexshape(&[
+        "track",
+        rec.to_str().unwrap(),
+        "--out",
+        dir.path().join("again.jsonl").to_str().unwrap(),
+        "--mcap",
+        rig.to_str().unwrap(),
+        "--overwrite",
+    ]);
+    assert!(!o.status.success());
+    assert_eq!(std::fs::read(&rig).unwrap(), before);
+}

@@ -1,0 +1,157 @@
+//! Backdrops and tubes we did not choose: a light grey tube over white paper, under a lamp that
+//! casts its soft shadow on the paper (the tube darkens the paper without changing its
+//! chromaticity, as its shadow does; the colour classifier tells them apart by the tube's sharp
+//! outline); a silvery one; cloth whose folds moved after the background was captured. Every
+//! frame the chain calls `ok` must be right.
+
+use crate::common;
+
+use flexshape_sim::{Catheter, CatheterPose, RenderSettings, SimConfig, Simulator};
+use flexshape_track::{Pipeline, TrackRecord};
+
+/// The grey-tube scene: body reflectance 0.5 (grey), paper 0.9, shadows.
+fn grey_on_white() -> SimConfig {
+    let defaults = SimConfig::default();
+    SimConfig {
+        render: RenderSettings {
+            shadows: true,
+            backdrop_albedo: [0.9, 0.9, 0.9],
+            ..defaults.render
+        },
+        catheter: Catheter {
+            albedo: [0.5, 0.5, 0.5],
+            ..defaults.catheter
+        },
+        ..defaults
+    }
+}
+
+#[test]
+fn a_grey_tube_on_white_paper_is_not_a_shadow() {
+    let (sim, pipeline) = common::chain_of(grey_on_white());
+    // The same chain without the outline test: shadow-like regions never count.
+    let without = with_silhouette(
+        &sim,
+        toml::toml! { classifier = { kind = "colour_shadow", edge = 0.0 } },
+    );
+    let poses = sim.sweep(10);
+    let (ok, _) = run(&sim, &pipeline, &poses);
+    let (ok_without, _) = run(&sim, &without, &poses);
+    println!("{ok} of 10 ok ({ok_without} without the outline test)");
+    assert!(ok >= 7 && ok_without <= 1, "{ok} / {ok_without}");
+}
+
+/// A silvery tube (grey, with a strong sharp highlight where it reflects the lamp) over the
+/// same white paper: the highlight is brighter than the paper and colourless, the body darker
+/// and colourless, its shadow beside it. Every frame the chain calls `ok` must be right.
+#[test]
+fn a_silvery_tube_on_white_paper_is_right_or_says_so() {
+    let grey = grey_on_white();
+    let (sim, pipeline) = common::chain_of(SimConfig {
+        catheter: Catheter {
+            gloss: flexshape_sim::Gloss {
+                strength: 1.0,
+                shininess: 20.0,
+            },
+            ..grey.catheter
+        },
+        ..grey
+    });
+    let (ok, _) = run(&sim, &pipeline, &sim.sweep(10));
+    println!("{ok} of 10 ok");
+    assert!(ok >= 4, "{ok}");
+}
+
+/// Cloth whose folds (valleys losing 30 % of the light, 70 mm apart) slid `shift` mm between
+/// the background capture and the run: where the old valleys were, the backdrop is brighter
+/// than the background, which the classifier takes for foreground along the old folds.
+fn folds_moved(shift: f64) -> SimConfig {
+    let defaults = SimConfig::default();
+    SimConfig {
+        render: RenderSettings {
+            fold_depth: 0.3,
+            fold_shift_mm: shift,
+            ..defaults.render
+        },
+        ..defaults
+    }
+}
+
+/// The chain for `sim` with `[processing.silhouette]` replaced by `table`.
+fn with_silhouette(sim: &Simulator, table: toml::Table) -> Pipeline {
+    let mut rig = sim.rig().clone();
+    rig.processing.insert("silhouette".into(), table.into());
+    let backgrounds: Vec<_> =
+        flexshape_silhouette::BackgroundModel::each(&sim.backgrounds()).unwrap();
+    Pipeline::new(&rig, &backgrounds, &rig.volume).unwrap()
+}
+
+/// The chain for `sim` with its backgrounds as captured, never following the backdrop.
+fn without_adapting(sim: &Simulator) -> Pipeline {
+    with_silhouette(sim, toml::toml! { adapt = false })
+}
+
+/// The frames of `poses` through `pipeline` (the whole chain each): the `ok` count, each `ok`
+/// frame checked against truth (within 0.1 mm RMS and 0.4 mm at the tip), and the frames whose
+/// background was updated.
+fn run(sim: &Simulator, pipeline: &Pipeline, poses: &[CatheterPose]) -> (usize, Vec<usize>) {
+    let (mut ok, mut updated) = (0, Vec::new());
+    for (i, pose) in poses.iter().enumerate() {
+        let frame = sim.render(i as u64, pose).unwrap();
+        let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+        let t = pipeline.process(&images).unwrap();
+        let record = TrackRecord::from_tracked(i as u64, &t);
+        let changes: Vec<_> = record
+            .background_updated
+            .iter()
+            .map(|u| (u.camera.as_str(), u.changed_px))
+            .collect();
+        println!(
+            "frame {i}: {} {:?}, updated {changes:?}",
+            record.status, record.reason
+        );
+        if !changes.is_empty() {
+            updated.push(i);
+        }
+        if record.status == "ok" {
+            ok += 1;
+            let (rms, tip) = (
+                common::rms(&frame.truth, sim, &t.shape),
+                common::tip_error(&frame.truth, &t.shape),
+            );
+            println!("  {rms:.3} mm RMS, tip {tip:.2} mm");
+            assert!(rms < 0.1 && tip < 0.4, "frame {i}: {rms} mm, tip {tip} mm");
+        }
+    }
+    (ok, updated)
+}
+
+#[test]
+fn folds_that_moved_since_the_background_was_captured_are_followed() {
+    // Folds where they were at the capture: nothing to follow, no background changes.
+    let (sim, pipeline) = common::chain_of(folds_moved(0.0));
+    let (ok, updated) = run(&sim, &pipeline, &sim.sweep(3));
+    assert!(
+        ok == 3 && updated.is_empty(),
+        "{ok}, updated at {updated:?}"
+    );
+    // Folds slid 10 mm; poses far apart (every frame through the whole chain).
+    let (sim, pipeline) = common::chain_of(folds_moved(10.0));
+    let (ok, updated) = run(&sim, &pipeline, &sim.sweep(6));
+    let (ok_fixed, _) = run(&sim, &without_adapting(&sim), &sim.sweep(6));
+    println!("10 mm: {ok} of 6 ok, updated at {updated:?} ({ok_fixed} as captured)");
+    assert!(
+        ok == 6 && !updated.is_empty() && ok_fixed <= 3,
+        "{ok} / {ok_fixed}"
+    );
+    // Slid half their spacing (the old valleys bright stripes over a third of every image),
+    // filmed at 120 Hz: the first frame's fit finds the tube, the backgrounds follow.
+    let (sim, pipeline) = common::chain_of(folds_moved(35.0));
+    let (ok, updated) = run(&sim, &pipeline, &sim.motion(8, 120.0));
+    let (ok_fixed, _) = run(&sim, &without_adapting(&sim), &sim.motion(3, 120.0));
+    println!("35 mm: {ok} of 8 ok, updated at {updated:?} ({ok_fixed} of 3 as captured)");
+    assert!(
+        ok == 8 && updated.first() == Some(&0) && ok_fixed == 0,
+        "{ok} / {ok_fixed}"
+    );
+}

@@ -1,0 +1,90 @@
+//! Every numeric setting at special values: refused by the settings check naming it, or a
+//! frame runs to a result — never a panic, an abort on a huge allocation, or a run without end.
+//! (A hand-built campaign found `slice_mm = 300` overflowing, `span_mm = 0.001` asking for
+//! 432 GB and `extend_mm = 1e9` aborting; the fuzz tests only check the settings, this runs
+//! them.)
+
+use crate::common;
+
+use flexshape_silhouette::BackgroundModel;
+use flexshape_track::Pipeline;
+
+const FLOATS: [f64; 6] = [0.0, 1e-9, 0.05, 1e6, 1e300, -1.0];
+const INTEGERS: [i64; 4] = [0, 1, 1_000_000, 4_294_967_296];
+
+#[test]
+fn every_numeric_setting_at_special_values_is_refused_or_runs() {
+    let (sim, _) = common::simulated_chain();
+    let frame = sim.render(0, &sim.sweep(1)[0]).unwrap();
+    let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+    let backgrounds: Vec<_> = BackgroundModel::each(&sim.backgrounds()).unwrap();
+    let floats: &[(&str, &str)] = &[
+        ("fit", "span_mm"),
+        ("fit", "spacing_mm"),
+        ("fit", "search_px"),
+        ("fit", "huber_px"),
+        ("fit", "min_contrast"),
+        ("fit", "extend_mm"),
+        ("fit", "slide_prior"),
+        ("fit", "end_anchor"),
+        ("fit", "max_residual_px"),
+        ("fit", "max_p90_px"),
+        ("fit", "min_found"),
+        ("fit", "min_iou"),
+        ("fit", "max_ghost_mm"),
+        ("fit", "max_sigma_mm"),
+        ("fit", "track_margin_px"),
+        ("fit", "track_max_move_mm"),
+        ("shape", "slice_mm"),
+        ("shape", "sample_mm"),
+        ("shape", "radius_mm"),
+        ("silhouette", "max_foreground"),
+        ("silhouette", "max_foreground_growth"),
+    ];
+    let integers: &[(&str, &str)] = &[
+        ("fit", "max_iterations"),
+        ("fit", "max_unexplained_px"),
+        ("fit", "explain_px"),
+        ("shape", "cell_voxels"),
+        ("shape", "expected_bands"),
+        ("shape", "min_voxels"),
+        ("silhouette", "close_radius"),
+    ];
+    let values = floats
+        .iter()
+        .flat_map(|&(t, k)| FLOATS.iter().map(move |&v| (t, k, toml::Value::Float(v))))
+        .chain(integers.iter().flat_map(|&(t, k)| {
+            INTEGERS
+                .iter()
+                .map(move |&v| (t, k, toml::Value::Integer(v)))
+        }));
+    let (mut refused, mut ran) = (0, 0);
+    for (table, key, value) in values {
+        let mut rig = sim.rig().clone();
+        let stage = rig
+            .processing
+            .entry(table)
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        if let toml::Value::Table(t) = stage {
+            t.insert(key.to_string(), value.clone());
+        }
+        let setting = format!("[processing.{table}] {key} = {value}");
+        let Ok(pipeline) = Pipeline::new(&rig, &backgrounds, &rig.volume) else {
+            refused += 1;
+            assert!(
+                Pipeline::check_settings(&rig).is_err(),
+                "{setting}: rig check passes what track refuses"
+            );
+            continue;
+        };
+        // Said first: an abort would leave no other trace of which setting it was.
+        eprintln!("{setting}");
+        let start = std::time::Instant::now();
+        let _ = pipeline.process(&images);
+        let took = start.elapsed().as_secs_f64();
+        assert!(took < 20.0, "{setting}: one frame took {took:.1} s");
+        ran += 1;
+    }
+    println!("{refused} refused, {ran} ran a frame");
+    assert!(refused > 0 && ran > 0);
+}
