@@ -153,14 +153,22 @@ fn chessboards_captured_live_calibrate_the_rig() {
         let frames = dir.path().join(format!("frames{k}"));
         std::fs::create_dir_all(&frames).unwrap();
         let (w, h) = (cam.camera.intrinsics.width, cam.camera.intrinsics.height);
-        let empty = image::GrayImage::from_pixel(w, h, image::Luma([120]));
+        // Each distinct picture is written once; the video's frames are hard links to them.
+        let empty = frames.join("empty.png");
+        image::GrayImage::from_pixel(w, h, image::Luma([120]))
+            .save(&empty)
+            .unwrap();
         let mut n = 0;
         for (i, view) in views.iter().enumerate() {
             // Every camera films every instant, whether or not it sees the whole board.
-            let shot = renderer.render(&board, &view.pose, 1.0, i as u64 * 7 + k as u64);
+            let shot = frames.join(format!("shot{i}.png"));
+            renderer
+                .render(&board, &view.pose, 1.0, i as u64 * 7 + k as u64)
+                .save(&shot)
+                .unwrap();
             for f in 0..13 {
-                let img = if f < 3 { &empty } else { &shot };
-                img.save(frames.join(format!("{n:06}.png"))).unwrap();
+                let picture = if f < 3 { &empty } else { &shot };
+                std::fs::hard_link(picture, frames.join(format!("{n:06}.png"))).unwrap();
                 n += 1;
             }
         }
@@ -168,7 +176,7 @@ fn chessboards_captured_live_calibrate_the_rig() {
         let status = std::process::Command::new("ffmpeg")
             .args(["-y", "-loglevel", "error", "-framerate", "10", "-i"])
             .arg(frames.join("%06d.png"))
-            .args(["-c:v", "png", "-pix_fmt", "rgb24"])
+            .args(["-c:v", "libx264rgb", "-preset", "ultrafast", "-qp", "0"])
             .arg(&video)
             .status()
             .unwrap();
