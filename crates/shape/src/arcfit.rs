@@ -163,6 +163,24 @@ fn local_position_and_jacobian([kx, kz]: [f64; 2], u: f64) -> (Vector3<f64>, [Ve
     (position, [d_kx, d_kz])
 }
 
+/// How a piece's end frame moves with its curvatures `[κx, κz]`, in its base frame: the end's
+/// position and its rotation matrix, each differentiated by each curvature.
+type EndDerivatives = ([Vector3<f64>; 2], [Matrix3<f64>; 2]);
+
+/// A constant-curvature piece of `length` (no strain).
+fn section(length: f64, kappa: [f64; 2]) -> Section {
+    Section {
+        length,
+        kappa,
+        strain: 0.0,
+    }
+}
+
+/// The piece (of `bases`, from [`Problem::bases`]) that arc length `u` falls in.
+fn piece_at(bases: &[(Frame, f64)], u: f64) -> usize {
+    bases.iter().rposition(|b| u >= b.1).unwrap_or(0)
+}
+
 /// Least squares over `[κ per piece…, tilt x, tilt z, offset x, y, z]`.
 struct Problem<'a> {
     data: &'a [(f64, [f64; 3])],
@@ -210,31 +228,28 @@ impl<'a> Problem<'a> {
         self.base_of(&self.params)
     }
 
-    fn residuals_of(&self, p: &DVector<f64>) -> DVector<f64> {
-        // Base frame of each piece, and where it starts along the section.
+    /// Each piece's base frame and where it starts along the section, mm.
+    fn bases(&self, p: &DVector<f64>) -> Vec<(Frame, f64)> {
         let mut bases = Vec::with_capacity(self.lengths.len());
         let (mut frame, mut start) = (self.base_of(p), 0.0);
         for (i, &length) in self.lengths.iter().enumerate() {
-            bases.push((frame, start, [p[2 * i], p[2 * i + 1]]));
-            let piece = Section {
-                length,
-                kappa: [p[2 * i], p[2 * i + 1]],
-                strain: 0.0,
-            };
-            frame = frame.compose(&piece.local_frame(length));
+            bases.push((frame, start));
+            frame = frame.compose(&section(length, [p[2 * i], p[2 * i + 1]]).local_frame(length));
             start += length;
         }
+        bases
+    }
+
+    fn residuals_of(&self, p: &DVector<f64>) -> DVector<f64> {
+        let bases = self.bases(p);
         let mut r = DVector::zeros(3 * self.data.len());
-        for (i, (u, x)) in self.data.iter().enumerate() {
-            let (base, from, kappa) = bases
-                .iter()
-                .rev()
-                .find(|b| *u >= b.1)
-                .copied()
-                .unwrap_or(bases[0]);
-            let m = base.position + base.rotation * local_position(kappa, u - from);
+        for (n, (u, x)) in self.data.iter().enumerate() {
+            let i = piece_at(&bases, *u);
+            let (base, from) = &bases[i];
+            let m =
+                base.position + base.rotation * local_position([p[2 * i], p[2 * i + 1]], u - from);
             for c in 0..3 {
-                r[3 * i + c] = m[c] - x[c];
+                r[3 * n + c] = m[c] - x[c];
             }
         }
         r
@@ -268,30 +283,26 @@ impl Problem<'_> {
     fn residuals_and_jacobian(&self, p: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
         let pieces = 2 * self.lengths.len();
         let kappa = |i: usize| [p[2 * i], p[2 * i + 1]];
-        // Per piece: its base frame, where it starts, and its end frame's derivatives by its
-        // curvatures (position, rotation) in that base frame.
-        let mut bases = Vec::with_capacity(self.lengths.len());
-        let (mut frame, mut start) = (self.base_of(p), 0.0);
-        for (i, &length) in self.lengths.iter().enumerate() {
-            let section = |k: [f64; 2]| Section {
-                length,
-                kappa: k,
-                strain: 0.0,
-            };
-            let (_, d_end) = local_position_and_jacobian(kappa(i), length);
-            let d_turn: [Matrix3<f64>; 2] = std::array::from_fn(|c| {
-                let h = 1e-6;
-                let (mut up, mut down) = (kappa(i), kappa(i));
-                up[c] += h;
-                down[c] -= h;
-                (section(up).local_frame(length).rotation.matrix()
-                    - section(down).local_frame(length).rotation.matrix())
-                    / (2.0 * h)
-            });
-            bases.push((frame, start, d_end, d_turn));
-            frame = frame.compose(&section(kappa(i)).local_frame(length));
-            start += length;
-        }
+        let bases = self.bases(p);
+        // Per piece: its end frame's derivatives by its curvatures (position, rotation) in
+        // its base frame.
+        let ends: Vec<EndDerivatives> = self
+            .lengths
+            .iter()
+            .enumerate()
+            .map(|(i, &length)| {
+                let (_, d_end) = local_position_and_jacobian(kappa(i), length);
+                let d_turn = std::array::from_fn(|c| {
+                    let h = 1e-6;
+                    let (mut up, mut down) = (kappa(i), kappa(i));
+                    up[c] += h;
+                    down[c] -= h;
+                    let turn = |k| section(length, k).local_frame(length).rotation;
+                    (turn(up).matrix() - turn(down).matrix()) / (2.0 * h)
+                });
+                (d_end, d_turn)
+            })
+            .collect();
         let axes = self.frame.rotation.matrix();
         let tilt_of = |p: &DVector<f64>| {
             Rotation3::from_scaled_axis(Vector3::new(p[pieces], 0.0, p[pieces + 1]))
@@ -314,8 +325,8 @@ impl Problem<'_> {
         let mut r = DVector::zeros(3 * self.data.len());
         let mut j = DMatrix::zeros(3 * self.data.len(), p.len());
         for (n, (u, x)) in self.data.iter().enumerate() {
-            let i = bases.iter().rposition(|b| *u >= b.1).unwrap_or(0);
-            let (frame, from, ..) = &bases[i];
+            let i = piece_at(&bases, *u);
+            let (frame, from) = &bases[i];
             let (local, d_local) = local_position_and_jacobian(kappa(i), u - from);
             let m = frame.position + frame.rotation * local;
             let mut column = |c: usize, v: Vector3<f64>| {
@@ -326,9 +337,9 @@ impl Problem<'_> {
             for (c, d) in d_local.iter().enumerate() {
                 column(2 * i + c, frame.rotation * d);
             }
-            for (e, (earlier, _, d_end, d_turn)) in bases[..i].iter().enumerate() {
+            for (e, ((earlier, _), (d_end, d_turn))) in bases[..i].iter().zip(&ends).enumerate() {
                 // The point in the frame at the end of piece `e`.
-                let (next, ..) = &bases[e + 1];
+                let (next, _) = &bases[e + 1];
                 let rest = next.rotation.inverse() * (m - next.position);
                 for c in 0..2 {
                     column(2 * e + c, earlier.rotation * (d_end[c] + d_turn[c] * rest));
