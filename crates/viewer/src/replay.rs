@@ -68,6 +68,8 @@ pub struct RecordingReplay {
     cameras: Arc<[Camera]>,
     /// Capture times by frame number (`timestamps.csv`), s.
     times: BTreeMap<u64, f64>,
+    /// The working volume's bounds (as [`Scene::volume`]), which the truth is kept within.
+    volume: [f64; 6],
 }
 
 impl RecordingReplay {
@@ -82,6 +84,7 @@ impl RecordingReplay {
             .unwrap_or_default();
         Ok(RecordingReplay {
             cameras: pipeline.cameras().into(),
+            volume: Scene::of(&pipeline).volume,
             recording,
             pipeline,
             times,
@@ -112,11 +115,10 @@ impl Replayed for RecordingReplay {
             None => Processed::unreadable(index as u64, "no such frame".into(), 0),
         };
         let record = TrackRecord::from_processed(&processed);
-        let volume = self.scene().volume;
         let stats = stats(state, processed.latency_ms);
         Update::new(processed, record, stats)
             .with_cameras(self.cameras.clone())
-            .with_truth_within(volume)
+            .with_truth_within(self.volume)
             .with_replay(state)
     }
 
