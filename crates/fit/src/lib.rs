@@ -261,8 +261,18 @@ impl TubeFitter {
     /// Moves `start` until its outline explains every view; the radius stays fixed unless
     /// `fit_radius`.
     pub fn fit(&self, views: &[View<'_>], start: Tube, fit_radius: bool) -> Result<Fit, FitError> {
+        self.fit_with(&self.settings, views, start, fit_radius)
+    }
+
+    /// [`TubeFitter::fit`] with other settings (a followed frame's sample spacing).
+    fn fit_with(
+        &self,
+        s: &FitSettings,
+        views: &[View<'_>],
+        start: Tube,
+        fit_radius: bool,
+    ) -> Result<Fit, FitError> {
         let images = self.edge_images(views)?;
-        let s = &self.settings;
         let mut tube = start.clone();
         let mut iterations = 0;
         let mut normal = None;
@@ -510,7 +520,16 @@ impl TubeFitter {
             },
         };
         let from = start.frame(1.0).0;
-        let fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
+        // Two cameras pin a shape down only just: they keep every sample.
+        let followed = FitSettings {
+            spacing_mm: if self.cameras.len() >= 3 {
+                s.track_spacing_mm
+            } else {
+                s.spacing_mm
+            },
+            ..s.clone()
+        };
+        let fit = self.fit_with(&followed, views, start, radius.is_none() && s.fit_radius)?;
         // What the hull would have said before the fit: whether the tip runs out of the
         // volume; bands come from the images alone.
         let base = ShapeRecord::empty(if open[1] {

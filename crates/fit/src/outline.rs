@@ -160,7 +160,10 @@ pub(crate) fn outline(
     }
     for end in [0, 1] {
         if let Some(cap) = CapView::new(camera, tube, end, sampled.length) {
-            let count = ((2.0 * cap.phi_max * cap.r / spacing_mm).ceil() as usize).max(3);
+            // The caps decide where the tip is: sampled at least every CAP_SPACING_MM
+            // whatever the sides' spacing (a few samples more).
+            let step = spacing_mm.min(CAP_SPACING_MM);
+            let count = ((2.0 * cap.phi_max * cap.r / step).ceil() as usize).max(3);
             for k in 0..count {
                 // Strictly inside the half, whose ends are the sides' last points.
                 let phi = cap.phi_max * (2.0 * (k as f64 + 0.5) / count as f64 - 1.0);
@@ -173,6 +176,9 @@ pub(crate) fn outline(
     out.retain(|p| !spheres.hide(&eye, p));
     out
 }
+
+/// Largest spacing of a cap's outline samples, mm.
+const CAP_SPACING_MM: f64 = 2.0;
 
 /// The same outline point as `p` (same place along the tube, same side or cap angle) on a
 /// moved `tube`; `stride` the tube length a side sample stands for, mm.

@@ -7,11 +7,13 @@
 //! Two workloads: every frame through the whole chain from its hull (distinct poses from the
 //! sweep), and tracking (a smooth motion filmed at `rate_hz`, each frame started from an
 //! earlier one's shape as `flexshape track` does: with one frame per thread in flight, from
-//! the frame `threads` back).
+//! the frame `threads` back). Each workload's records are also held against the simulator's
+//! truth, so that a setting that buys speed shows what it costs in accuracy.
 
 use std::fmt::Write as _;
 use std::time::Instant;
 
+use flexshape_recording::Truth;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, Simulator};
 use flexshape_track::{
@@ -22,6 +24,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::LabError;
+use crate::demo::{DemoFigures, ShapeErrors};
 
 /// What to measure.
 #[derive(Debug, Clone, PartialEq)]
@@ -89,14 +92,14 @@ pub fn bench(config: SimConfig, settings: &BenchSettings) -> Result<BenchReport,
         }
     }
     Ok(BenchReport {
-        cameras: frames[0].len(),
-        width: frames[0][0].width(),
-        height: frames[0][0].height(),
+        cameras: frames[0].0.len(),
+        width: frames[0].0[0].width(),
+        height: frames[0].0[0].height(),
         voxels: rig.volume.dims,
         voxel_mm: rig.volume.voxel_size[0],
         frames: s.frames,
         rounds: s.rounds,
-        png_decode_ms: png_decode_ms(&frames[0][0])
+        png_decode_ms: png_decode_ms(&frames[0].0[0])
             .map_err(|e| LabError::data("bench", format!("cannot encode a PNG: {e}")))?,
         results,
         tracking,
@@ -120,6 +123,37 @@ pub struct Figures {
     /// carved again).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub followed: Option<f64>,
+    /// The records of the first pass (one frame at a time) against the simulator's truth.
+    pub accuracy: Accuracy,
+}
+
+/// A workload's records against the simulator's truth, mm: over the frames whose status says
+/// the shape is right (`ok`, `bands_missing`, `leaves_volume`).
+#[derive(Debug, Clone, Serialize)]
+pub struct Accuracy {
+    /// Frames measured.
+    pub frames: usize,
+    /// Of which right.
+    pub right: usize,
+    /// Centerline RMS distance from the truth: median and worst over the right frames.
+    pub centerline_rms_mm: [f64; 2],
+    /// Tip distance from the true tip: median and worst.
+    pub tip_mm: [f64; 2],
+    /// Worst distance of a true band centre from the nearest one found.
+    pub band_mm: f64,
+}
+
+impl Accuracy {
+    fn of(figures: &DemoFigures, frames: usize) -> Self {
+        let pair = |v: &[f64]| [DemoFigures::median(v), DemoFigures::worst(v)];
+        Accuracy {
+            frames,
+            right: figures.rms.len(),
+            centerline_rms_mm: pair(&figures.rms),
+            tip_mm: pair(&figures.tip),
+            band_mm: figures.band,
+        }
+    }
 }
 
 /// What `flexshape bench` measured (ms, frames per second).
@@ -156,16 +190,13 @@ pub struct BenchReport {
 /// flight (thread `k` takes frames `k`, `k + n`, …). A pipeline that tracks starts each frame
 /// from the one before (for throughput, from its own previous one, `n` frames back, as the
 /// runner's workers do); one that does not starts every frame from its hull.
-fn measure(
-    pipeline: &Pipeline,
-    frames: &[Vec<RgbImage>],
-    rounds: usize,
-) -> Result<Figures, LabError> {
-    let refs: Vec<Vec<&RgbImage>> = frames.iter().map(|f| f.iter().collect()).collect();
+fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figures, LabError> {
+    let refs: Vec<Vec<&RgbImage>> = frames.iter().map(|f| f.0.iter().collect()).collect();
     let mut timings = Vec::new();
     let mut totals = Vec::new();
     let mut followed = 0usize;
-    for _ in 0..rounds {
+    let mut errors = DemoFigures::default();
+    for round in 0..rounds {
         let mut recent = Recent::new(pipeline);
         for (seq, f) in refs.iter().enumerate() {
             let t = Instant::now();
@@ -173,6 +204,12 @@ fn measure(
             let tracked = pipeline.process_after(f, prior.as_deref())?;
             let elapsed = t.elapsed().as_secs_f64() * 1e3;
             recent.update(seq as u64, tracked.prior());
+            if round == 0
+                && tracked.shape.status.is_right()
+                && let Some(e) = ShapeErrors::of(pipeline, &frames[seq].1, &tracked)
+            {
+                errors.add(&e);
+            }
             // The first frame of a pass has nothing to start from.
             if tracked.start == Start::Previous {
                 followed += 1;
@@ -206,20 +243,24 @@ fn measure(
         followed: pipeline
             .tracks()
             .then(|| followed as f64 / (rounds * (frames.len() - 1).max(1)) as f64),
+        accuracy: Accuracy::of(&errors, frames.len()),
     })
 }
 
-/// Every camera's image of each pose, rendered.
+/// Frames in memory: every camera's image of one pose, and the truth.
+type Frames = Vec<(Vec<RgbImage>, Truth)>;
+
+/// Every camera's image of each pose, rendered, with the pose's truth.
 fn render(
     sim: &Simulator,
     poses: &[flexshape_sim::CatheterPose],
-) -> Result<Vec<Vec<RgbImage>>, flexshape_sim::SimError> {
+) -> Result<Frames, flexshape_sim::SimError> {
     poses
         .iter()
         .enumerate()
         .map(|(i, pose)| {
             sim.render(i as u64, pose)
-                .map(|f| f.views.into_iter().map(|v| v.image).collect())
+                .map(|f| (f.views.into_iter().map(|v| v.image).collect(), f.truth))
         })
         .collect()
 }
@@ -316,5 +357,17 @@ fn figures_table(out: &mut String, title: &str, results: &[Figures]) {
         out,
         "{:<22} {:>18.0} {:>18.0}",
         "throughput (frames/s)", results[0].throughput_fps, results[1].throughput_fps
+    );
+    let a = &results[0].accuracy;
+    _ = writeln!(
+        out,
+        "against truth (1 thread): {} of {} frames right; centerline rms median {:.3} mm, worst {:.3}; tip median {:.3} mm, worst {:.3}; band worst {:.3} mm",
+        a.right,
+        a.frames,
+        a.centerline_rms_mm[0],
+        a.centerline_rms_mm[1],
+        a.tip_mm[0],
+        a.tip_mm[1],
+        a.band_mm
     );
 }

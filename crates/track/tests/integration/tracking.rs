@@ -94,6 +94,20 @@ fn a_smooth_motion_is_tracked_without_carving_and_as_accurately() {
         }
         // Bands come from colour along the fitted centerline, carved or not.
         assert_eq!(t.shape.bands.len(), h.shape.bands.len(), "frame {i}");
+        // A followed frame samples the sides every `track_spacing_mm` (4), the hull's fit every
+        // `spacing_mm` (2); the caps every 2 mm in both.
+        let samples = |t: &flexshape_track::Tracked| {
+            t.fit
+                .as_ref()
+                .map_or(0, |f| f.cameras.iter().map(|c| c.samples).sum::<usize>())
+        };
+        let (followed, from_hull) = (samples(&t), samples(&h));
+        if t.start == Start::Previous {
+            assert!(
+                followed * 10 < from_hull * 6 && followed * 10 > from_hull * 4,
+                "frame {i}: {followed} samples followed, {from_hull} from the hull"
+            );
+        }
         errors.push(e);
         hull_errors.push(eh);
         recent.update(i as u64, t.prior());
@@ -215,6 +229,20 @@ fn two_cameras_follow_a_smooth_motion_as_right_as_from_every_hull() {
             assert!(e < 0.15, "frame {i}: ok but {e:.3} mm off");
         }
         followed += usize::from(t.start == Start::Previous);
+        // Two cameras keep every sample when following (they pin a shape down only just):
+        // measured 0.83–1.0 of the hull fit's count (which may cover a little more tube), half
+        // as many at the three-camera spacing.
+        if t.start == Start::Previous
+            && let (Some(a), Some(b)) = (&t.fit, &h.fit)
+        {
+            let count = |f: &flexshape_fit::Fit| f.cameras.iter().map(|c| c.samples).sum::<usize>();
+            assert!(
+                count(a) * 4 > count(b) * 3,
+                "frame {i}: {} samples followed, {} from the hull",
+                count(a),
+                count(b)
+            );
+        }
         recent.update(i as u64, t.prior());
     }
     assert!(followed >= 8, "{followed} of 16 frames followed");
