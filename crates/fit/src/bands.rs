@@ -17,7 +17,7 @@ use flexshape_silhouette::BitMask;
 use image::RgbImage;
 use nalgebra::{Point3, Vector2, Vector3};
 
-use crate::outline::{Spheres, sphere_centres};
+use crate::outline::Spheres;
 use crate::tube::Tube;
 
 /// Spacing of the colour samples along the tube, mm.
@@ -42,12 +42,14 @@ struct Seen {
     at_tip: bool,
 }
 
-/// The bands on `tube`, as curve parameters, from every camera's image and marker mask.
+/// The bands on `tube`, as curve parameters, from every camera's image and marker mask;
+/// `spheres` are the tube's visibility spheres in each camera.
 pub(crate) fn locate(
     cameras: &[Camera],
     images: &[&RgbImage],
     markers: &[&BitMask],
     tube: &Tube,
+    spheres: &[Spheres],
 ) -> Vec<CurveBand> {
     let table = ArcTable::new(tube);
     let n = (table.length() / STEP).floor() as usize;
@@ -60,11 +62,9 @@ pub(crate) fn locate(
             (c, t, tube.radius_at(u, length))
         })
         .collect();
-    let centres = sphere_centres(tube, tube.length());
     let mut seen: Vec<Seen> = Vec::new();
-    for ((camera, image), mask) in cameras.iter().zip(images).zip(markers) {
-        let spheres = Spheres::from_centres(camera, tube, &centres, 0.0);
-        let samples = sample(camera, image, mask, &frames, &spheres);
+    for (((camera, image), mask), spheres) in cameras.iter().zip(images).zip(markers).zip(spheres) {
+        let samples = sample(camera, image, mask, &frames, spheres);
         seen.extend(runs(&samples, tube.capped[1]));
     }
     merge(seen, table.length())

@@ -9,6 +9,7 @@ use flexshape_silhouette::BitMask;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::outline::Spheres;
 use crate::solve::Measured;
 use crate::tube::Tube;
 
@@ -132,50 +133,24 @@ pub(crate) struct Residuals {
     pub shift: [f64; 2],
 }
 
-/// The tube drawn into masks of the camera's image size: a disc per sphere of the swept
-/// surface about `centres` (every half radius along the centerline, [`crate::outline::sphere_centres`]), and separately the straight continuation
-/// of each open end until it leaves the image (the tube goes on beyond the volume, how far is
-/// not known: the check neither asks for nor objects to silhouette pixels there).
-pub(crate) fn render(
-    camera: &Camera,
-    tube: &Tube,
-    centres: &[(Point3<f64>, f64)],
-) -> (BitMask, BitMask) {
+/// The tube drawn into masks of `camera`'s image size from its `spheres` (every half radius
+/// along the centerline, [`crate::outline::sphere_centres`]): a disc per sphere of the swept
+/// surface, and separately the straight continuation of each open end until it leaves the
+/// image (the tube goes on beyond the volume, how far is not known: the check neither asks
+/// for nor objects to silhouette pixels there).
+pub(crate) fn render(camera: &Camera, spheres: &Spheres) -> (BitMask, BitMask) {
     let (w, h) = (
         camera.intrinsics.width as usize,
         camera.intrinsics.height as usize,
     );
-    let mut mask = BitMask::new(w, h);
-    for s in crate::outline::spheres_along(camera, centres)
-        .into_iter()
-        .flatten()
-    {
-        disc(&mut mask, s);
-    }
-    let mut beyond = BitMask::new(w, h);
-    for end in [0, 1] {
-        if tube.capped[end] {
-            continue;
+    let draw = |items: &[crate::outline::Projected]| {
+        let mut mask = BitMask::new(w, h);
+        for &s in items {
+            disc(&mut mask, s);
         }
-        let r = match end {
-            0 => centres.first(),
-            _ => centres.last(),
-        }
-        .map_or(tube.radius, |c| c.1);
-        let step = (r / 2.0).max(0.05);
-        let (c, dir) = tube.beyond(end);
-        let line: Vec<(Point3<f64>, f64)> = (1..=(crate::outline::BEYOND_MM / step).ceil()
-            as usize)
-            .map(|k| (c + dir * (step * k as f64), r))
-            .collect();
-        for s in crate::outline::spheres_along(camera, &line)
-            .into_iter()
-            .flatten()
-        {
-            disc(&mut beyond, s);
-        }
-    }
-    (mask, beyond)
+        mask
+    };
+    (draw(spheres.tube()), draw(spheres.beyond()))
 }
 
 /// Draws the image of a sphere (centre, pixel, image radius; as a disc), clipped to the mask.

@@ -82,6 +82,7 @@ pub use settings::{FitSettings, Method};
 pub use tube::Tube;
 
 use edges::EdgeImage;
+use outline::Spheres;
 use solve::{against, measure, normal_equations};
 
 /// Why the fit cannot be set up or run.
@@ -261,17 +262,19 @@ impl TubeFitter {
     /// Moves `start` until its outline explains every view; the radius stays fixed unless
     /// `fit_radius`.
     pub fn fit(&self, views: &[View<'_>], start: Tube, fit_radius: bool) -> Result<Fit, FitError> {
-        self.fit_with(&self.settings, views, start, fit_radius)
+        Ok(self.fit_with(&self.settings, views, start, fit_radius)?.0)
     }
 
-    /// [`TubeFitter::fit`] with other settings (a followed frame's sample spacing).
+    /// [`TubeFitter::fit`] with other settings (a followed frame's sample spacing), and the
+    /// fitted tube's visibility spheres in each camera (the check drew them; the bands use
+    /// them).
     fn fit_with(
         &self,
         s: &FitSettings,
         views: &[View<'_>],
         start: Tube,
         fit_radius: bool,
-    ) -> Result<Fit, FitError> {
+    ) -> Result<(Fit, Vec<Spheres>), FitError> {
         let images = self.edge_images(views)?;
         let mut tube = start.clone();
         let mut iterations = 0;
@@ -351,16 +354,22 @@ impl TubeFitter {
                 * sigma_px.powi(2);
         let length = tube.length();
         let centres = outline::sphere_centres(&tube, length);
+        let spheres: Vec<Spheres> = self
+            .cameras
+            .iter()
+            .map(|cam| Spheres::from_centres(cam, &tube, &centres, 0.0))
+            .collect();
         let cameras = self
             .cameras
             .iter()
             .zip(&self.names)
             .zip(views)
             .zip(&measured)
-            .map(|(((cam, name), view), m)| {
+            .zip(&spheres)
+            .map(|((((cam, name), view), m), spheres)| {
                 let res = check::residual_stats(m);
                 let ends = check::end_stats(m, &tube, length);
-                let rendered = check::render(cam, &tube, &centres);
+                let rendered = check::render(cam, spheres);
                 let (iou, unexplained_px) =
                     check::overlap(&rendered, view.silhouette, s.explain_px);
                 CameraCheck {
@@ -379,23 +388,25 @@ impl TubeFitter {
                 }
             })
             .collect();
-        Ok(Fit {
+        let fit = Fit {
             tube,
             cameras,
             iterations,
             sigma_px,
             ghost_mm: None,
             covariance,
-        })
+        };
+        Ok((fit, spheres))
     }
 
     /// `tube` drawn into camera `camera`'s image as the self-check sees it: the tube, and the
     /// straight continuations of its open ends, or `None` for a camera index outside the rig.
     pub fn render(&self, camera: usize, tube: &Tube) -> Option<(BitMask, BitMask)> {
         let centres = outline::sphere_centres(tube, tube.length());
-        self.cameras
-            .get(camera)
-            .map(|c| check::render(c, tube, &centres))
+        self.cameras.get(camera).map(|c| {
+            let spheres = Spheres::from_centres(c, tube, &centres, 0.0);
+            check::render(c, &spheres)
+        })
     }
 
     /// Every camera's predicted outline of `tube` and the boundary measured for each point:
@@ -459,7 +470,8 @@ impl TubeFitter {
             Ok(t) => t.with_steps(steps),
             Err(_) => return Ok((hull.clone(), None)),
         };
-        let mut fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
+        let (mut fit, spheres) =
+            self.fit_with(s, views, start, radius.is_none() && s.fit_radius)?;
         let voxel_volume = volume.voxel_size.iter().product::<f64>();
         let reach = 1.5 * fit.tube.largest_radius() + 1.5 * voxel;
         fit.ghost_mm = Some(check::ghost_length(
@@ -468,7 +480,7 @@ impl TubeFitter {
             voxel_volume,
             reach,
         ));
-        let record = self.conclude(estimator, volume, views, &fit, hull);
+        let record = self.conclude(estimator, volume, views, (&fit, &spheres), hull);
         Ok((record, Some(fit)))
     }
 
@@ -529,7 +541,8 @@ impl TubeFitter {
             },
             ..s.clone()
         };
-        let fit = self.fit_with(&followed, views, start, radius.is_none() && s.fit_radius)?;
+        let (fit, spheres) =
+            self.fit_with(&followed, views, start, radius.is_none() && s.fit_radius)?;
         // What the hull would have said before the fit: whether the tip runs out of the
         // volume; bands come from the images alone.
         let base = ShapeRecord::empty(if open[1] {
@@ -537,7 +550,7 @@ impl TubeFitter {
         } else {
             Status::Ok
         });
-        let mut record = self.conclude(estimator, volume, views, &fit, &base);
+        let mut record = self.conclude(estimator, volume, views, (&fit, &spheres), &base);
         // The boundaries are searched a few pixels from the prediction: a tip that moved
         // farther than that between frames was not followed but pulled, and may have settled
         // short of where it is.
@@ -583,21 +596,22 @@ impl TubeFitter {
             .collect()
     }
 
-    /// The record of a fitted tube: its curve sampled, bands from colour, and the statuses the
-    /// self-check, the ghost check and the uncertainty give.
+    /// The record of a fitted tube (with its visibility spheres in each camera): its curve
+    /// sampled, bands from colour, and the statuses the self-check, the ghost check and the
+    /// uncertainty give.
     fn conclude(
         &self,
         estimator: &ShapeEstimator,
         volume: &Volume,
         views: &[View<'_>],
-        fit: &Fit,
+        (fit, spheres): (&Fit, &[Spheres]),
         hull: &ShapeRecord,
     ) -> ShapeRecord {
         let s = &self.settings;
         let sigma = |u: f64| fit.sigma_across(u);
         let images: Vec<&RgbImage> = views.iter().map(|v| v.image).collect();
         let markers: Vec<&BitMask> = views.iter().map(|v| v.markers).collect();
-        let found = bands::locate(&self.cameras, &images, &markers, &fit.tube);
+        let found = bands::locate(&self.cameras, &images, &markers, &fit.tube, spheres);
         let fitted = FittedCurve {
             curve: fit.tube.centerline.clone(),
             radius: fit.tube.radius,

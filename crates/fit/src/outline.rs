@@ -435,8 +435,10 @@ fn grazing(
 /// along its length), nor when the pixels just outside it show the tube too (another part
 /// behind or beside it).
 pub(crate) struct Spheres {
-    /// Centre (world), its pixel, and the sphere's image radius in pixels.
+    /// Centre (world), its pixel, and the sphere's image radius in pixels: the tube's
+    /// (`..tube_items`), then its open ends' continuations.
     items: Vec<(Point3<f64>, Vector2<f64>, f64)>,
+    tube_items: usize,
     /// Each sphere's radius, mm.
     radii: Vec<f64>,
     /// Per sphere, squared: its image radius less a quarter pixel (a pixel it surely covers)
@@ -529,6 +531,7 @@ impl Spheres {
             .zip(centres)
             .filter_map(|(s, &(_, r))| Some((s?, r)))
             .unzip();
+        let tube_items = items.len();
         let (w, h) = (
             camera.intrinsics.width as f64,
             camera.intrinsics.height as f64,
@@ -566,9 +569,20 @@ impl Spheres {
                 })
                 .collect(),
             items,
+            tube_items,
             radii,
             clearance,
         }
+    }
+
+    /// The tube's spheres as the camera sees them.
+    pub(crate) fn tube(&self) -> &[Projected] {
+        &self.items[..self.tube_items]
+    }
+
+    /// Those of its open ends' straight continuations, until they leave the image.
+    pub(crate) fn beyond(&self) -> &[Projected] {
+        &self.items[self.tube_items..]
     }
 
     /// Whether the ray from `eye` to `target` (whose pixel is `pixel`) enters the tube before

@@ -12,6 +12,7 @@ use flexshape_rig::Volume;
 use flexshape_shape::{ShapeEstimator, ShapeRecord, Status};
 use nalgebra::Point3;
 
+use crate::outline::Spheres;
 use crate::{Fit, FitError, Tube, TubeFitter, View, depth_inside};
 
 /// Spacing of the image centerlines' points, pixels.
@@ -58,7 +59,7 @@ impl TubeFitter {
             .iter()
             .copied()
             .fold(f64::INFINITY, f64::min);
-        let mut explaining: Vec<(Fit, ShapeRecord)> = Vec::new();
+        let mut explaining: Vec<(Fit, Vec<Spheres>, ShapeRecord)> = Vec::new();
         for reversed in [false, true] {
             let Some(tri) = matching::triangulate(cams, [a, b], reversed) else {
                 continue;
@@ -76,22 +77,23 @@ impl TubeFitter {
             else {
                 continue;
             };
-            let fit = self.fit(views, start, radius.is_none() && s.fit_radius)?;
+            let (fit, spheres) =
+                self.fit_with(s, views, start, radius.is_none() && s.fit_radius)?;
             if self.verdict(&fit, volume).is_none() {
-                explaining.push((fit, base));
+                explaining.push((fit, spheres, base));
             }
         }
         // The one that explains the images best; another that explains them too but lies
         // elsewhere makes the frame ambiguous.
         explaining.sort_by(|x, y| mean_residual(&x.0).total_cmp(&mean_residual(&y.0)));
         let mut fits = explaining.into_iter();
-        let Some((fit, base)) = fits.next() else {
+        let Some((fit, spheres, base)) = fits.next() else {
             return Ok(None);
         };
         let other = fits
-            .map(|(f, _)| apart(&fit.tube, &f.tube))
+            .map(|(f, _, _)| apart(&fit.tube, &f.tube))
             .fold(0.0, f64::max);
-        let mut record = self.conclude(estimator, volume, views, &fit, &base);
+        let mut record = self.conclude(estimator, volume, views, (&fit, &spheres), &base);
         if other > DIFFERENT_MM && record.status.is_right() {
             record.status = Status::Ambiguous {
                 reason: format!(
