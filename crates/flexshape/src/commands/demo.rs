@@ -45,29 +45,10 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     .context("cannot set up the demo")?;
     println!("{}", demo.introduction(setup.elapsed()));
     let viewer = viewer(args, &demo)?;
-    let mut source: Box<dyn FrameSource> = if args.no_viewer {
-        println!("{}", flexshape_lab::demo::table_header());
-        Box::new(demo.on_demand(args.frames, args.fps))
-    } else {
-        println!(
-            "live: simulated cameras at {} frames/s; open the viewer's address above; Ctrl-C stops",
-            args.fps
-        );
-        Box::new(demo.live(args.frames, args.fps))
-    };
-    let mcap = match &args.mcap {
-        Some(path) => {
-            let options = McapOptions {
-                images: true,
-                overwrite: true,
-            };
-            Some(McapSink::create(path, demo.simulator().rig(), options)?)
-        }
-        None => None,
-    };
+    let mut source = source(args, &demo);
     let mut frames = Frames {
         demo: &demo,
-        mcap,
+        mcap: mcap(args, &demo)?,
         failure: None,
         headless: args.no_viewer,
         viewer,
@@ -110,6 +91,37 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         println!("wrote {} frames to {}", summary.frames, dir.display());
     }
     Ok(())
+}
+
+/// The simulated cameras: rendered as tracking takes them when headless (after the table's
+/// header), else live at `--fps`.
+fn source(args: &DemoArgs, demo: &Demo) -> Box<dyn FrameSource> {
+    if args.no_viewer {
+        println!("{}", flexshape_lab::demo::table_header());
+        Box::new(demo.on_demand(args.frames, args.fps))
+    } else {
+        println!(
+            "live: simulated cameras at {} frames/s; open the viewer's address above; Ctrl-C stops",
+            args.fps
+        );
+        Box::new(demo.live(args.frames, args.fps))
+    }
+}
+
+/// The MCAP file `--mcap` asks for, with every camera's images.
+fn mcap(args: &DemoArgs, demo: &Demo) -> anyhow::Result<Option<McapSink>> {
+    let Some(path) = &args.mcap else {
+        return Ok(None);
+    };
+    let options = McapOptions {
+        images: true,
+        overwrite: true,
+    };
+    Ok(Some(McapSink::create(
+        path,
+        demo.simulator().rig(),
+        options,
+    )?))
 }
 
 /// The viewer, unless headless: at the address given, or the default one (any free port
