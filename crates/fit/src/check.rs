@@ -181,10 +181,26 @@ pub(crate) fn overlap(
     silhouette: &BitMask,
     explain_px: usize,
 ) -> (f64, usize) {
-    let sure = beyond.and(&tube.not()).not();
-    let iou = tube.and(&sure).iou(&silhouette.and(&sure));
+    // Word by word: the silhouette where the continuations alone do not reach, against the
+    // tube (all of which is such a place).
+    let (mut inter, mut union) = (0u64, 0u64);
+    for ((&t, &b), &s) in tube
+        .words()
+        .iter()
+        .zip(beyond.words())
+        .zip(silhouette.words())
+    {
+        let seen = s & !(b & !t);
+        inter += u64::from((t & seen).count_ones());
+        union += u64::from((t | seen).count_ones());
+    }
+    let iou = if union == 0 {
+        1.0
+    } else {
+        inter as f64 / union as f64
+    };
     let near = tube.or(beyond).dilate(explain_px);
-    let unexplained = silhouette.and(&near.not()).count();
+    let unexplained = silhouette.and_not(&near).count();
     (iou, unexplained)
 }
 

@@ -601,11 +601,7 @@ impl Spheres {
             if (px - pixel).norm_squared() > self.reach2[i as usize].1 {
                 return false;
             }
-            let r = self.radii[i as usize];
-            let v = c - eye;
-            let along = v.dot(&d);
-            let miss = (v - d * along).norm();
-            miss < 0.98 * r && along - (r * r - miss * miss).sqrt() < depth - 0.1
+            enters_before(c, self.radii[i as usize], eye, &d, depth - 0.1)
         })
     }
 
@@ -628,13 +624,22 @@ impl Spheres {
                 if (px - p.pixel).norm_squared() > self.reach2[i as usize].1 {
                     return false;
                 }
-                let r = self.radii[i as usize];
-                let v = c - eye;
-                let along = v.dot(&d);
-                let miss = (v - d * along).norm();
-                miss < 0.98 * r && along - (r * r - miss * miss).sqrt() < depth - 0.01
+                enters_before(c, self.radii[i as usize], eye, &d, depth - 0.01)
             })
     }
+}
+
+/// Whether the ray from `eye` along the unit `d` enters the sphere about `c` of radius `r`
+/// (not merely grazing it: within 0.98 `r` of its centre) before `depth`, mm.
+fn enters_before(c: &Point3<f64>, r: f64, eye: &Point3<f64>, d: &Vector3<f64>, depth: f64) -> bool {
+    let v = c - eye;
+    let along = v.dot(d);
+    // The entry is at least `along − r`: a sphere wholly behind is decided without roots.
+    if along - r >= depth {
+        return false;
+    }
+    let miss2 = (v.norm_squared() - along * along).max(0.0);
+    miss2 < (0.98 * r).powi(2) && along - (r * r - miss2).sqrt() < depth
 }
 
 /// How far an open end's straight continuation is followed, mm: far enough to cover what
