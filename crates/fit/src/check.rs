@@ -421,6 +421,47 @@ mod tests {
         stations(t, t.length(), |_| true)
     }
 
+    /// A mask of blobs: discs at pseudo-random places (a linear congruential sequence).
+    fn blobs(seed: u64, count: usize) -> BitMask {
+        let mut m = BitMask::new(150, 40);
+        let mut x = seed;
+        let mut next = |n: u64| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((x >> 33) % n) as f64
+        };
+        for _ in 0..count {
+            let c = nalgebra::Vector2::new(next(150), next(40));
+            disc(&mut m, (Point3::origin(), c, 1.0 + next(6)));
+        }
+        m
+    }
+
+    #[test]
+    fn overlap_is_the_iou_outside_the_continuations_and_the_unexplained_pixels() {
+        for seed in 0..20 {
+            let (tube, beyond, silhouette) =
+                (blobs(seed, 6), blobs(seed + 100, 3), blobs(seed + 200, 8));
+            // As the check defines it, with whole masks.
+            let sure = beyond.and(&tube.not()).not();
+            let iou = tube.and(&sure).iou(&silhouette.and(&sure));
+            let near = tube.or(&beyond).dilate(2);
+            let unexplained = silhouette.and(&near.not()).count();
+            let (got_iou, got_unexplained) = overlap(&(tube, beyond), &silhouette, 2);
+            assert!(
+                (got_iou - iou).abs() < 1e-12,
+                "seed {seed}: {got_iou} against {iou}"
+            );
+            assert_eq!(got_unexplained, unexplained, "seed {seed}");
+        }
+        let empty = BitMask::new(150, 40);
+        assert_eq!(
+            overlap(&(empty.clone(), empty.clone()), &empty, 2),
+            (1.0, 0)
+        );
+    }
+
     fn arc(radius: f64, turns: f64, pitch: f64) -> Vec<[f64; 3]> {
         let n = (turns * 400.0) as usize;
         (0..=n)
