@@ -133,7 +133,7 @@ pub struct Figures {
 pub struct Accuracy {
     /// Frames measured.
     pub frames: usize,
-    /// Of which right.
+    /// Of which right and held against the truth (a true centerline in the volume).
     pub right: usize,
     /// Centerline RMS distance from the truth: median and worst over the right frames.
     pub centerline_rms_mm: [f64; 2],
