@@ -635,7 +635,8 @@ pub struct TrackArgs {
     /// on as it moved since the right frame before), and carve only when it does not explain
     /// the images (tracking, `[processing.fit] track`):
     /// faster for slow, smooth motion; such records have `start` = `previous`, `voxels` 0 and
-    /// no `ghost_mm`. Needs two cameras or more.
+    /// no `ghost_mm`. Needs two cameras or more. With N threads a recording's frame k starts
+    /// from frame k − N, the same on every run; live cameras start from the newest.
     #[arg(long)]
     pub follow: bool,
     /// Frames processed at once (default: the number of cores).

@@ -4,11 +4,14 @@
 //! sink slows the input instead of filling memory. Offline input is processed whole; live
 //! input always yields its newest frames (the source drops and counts the rest).
 //!
-//! Tracking: each worker starts its frame from the newest earlier frame whose shape was right
-//! (at most [`MAX_PRIOR_AGE`] frames back), see [`Pipeline::process_after`]. With several
-//! workers that is a frame or two before the last.
+//! Tracking: a frame starts from the newest earlier frame whose shape was right (at most
+//! [`MAX_PRIOR_AGE`] frames back), see [`Pipeline::process_after`]. Offline, with `n`
+//! workers, frame `k` starts from what frames `0..=k − n` left, in input order (it waits for
+//! them if it must), so a recording gives the same records on every run with the same number
+//! of workers. Live, frame `k` starts from whichever earlier frame finished last: waiting
+//! would add latency, and live frames are not repeatable anyway.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
@@ -94,6 +97,11 @@ struct Window {
     taken: u64,
     handed: u64,
     closed: bool,
+    /// Offline tracking: frames whose outcome is in [`Window::after`], in input order.
+    ordered: u64,
+    /// Offline tracking: what later frames may start from once frame `k`'s outcome is in
+    /// (the frames before it included), for the frames still to start.
+    after: BTreeMap<u64, Recent>,
 }
 
 /// How many frames back a prior may be to start a frame from: beyond, the tube may have moved
@@ -101,15 +109,18 @@ struct Window {
 pub const MAX_PRIOR_AGE: u64 = 4;
 
 /// The newest frames processed and what later frames may start from when tracking: the
-/// newest right shape, carried on as it moved since the right one before when both are
-/// recent ([`Prior::predicted`]). Frames are counted in input order (`seq`).
+/// newest right shape, carried on as it moved since an earlier right one when both are recent
+/// ([`Prior::predicted`]). The earlier one is the newest at least as many frames before it as
+/// the frame to start is after it, so a move is never extrapolated past the span it was
+/// measured over when a long enough one is at hand (the fits' own scatter would be amplified).
+/// Frames are counted in input order (`seq`).
 #[derive(Debug, Clone)]
 pub struct Recent {
     /// The newest frame whose outcome is in.
     seq: Option<u64>,
-    /// Its right shape, and the right shape before it (each with its frame).
-    newest: Option<(u64, Arc<Prior>)>,
-    before: Option<(u64, Arc<Prior>)>,
+    /// The right shapes since the last frame that was not right, oldest first, each with its
+    /// frame; none older than [`MAX_PRIOR_AGE`] frames before the newest.
+    right: VecDeque<(u64, Arc<Prior>)>,
     /// The largest move a prediction may give a point, mm.
     limit_mm: f64,
 }
@@ -120,25 +131,25 @@ impl Recent {
     pub fn new(pipeline: &Pipeline) -> Self {
         Recent {
             seq: None,
-            newest: None,
-            before: None,
+            right: VecDeque::new(),
             limit_mm: pipeline.fit_settings().track_max_move_mm,
         }
     }
 
     /// What frame `seq` may start from, if a recent enough frame left a right shape.
     pub fn for_frame(&self, seq: u64) -> Option<Arc<Prior>> {
-        let (s1, p1) = self.newest.as_ref()?;
+        let (s1, p1) = self.right.back()?;
         if !(*s1 < seq && seq - s1 <= MAX_PRIOR_AGE) {
             return None;
         }
-        let predicted = self
-            .before
-            .as_ref()
-            .filter(|(s0, _)| s1 - s0 <= MAX_PRIOR_AGE)
-            .and_then(|(s0, p0)| {
-                p1.predicted(p0, (seq - s1) as f64 / (s1 - s0) as f64, self.limit_mm)
-            });
+        let ahead = seq - s1;
+        let earlier = self.right.iter().rev().skip(1);
+        let chosen = earlier
+            .clone()
+            .find(|(s0, _)| s1 - s0 >= ahead)
+            .or_else(|| earlier.last());
+        let predicted = chosen
+            .and_then(|(s0, p0)| p1.predicted(p0, ahead as f64 / (s1 - s0) as f64, self.limit_mm));
         Some(predicted.map_or_else(|| p1.clone(), Arc::new))
     }
 
@@ -151,10 +162,16 @@ impl Recent {
         self.seq = Some(seq);
         match prior {
             Some(p) => {
-                self.before = self.newest.take();
-                self.newest = Some((seq, Arc::new(p)));
+                self.right.push_back((seq, Arc::new(p)));
+                while self
+                    .right
+                    .front()
+                    .is_some_and(|(s0, _)| seq - s0 > MAX_PRIOR_AGE)
+                {
+                    self.right.pop_front();
+                }
             }
-            None => (self.newest, self.before) = (None, None),
+            None => self.right.clear(),
         }
     }
 }
@@ -179,10 +196,14 @@ pub fn run<S: FrameSource + ?Sized>(
 ) -> RunEnd {
     let workers = workers.max(1);
     let window_len = (2 * workers) as u64;
+    // Offline, frames start from earlier ones in a fixed order (see the module's comment).
+    let ordered = pipeline.tracks() && !source.is_live();
     let window = Mutex::new(Window {
         taken: 0,
         handed: 0,
         closed: false,
+        ordered: 0,
+        after: BTreeMap::new(),
     });
     let moved = Condvar::new();
     let puller = Mutex::new(Puller {
@@ -198,14 +219,22 @@ pub fn run<S: FrameSource + ?Sized>(
             let tx = tx.clone();
             let (window, moved, puller, latest) = (&window, &moved, &puller, &latest);
             scope.spawn(move || {
+                let _closes = ClosesOnPanic { window, moved };
                 while let Some((seq, set, dropped)) = take(window, moved, puller, stop, window_len)
                 {
-                    let prior = latest.lock().ok().and_then(|l| l.for_frame(seq));
+                    let prior = if ordered {
+                        let Some(prior) = prior_in_order(window, moved, seq, workers as u64) else {
+                            return;
+                        };
+                        prior
+                    } else {
+                        latest.lock().ok().and_then(|l| l.for_frame(seq))
+                    };
                     let processed = match set {
                         Ok(set) => process(pipeline, set, dropped, prior.as_deref()),
                         Err(reason) => Processed::unreadable(seq, reason, dropped),
                     };
-                    if let Ok(mut l) = latest.lock() {
+                    if !ordered && let Ok(mut l) = latest.lock() {
                         l.update(seq, processed.result.as_ref().ok().and_then(Tracked::prior));
                     }
                     if tx.send((seq, processed)).is_err() {
@@ -215,13 +244,32 @@ pub fn run<S: FrameSource + ?Sized>(
             });
         }
         drop(tx);
+        // A sink that panics ends the workers too (they may wait for frames to be handed).
+        let _closes = ClosesOnPanic {
+            window: &window,
+            moved: &moved,
+        };
         let mut pending = BTreeMap::new();
         let mut next = 0u64;
+        let mut in_order = Recent::new(pipeline);
         // A sink that said stop sees nothing more: leaving the loop drops the receiver, and
         // the workers' next sends end them.
         'handing: for (seq, processed) in rx {
             pending.insert(seq, processed);
             while let Some(p) = pending.remove(&next) {
+                if ordered {
+                    // Before the sink, so that a frame waiting for this one starts meanwhile.
+                    in_order.update(next, p.result.as_ref().ok().and_then(Tracked::prior));
+                    let Ok(mut w) = window.lock() else { return };
+                    w.after.insert(next, in_order.clone());
+                    w.ordered = next + 1;
+                    // Frames still to start come after this one and need frame
+                    // `their number − workers` at the earliest.
+                    let keep = (next + 1).saturating_sub(workers as u64);
+                    w.after = w.after.split_off(&keep);
+                    drop(w);
+                    moved.notify_all();
+                }
                 next += 1;
                 end.frames += 1;
                 let flow = sink(p);
@@ -243,6 +291,25 @@ pub fn run<S: FrameSource + ?Sized>(
         end.stopped |= !p.ended && end.input_error.is_none();
     }
     end
+}
+
+/// Closes the window when a worker or the sink panics, so that the workers (which may wait
+/// for a frame's outcome or for room in the window) end and the panic reaches the caller
+/// instead of a hang.
+struct ClosesOnPanic<'a> {
+    window: &'a Mutex<Window>,
+    moved: &'a Condvar,
+}
+
+impl Drop for ClosesOnPanic<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            let mut w = self.window.lock().unwrap_or_else(|e| e.into_inner());
+            w.closed = true;
+            drop(w);
+            self.moved.notify_all();
+        }
+    }
 }
 
 /// Takes the next frame set when the window allows; `None` when the run is over.
@@ -285,6 +352,29 @@ fn take<S: FrameSource + ?Sized>(
             Some((seq, set, p.source.dropped()))
         }
     }
+}
+
+/// Offline tracking: what frame `seq` starts from, once the outcome of frame `seq − workers`
+/// (and of every frame before it) is in; `None` when the sink stopped the run first.
+fn prior_in_order(
+    window: &Mutex<Window>,
+    moved: &Condvar,
+    seq: u64,
+    workers: u64,
+) -> Option<Option<Arc<Prior>>> {
+    let Some(before) = seq.checked_sub(workers) else {
+        return Some(None);
+    };
+    let mut w = window.lock().ok()?;
+    // Frames up to `before` were taken earlier and are being processed, so this ends; a stop
+    // flag does not end it (what was taken still reaches the sink).
+    while w.ordered <= before && !w.closed {
+        w = moved.wait_timeout(w, Duration::from_millis(50)).ok()?.0;
+    }
+    if w.closed {
+        return None;
+    }
+    Some(w.after.get(&before).and_then(|r| r.for_frame(seq)))
 }
 
 /// Decodes one frame set and runs the chain on it, from `prior` if there is one.

@@ -1,5 +1,6 @@
 //! Frames in flight: the runner hands results over in input order, whatever the number of
-//! workers, keeps going past a bad frame, stops cleanly, and reports an input that breaks.
+//! workers, keeps going past a bad frame, stops cleanly, and reports an input that breaks; a
+//! followed recording gives the same records on every run.
 
 use crate::common;
 
@@ -7,7 +8,7 @@ use std::ops::ControlFlow;
 use std::sync::atomic::AtomicBool;
 
 use flexshape_input::{FrameImage, FrameSet, FrameSource, InputError};
-use flexshape_track::{Pipeline, Processed, Tally, TrackRecord, run};
+use flexshape_track::{Pipeline, Processed, Recent, Tally, TrackRecord, Tracked, run};
 
 /// Pre-rendered frames; `bad` frames have an image of the wrong size, and the source breaks
 /// (as a video whose camera ends early) after `breaks_after` frames.
@@ -130,4 +131,95 @@ fn a_stop_hands_over_what_was_taken_and_a_broken_input_is_reported() {
         message.contains("cam1") && message.contains("after 5 frames"),
         "{message}"
     );
+}
+
+/// With `n` workers, frame `k` of a followed recording starts from what frames `0..=k − n`
+/// left, whatever order the workers finish in: the records are those of that rule applied one
+/// frame at a time (before, each frame started from whichever frame had finished last, and
+/// two runs of one recording differed).
+#[test]
+fn a_followed_recording_starts_each_frame_from_a_fixed_earlier_one() {
+    let (sim, pipeline) = common::simulated_chain();
+    let pipeline = pipeline.following(true).unwrap();
+    assert!(pipeline.tracks());
+    let sets: Vec<FrameSet> = sim
+        .motion(14, 240.0)
+        .iter()
+        .enumerate()
+        .map(|(i, pose)| {
+            let frame = sim.render(i as u64, pose).unwrap();
+            let images = frame
+                .views
+                .into_iter()
+                .map(|v| FrameImage::Decoded(v.image))
+                .collect();
+            FrameSet::new(i as u64, images)
+        })
+        .collect();
+    for workers in [2, 3] {
+        let mut recent = Recent::new(&pipeline);
+        let mut after = Vec::new();
+        let mut expected = Vec::new();
+        for (k, set) in sets.iter().enumerate() {
+            let prior = k
+                .checked_sub(workers)
+                .and_then(|before| Recent::for_frame(&after[before], k as u64));
+            let p = Processed::of(&pipeline, set.clone(), prior.as_deref());
+            recent.update(k as u64, p.result.as_ref().ok().and_then(Tracked::prior));
+            after.push(recent.clone());
+            expected.push(TrackRecord::from_processed(&p));
+        }
+        let followed = expected
+            .iter()
+            .filter(|r| r.start.as_deref() == Some("previous"))
+            .count();
+        assert!(
+            followed >= 10,
+            "{followed} of 14 frames followed with {workers} workers"
+        );
+        for _ in 0..2 {
+            let (got, _) = records(&pipeline, &sets, workers, None, None);
+            assert_eq!(got.len(), expected.len());
+            for (a, b) in got.iter().zip(&expected) {
+                assert_eq!(
+                    (&a.status, &a.start, &a.centerline),
+                    (&b.status, &b.start, &b.centerline),
+                    "frame {} with {workers} workers",
+                    a.frame
+                );
+            }
+        }
+    }
+}
+
+/// A sink that panics ends the run with its panic instead of leaving the workers waiting for
+/// frames to be handed (a followed recording's frames wait for earlier frames' outcomes).
+#[test]
+fn a_sink_that_panics_ends_the_run() {
+    let (pipeline, sets) = setup(8, &[]);
+    for pipeline in [pipeline.clone(), pipeline.following(true).unwrap()] {
+        let sets = sets.clone();
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let mut source = Frames {
+                sets,
+                next: 0,
+                breaks_after: None,
+            };
+            let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                run(
+                    &mut source,
+                    &pipeline,
+                    2,
+                    &AtomicBool::new(false),
+                    |_: Processed| -> ControlFlow<()> { panic!("the sink broke") },
+                )
+            }));
+            let _ = tx.send(outcome.is_err());
+        });
+        let panicked = rx
+            .recv_timeout(std::time::Duration::from_secs(120))
+            .expect("the run did not end after its sink panicked");
+        assert!(panicked);
+    }
 }
