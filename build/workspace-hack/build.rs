@@ -1,0 +1,2 @@
+//! Empty: a build script lets `[build-dependencies]` ask for the host crates' features.
+fn main() {}
