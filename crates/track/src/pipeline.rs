@@ -147,6 +147,11 @@ pub struct Prior {
 }
 
 impl Prior {
+    /// The fitted tube a later frame starts from.
+    pub fn tube(&self) -> &Tube {
+        &self.tube
+    }
+
     /// This shape carried on as it moved since `earlier` ([`Tube::carried_on`]; `ratio`:
     /// frames from this shape to the one to start, over frames from `earlier` to this one).
     /// A start this close to where a smoothly moving tube is saves the fit a round of

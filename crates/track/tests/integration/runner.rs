@@ -223,3 +223,38 @@ fn a_sink_that_panics_ends_the_run() {
         assert!(panicked);
     }
 }
+
+/// A followed frame starts from the newest right shape carried on as it moved since the newest
+/// right shape at least as many frames before it as the frame is ahead (a move measured over
+/// one frame, doubled, would double the fits' own scatter), or the oldest one at hand.
+#[test]
+fn a_prediction_extrapolates_no_farther_than_it_measured() {
+    let (sim, pipeline) = common::simulated_chain();
+    let pipeline = pipeline.following(true).unwrap();
+    let limit = pipeline.fit_settings().track_max_move_mm;
+    // Followed from one another, so that their tubes pair up control point for control point.
+    let mut priors: Vec<flexshape_track::Prior> = Vec::new();
+    for (i, pose) in sim.motion(3, 240.0).iter().enumerate() {
+        let frame = sim.render(i as u64, pose).unwrap();
+        let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+        let tracked = pipeline.process_after(&images, priors.last()).unwrap();
+        priors.push(tracked.prior().unwrap());
+    }
+    let mut recent = Recent::new(&pipeline);
+    for (k, p) in priors.iter().enumerate() {
+        recent.update(k as u64, Some(p.clone()));
+    }
+    let control = |p: &flexshape_track::Prior| p.tube().centerline.control().to_vec();
+    // (frame to start, the earlier shape's frame, frames ahead over frames between)
+    for (seq, earlier, ratio) in [(3, 1, 1.0), (4, 0, 1.0), (5, 0, 1.5)] {
+        let expected = priors[2].predicted(&priors[earlier], ratio, limit).unwrap();
+        let got = recent.for_frame(seq).unwrap();
+        assert_eq!(control(&got), control(&expected), "frame {seq}");
+    }
+    // Both differ from the other choice, so the test tells them apart.
+    let doubled = priors[2].predicted(&priors[1], 2.0, limit).unwrap();
+    assert_ne!(control(&doubled), control(&recent.for_frame(4).unwrap()));
+    // A frame that was not right forgets what came before it.
+    recent.update(3, None);
+    assert!(recent.for_frame(4).is_none());
+}
