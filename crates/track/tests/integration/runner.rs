@@ -34,24 +34,32 @@ impl FrameSource for Frames {
 
 fn setup(n: usize, bad: &[usize]) -> (Pipeline, Vec<FrameSet>) {
     let (sim, pipeline) = common::simulated_chain();
-    let sets = sim
-        .sweep(n)
+    let mut sets = render(&sim, &sim.sweep(n), 10);
+    for &i in bad {
+        sets[i].images[2] = FrameImage::Decoded(image::RgbImage::new(32, 24));
+    }
+    (pipeline, sets)
+}
+
+/// The frame sets of `poses`, numbered from `first`.
+fn render(
+    sim: &flexshape_sim::Simulator,
+    poses: &[flexshape_sim::CatheterPose],
+    first: u64,
+) -> Vec<FrameSet> {
+    poses
         .iter()
-        .enumerate()
-        .map(|(i, pose)| {
-            let frame = sim.render(10 + i as u64, pose).unwrap();
-            let mut images: Vec<_> = frame
+        .zip(first..)
+        .map(|(pose, i)| {
+            let frame = sim.render(i, pose).unwrap();
+            let images = frame
                 .views
                 .into_iter()
                 .map(|v| FrameImage::Decoded(v.image))
                 .collect();
-            if bad.contains(&i) {
-                images[2] = FrameImage::Decoded(image::RgbImage::new(32, 24));
-            }
-            FrameSet::new(10 + i as u64, images)
+            FrameSet::new(i, images)
         })
-        .collect();
-    (pipeline, sets)
+        .collect()
 }
 
 fn records(
@@ -142,20 +150,7 @@ fn a_followed_recording_starts_each_frame_from_a_fixed_earlier_one() {
     let (sim, pipeline) = common::simulated_chain();
     let pipeline = pipeline.following(true).unwrap();
     assert!(pipeline.tracks());
-    let sets: Vec<FrameSet> = sim
-        .motion(14, 240.0)
-        .iter()
-        .enumerate()
-        .map(|(i, pose)| {
-            let frame = sim.render(i as u64, pose).unwrap();
-            let images = frame
-                .views
-                .into_iter()
-                .map(|v| FrameImage::Decoded(v.image))
-                .collect();
-            FrameSet::new(i as u64, images)
-        })
-        .collect();
+    let sets = render(&sim, &sim.motion(14, 240.0), 0);
     for workers in [2, 3] {
         let mut recent = Recent::new(&pipeline);
         let mut after = Vec::new();
