@@ -52,22 +52,23 @@ pub(crate) fn locate(
     spheres: &[Spheres],
 ) -> Vec<CurveBand> {
     let table = ArcTable::new(tube);
-    let n = (table.length() / STEP).floor() as usize;
-    // The centerline every STEP and the visibility spheres, shared by the cameras.
     let length = table.length();
-    let frames: Vec<(Point3<f64>, Vector3<f64>, f64)> = (0..=n)
+    let last = (length / STEP).floor() as usize;
+    // The centerline at every KNOT_EVERY-th sample and the last, shared by the cameras.
+    let knots: Vec<Frame> = knot_samples(last)
         .map(|k| {
             let u = table.u_of(k as f64 * STEP);
             let (c, t) = tube.frame(u);
-            (c, t, tube.radius_at(u, length))
+            (c, t, u)
         })
         .collect();
+    let radius = |u: f64| tube.radius_at(u, length);
     let mut seen: Vec<Seen> = Vec::new();
     for (((camera, image), mask), spheres) in cameras.iter().zip(images).zip(markers).zip(spheres) {
-        let samples = sample(camera, image, mask, &frames, spheres);
+        let samples = sample(camera, image, mask, (&knots, &radius), last, spheres);
         seen.extend(runs(&samples, tube.capped[1]));
     }
-    merge(seen, table.length())
+    merge(seen, length)
         .into_iter()
         .map(|(lower, upper, at_tip)| CurveBand {
             u: [table.u_of(lower), table.u_of(upper)],
@@ -76,27 +77,37 @@ pub(crate) fn locate(
         .collect()
 }
 
-/// Samples between two projected ones: the centerline's image is straight to far below a
-/// pixel over a millimetre, so pixels in between are interpolated, and a sample counts as
-/// hidden when either projected neighbour is (visibility edges move out by at most this).
-const PROJECTED_EVERY: usize = 2;
+/// Samples between two knots: over two millimetres the centerline, its image and its tangent
+/// are straight to far below a pixel and a milliradian (a bend of 50 mm radius), so they are
+/// interpolated, and a sample counts as hidden when either neighbouring knot is (visibility
+/// edges move out by at most this).
+const KNOT_EVERY: usize = 4;
 
-/// Colour samples of one camera at the centerline points `frames` (centre, unit tangent and
-/// the tube's radius there, every `STEP` mm from the tube's start; `None` where it does not see
-/// the tube's side there).
+/// A centerline point and its unit tangent (world mm), and its curve parameter.
+type Frame = (Point3<f64>, Vector3<f64>, f64);
+
+/// The indices of the knots among samples `0..=last`: every [`KNOT_EVERY`]-th and the last.
+fn knot_samples(last: usize) -> impl Iterator<Item = usize> {
+    (0..=last.div_ceil(KNOT_EVERY)).map(move |i| (i * KNOT_EVERY).min(last))
+}
+
+/// Colour samples of one camera at the centerline every `STEP` mm from the tube's start
+/// (samples `0..=last`; the knots' `frames` given, and the tube's radius against the curve
+/// parameter; `None` where it does not see the tube's side there).
 fn sample(
     camera: &Camera,
     image: &RgbImage,
     mask: &BitMask,
-    frames: &[(Point3<f64>, Vector3<f64>, f64)],
+    (frames, radius): (&[Frame], &dyn Fn(f64) -> f64),
+    last: usize,
     spheres: &Spheres,
 ) -> Vec<Option<Sample>> {
     let eye = camera.centre();
-    let last = frames.len().saturating_sub(1);
-    // The pixel and visibility of every PROJECTED_EVERY-th sample and the last.
-    let knots: Vec<Option<Vector2<f64>>> = (0..=last.div_ceil(PROJECTED_EVERY))
-        .map(|i| {
-            let (c, t, r) = frames[(i * PROJECTED_EVERY).min(last)];
+    // The pixel and visibility of every knot.
+    let knots: Vec<Option<Vector2<f64>>> = frames
+        .iter()
+        .map(|&(c, t, u)| {
+            let r = radius(u);
             let to = c - eye;
             let d = to / to.norm();
             let sin = d.cross(&t).norm().max(1e-9);
@@ -106,25 +117,30 @@ fn sample(
             (!spheres.blocks(&eye, &front, pixel)).then_some(pixel)
         })
         .collect();
-    frames
-        .iter()
-        .enumerate()
-        .map(|(k, &(c, t, r))| {
+    (0..=last)
+        .map(|k| {
+            let i = k / KNOT_EVERY;
+            let a = knots[i]?;
+            let ((c, t, u), pixel) = if k % KNOT_EVERY == 0 {
+                (frames[i], a)
+            } else {
+                let b = knots[i + 1]?;
+                let (from, to) = (i * KNOT_EVERY, ((i + 1) * KNOT_EVERY).min(last));
+                let f = (k - from) as f64 / (to - from) as f64;
+                let ((ca, ta, ua), (cb, tb, ub)) = (frames[i], frames[i + 1]);
+                let t = ta + (tb - ta) * f;
+                (
+                    (ca + (cb - ca) * f, t / t.norm(), ua + (ub - ua) * f),
+                    a + (b - a) * f,
+                )
+            };
+            let r = radius(u);
             let to = c - eye;
             let d = to / to.norm();
             let sin = d.cross(&t).norm();
             if sin < MIN_SIN {
                 return None;
             }
-            let i = k / PROJECTED_EVERY;
-            let a = knots[i]?;
-            let pixel = if k % PROJECTED_EVERY == 0 {
-                a
-            } else {
-                let b = knots[i + 1]?;
-                let (from, to) = (i * PROJECTED_EVERY, ((i + 1) * PROJECTED_EVERY).min(last));
-                a + (b - a) * ((k - from) as f64 / (to - from) as f64)
-            };
             Some(Sample {
                 colour: bilinear(image, pixel)?,
                 marked: mask.get(pixel.x.round() as usize, pixel.y.round() as usize),

@@ -346,12 +346,16 @@ impl TubeFitter {
         };
         let dof = (eq.rows as f64 - tube.parameters() as f64).max(1.0);
         let sigma_px = (eq.cost / dof).sqrt();
-        let covariance =
-            eq.h.clone()
-                .try_inverse()
-                .or_else(|| normal.and_then(|n| n.h.try_inverse()))
-                .unwrap_or_else(|| DMatrix::zeros(tube.parameters(), tube.parameters()))
-                * sigma_px.powi(2);
+        // H is symmetric positive definite whenever the step could be solved: its Cholesky
+        // inverse costs half an LU's.
+        let inverse = |h: DMatrix<f64>| match h.clone().cholesky() {
+            Some(chol) => Some(chol.inverse()),
+            None => h.try_inverse(),
+        };
+        let covariance = inverse(eq.h)
+            .or_else(|| normal.and_then(|n| inverse(n.h)))
+            .unwrap_or_else(|| DMatrix::zeros(tube.parameters(), tube.parameters()))
+            * sigma_px.powi(2);
         let length = tube.length();
         let centres = outline::sphere_centres(&tube, length);
         let spheres: Vec<Spheres> = self
