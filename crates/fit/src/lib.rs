@@ -148,7 +148,8 @@ pub struct Fit {
     /// Carved hull away from the fitted tube, as a length of tube, mm (see
     /// [`TubeFitter::refine`]); `None` when no hull was carved.
     pub ghost_mm: Option<f64>,
-    /// Covariance of the parameters (control points, then radius), mm².
+    /// Covariance of the parameters (control points, then radius), mm²: exact within
+    /// [`COVARIANCE_BAND`] of the diagonal and for the radii, zero elsewhere.
     covariance: DMatrix<f64>,
 }
 
@@ -177,6 +178,10 @@ impl Fit {
         (cov, self.tube.frame(u).1)
     }
 }
+
+/// The covariance entries a centerline point's uncertainty reads: those of two coordinates of
+/// control points at most 3 apart (a cubic B-spline's point depends on 4).
+const COVARIANCE_BAND: usize = 11;
 
 /// A step across the tube below this ends the iterations, mm.
 const CONVERGED_MM: f64 = 0.005;
@@ -346,10 +351,12 @@ impl TubeFitter {
         };
         let dof = (eq.rows as f64 - tube.parameters() as f64).max(1.0);
         let sigma_px = (eq.cost / dof).sqrt();
-        // H is symmetric positive definite whenever the step could be solved: its Cholesky
-        // inverse costs half an LU's.
+        // Only the covariance of control points that share a span (and with the radii) is
+        // read (`Fit::point_covariance`): Takahashi's recursion gives those entries of H⁻¹
+        // from its Cholesky factor, a few percent of the whole inverse's cost.
+        let tail = tube.parameters() - tube.radius_column(0);
         let inverse = |h: DMatrix<f64>| match h.clone().cholesky() {
-            Some(chol) => Some(chol.inverse()),
+            Some(chol) => Some(flexshape_lsq::banded_inverse(&chol, COVARIANCE_BAND, tail)),
             None => h.try_inverse(),
         };
         let covariance = inverse(eq.h)

@@ -22,8 +22,10 @@
 //! assert!((solved.x[2] - 1.0).abs() < 1e-9);
 //! ```
 
+mod band;
 mod normal;
 
+pub use band::banded_inverse;
 pub use levenberg_marquardt::{LevenbergMarquardt, MinimizationReport, TerminationReason};
 pub use nalgebra;
 pub use normal::{
