@@ -157,13 +157,9 @@ impl Fit {
     /// 1-σ uncertainty of the centerline point at `u` across the tube (the root of the trace of
     /// its covariance perpendicular to the tangent), mm.
     pub fn sigma_across(&self, u: f64) -> f64 {
-        let (cov, t) = self.point_covariance(u);
-        let p = Matrix3::identity() - t * t.transpose();
-        (p * cov * p).trace().max(0.0).sqrt()
-    }
-
-    fn point_covariance(&self, u: f64) -> (Matrix3<f64>, Vector3<f64>) {
-        let b = self.tube.centerline.basis_to::<0>(u);
+        let b = self.tube.centerline.basis_to::<1>(u);
+        let d1 = Vector3::from(self.tube.centerline.eval_basis(&b).d1);
+        let t = d1 / d1.norm().max(1e-300);
         let mut cov = Matrix3::zeros();
         for j in 0..4 {
             for k in 0..4 {
@@ -175,7 +171,9 @@ impl Fit {
                 cov += self.covariance.fixed_view::<3, 3>(r, c) * w;
             }
         }
-        (cov, self.tube.frame(u).1)
+        // The trace of P·C·P, P = I − t·tᵀ the projection across the tube (idempotent):
+        // trace(C·P) = trace(C) − tᵀ·C·t.
+        (cov.trace() - t.dot(&(cov * t))).max(0.0).sqrt()
     }
 }
 
