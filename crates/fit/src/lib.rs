@@ -525,7 +525,9 @@ impl TubeFitter {
         let radii = start
             .filter(|_| radius.is_none())
             .map_or(steps.as_slice(), |t| t.steps.as_slice());
-        let given = start.filter(|t| t.evenly_spread()).cloned().map(|mut t| {
+        // A start whose control points drifted along it is spread again along the same curve
+        // (it may carry the motion on, which the previous shape does not).
+        let given = start.and_then(|t| t.spread_again(s.span_mm)).map(|mut t| {
             if radius.is_some() {
                 t.radius = r0;
                 t.steps = steps.clone();
