@@ -5,9 +5,9 @@
 //! Throughput: frames processed concurrently, one per thread.
 //!
 //! Two workloads: every frame through the whole chain from its hull (distinct poses from the
-//! sweep), and tracking (a smooth motion filmed at `rate_hz`, each frame started from an
-//! earlier one's shape as `flexshape track` does: with one frame per thread in flight, from
-//! the frame `threads` back). Each workload's records are also held against the simulator's
+//! sweep), and tracking (a smooth motion filmed at `rate_hz`, played back and forth as one
+//! continuous run, each frame started from an earlier one's shape as `flexshape track` does:
+//! with one frame per thread in flight, from the frame `threads` back). Each workload's records are also held against the simulator's
 //! truth, so that a setting that buys speed shows what it costs in accuracy.
 
 use std::fmt::Write as _;
@@ -120,7 +120,7 @@ pub struct Figures {
     /// Frames per second with one frame per thread in flight.
     pub throughput_fps: f64,
     /// Tracking only: share of frames that started from an earlier frame (the rest were
-    /// carved again).
+    /// carved again), the run's first frame, which has none, left out.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub followed: Option<f64>,
     /// The records of the first pass (one frame at a time) against the simulator's truth.
@@ -186,65 +186,84 @@ pub struct BenchReport {
     pub rate_hz: f64,
 }
 
-/// Figures over `frames`: latency one frame at a time, throughput with one frame per thread in
-/// flight (thread `k` takes frames `k`, `k + n`, …). A pipeline that tracks starts each frame
-/// from the one before (for throughput, from its own previous one, `n` frames back, as the
-/// runner's workers do); one that does not starts every frame from its hull.
+/// Figures over `rounds` passes of `frames`: latency one frame at a time, throughput with one
+/// frame per thread in flight (thread `k` takes steps `k`, `k + n`, …). A pipeline that tracks
+/// plays the frames back and forth (0 … last … 0 …: a motion that reverses, never a jump) as
+/// one continuous run, each frame started from the one before (for throughput, from its own
+/// previous one, `n` steps back, as the runner's workers do): only a run's first frames start
+/// from their hulls, as in a recording. One that does not starts every frame from its hull.
 fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figures, LabError> {
     let refs: Vec<Vec<&RgbImage>> = frames.iter().map(|f| f.0.iter().collect()).collect();
+    let steps = rounds * refs.len();
+    let shown = |step: usize| back_and_forth(step, refs.len());
     let mut timings = Vec::new();
     let mut totals = Vec::new();
     let mut followed = 0usize;
     let mut errors = DemoFigures::default();
-    for round in 0..rounds {
-        let mut recent = Recent::new(pipeline);
-        for (seq, f) in refs.iter().enumerate() {
-            let t = Instant::now();
-            let prior = recent.for_frame(seq as u64);
-            let tracked = pipeline.process_after(f, prior.as_deref())?;
-            let elapsed = t.elapsed().as_secs_f64() * 1e3;
-            recent.update(seq as u64, tracked.prior());
-            if round == 0
-                && tracked.shape.status.is_right()
-                && let Some(e) = ShapeErrors::of(pipeline, &frames[seq].1, &tracked)
-            {
-                errors.add(&e);
-            }
-            // The first frame of a pass has nothing to start from.
-            if tracked.start == Start::Previous {
-                followed += 1;
-            }
-            totals.push(elapsed);
-            timings.push(tracked.timings);
+    let mut recent = Recent::new(pipeline);
+    for step in 0..steps {
+        let k = shown(step);
+        let t = Instant::now();
+        let prior = recent.for_frame(step as u64);
+        let tracked = pipeline.process_after(&refs[k], prior.as_deref())?;
+        let elapsed = t.elapsed().as_secs_f64() * 1e3;
+        recent.update(step as u64, tracked.prior());
+        if step < refs.len()
+            && tracked.shape.status.is_right()
+            && let Some(e) = ShapeErrors::of(pipeline, &frames[k].1, &tracked)
+        {
+            errors.add(&e);
         }
+        if tracked.start == Start::Previous {
+            followed += 1;
+        }
+        totals.push(elapsed);
+        timings.push(tracked.timings);
     }
     let threads = rayon::current_num_threads();
     let start = Instant::now();
-    for _ in 0..rounds {
-        (0..threads)
-            .into_par_iter()
-            .map(|k| {
-                let mut recent = Recent::new(pipeline);
-                for (seq, f) in refs.iter().enumerate().skip(k).step_by(threads) {
-                    let prior = recent.for_frame(seq as u64);
-                    let tracked = pipeline.process_after(f, prior.as_deref())?;
-                    recent.update(seq as u64, tracked.prior());
-                }
-                Ok(())
-            })
-            .collect::<Result<Vec<()>, TrackError>>()?;
-    }
-    let throughput_fps = (rounds * frames.len()) as f64 / start.elapsed().as_secs_f64();
+    (0..threads)
+        .into_par_iter()
+        .map(|first| {
+            let mut recent = Recent::new(pipeline);
+            for step in (first..steps).step_by(threads) {
+                let prior = recent.for_frame(step as u64);
+                let tracked = pipeline.process_after(&refs[shown(step)], prior.as_deref())?;
+                recent.update(step as u64, tracked.prior());
+            }
+            Ok(())
+        })
+        .collect::<Result<Vec<()>, TrackError>>()?;
+    let throughput_fps = steps as f64 / start.elapsed().as_secs_f64();
     Ok(Figures {
         threads,
         stages: stage_summaries(&timings),
         frame_median_ms: quantile(&mut totals, 0.5),
         throughput_fps,
+        // The run's first frame has nothing to start from.
         followed: pipeline
             .tracks()
-            .then(|| followed as f64 / (rounds * (frames.len() - 1).max(1)) as f64),
+            .then(|| followed as f64 / (steps - 1).max(1) as f64),
         accuracy: Accuracy::of(&errors, frames.len()),
     })
+}
+
+/// The frame shown at step `step` of a run back and forth over `n` frames: 0, 1, …, n − 1,
+/// n − 2, …, 1, 0, 1, … (the tracking workload's order: a motion that reverses, never jumps).
+///
+/// ```
+/// use flexshape_lab::bench::back_and_forth;
+/// let shown: Vec<usize> = (0..8).map(|s| back_and_forth(s, 4)).collect();
+/// assert_eq!(shown, [0, 1, 2, 3, 2, 1, 0, 1]);
+/// assert_eq!(back_and_forth(5, 1), 0);
+/// ```
+pub fn back_and_forth(step: usize, n: usize) -> usize {
+    if n < 2 {
+        return 0;
+    }
+    let period = 2 * (n - 1);
+    let k = step % period;
+    if k < n { k } else { period - k }
 }
 
 /// Frames in memory: every camera's image of one pose, and the truth.
@@ -304,14 +323,14 @@ impl BenchReport {
             figures_table(
                 &mut out,
                 &format!(
-                    "tracking (`track --follow`): {} frames of smooth motion at {} Hz",
-                    r.track_frames, r.rate_hz
+                    "tracking (`track --follow`): {} frames of smooth motion at {} Hz, {} passes back and forth in one run",
+                    r.track_frames, r.rate_hz, r.rounds
                 ),
                 &r.tracking,
             );
             _ = writeln!(
                 out,
-                "frames that started from an earlier one: {:.0} % (1 thread), {:.0} % (2 threads; the rest were carved again)",
+                "frames that started from an earlier one: {:.1} % (1 thread), {:.1} % (2 threads; the rest were carved again)",
                 100.0 * r.tracking[0].followed.unwrap_or(0.0),
                 100.0 * r.tracking[1].followed.unwrap_or(0.0)
             );

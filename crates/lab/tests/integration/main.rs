@@ -1,0 +1,5 @@
+//! The lab crate's integration tests, a module per workflow (one test binary: one build and
+//! link).
+
+mod bench;
+mod demo;
