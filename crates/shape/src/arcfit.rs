@@ -127,32 +127,45 @@ fn local_position([kx, kz]: [f64; 2], u: f64) -> Vector3<f64> {
         let side = 0.5 * u * u * (1.0 - angle * angle / 12.0);
         return Vector3::new(-kz * side, along, kx * side);
     }
-    // 1 − cos θ = 2 sin²(θ/2), without the cancellation at small angles.
-    let sin = angle.sin();
-    let side = 2.0 * (angle / 2.0).sin().powi(2) / k;
+    let (sin, versine, _) = trig(angle);
+    on_arc([kx, kz], k, sin, versine)
+}
+
+/// The position on an arc of curvatures `[κx, κz]` (`k` their norm) where `sin θ` and
+/// `1 − cos θ` are given.
+fn on_arc([kx, kz]: [f64; 2], k: f64, sin: f64, versine: f64) -> Vector3<f64> {
+    let side = versine / k;
     Vector3::new(-kz / k * side, sin / k, kx / k * side)
+}
+
+/// `sin θ`, `1 − cos θ` (as `2 sin²(θ/2)`, without the cancellation at small angles) and
+/// `cos θ`, from one `sin_cos` of `θ/2` (a third of the trigonometry; libm's `sin` saves and
+/// restores the rounding mode on every call).
+fn trig(angle: f64) -> (f64, f64, f64) {
+    let (s, c) = (0.5 * angle).sin_cos();
+    (2.0 * s * c, 2.0 * s * s, (c - s) * (c + s))
 }
 
 /// [`local_position`] and its derivatives by `κx` and `κz`. With `θ = κu`,
 /// `f = (1 − cos θ)/κ²` and `g = sin θ/κ` the position is `(−κz·f, g, κx·f)`; `f'(κ)/κ` and
 /// `g'(κ)/κ` are taken from their series below θ = 0.05, where the closed forms cancel.
 fn local_position_and_jacobian([kx, kz]: [f64; 2], u: f64) -> (Vector3<f64>, [Vector3<f64>; 2]) {
-    let position = local_position([kx, kz], u);
     let k = kx.hypot(kz);
     let angle = k * u;
-    let (f, fk, gk) = if angle.abs() < 0.05 {
+    let (position, f, fk, gk) = if angle.abs() < 0.05 {
         let a2 = angle * angle;
         let u2 = u * u;
         (
+            local_position([kx, kz], u),
             0.5 * u2 * (1.0 - a2 / 12.0 + a2 * a2 / 360.0),
             u2 * u2 * (-1.0 / 12.0 + a2 / 180.0 - a2 * a2 / 6720.0),
             u2 * u * (-1.0 / 3.0 + a2 / 30.0 - a2 * a2 / 840.0),
         )
     } else {
-        let (sin, cos) = angle.sin_cos();
-        let c1 = 2.0 * (angle / 2.0).sin().powi(2);
+        let (sin, c1, cos) = trig(angle);
         let (k2, k3) = (k * k, k * k * k);
         (
+            on_arc([kx, kz], k, sin, c1),
             c1 / k2,
             u * sin / k3 - 2.0 * c1 / (k2 * k2),
             u * cos / k2 - sin / k3,
