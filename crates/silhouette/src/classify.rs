@@ -352,6 +352,30 @@ impl Prepared {
         }
     }
 
+    /// Asks for row `y`'s bytes of the frame and of the background mean within `columns`
+    /// (rounded out to 64-pixel words) to be brought into cache ahead of their comparison
+    /// ([`PREFETCH_ROWS`] rows ahead): a region's part of each row is a few hundred bytes,
+    /// a whole row apart from the next, which the hardware's own prefetching follows late,
+    /// and a frame just captured is not in cache (tracking: silhouettes 0.40 → 0.37 ms a
+    /// frame on one thread).
+    /// Whole rows are one stream, which the hardware follows: nothing is asked for them
+    /// (asking cost the whole frame's classification 8 %).
+    fn prefetch_row(&self, frame: &[u8], y: usize, w: usize, columns: std::ops::Range<usize>) {
+        if columns.start == 0 && columns.end >= w {
+            return;
+        }
+        let (x0, x1) = (columns.start / 64 * 64, columns.end.div_ceil(64) * 64);
+        let span = y * w * 3 + x0 * 3..(y * w * 3 + x1.min(w) * 3).min(frame.len());
+        if span.is_empty() {
+            return;
+        }
+        for bytes in [&frame[span.clone()], &self.bg_bytes[span]] {
+            for line in bytes.chunks(64) {
+                prefetch(line);
+            }
+        }
+    }
+
     /// The blocks of row `y` that need classifying: for each 64-pixel word whose bytes all
     /// stay within its tolerance nothing, otherwise each of its blocks that does not.
     fn busy_blocks(
@@ -468,7 +492,11 @@ impl Prepared {
         let (w, h) = (frame.width() as usize, frame.height() as usize);
         let px = frame.as_raw();
         let mut strong = BitMask::new(w, h);
-        for y in region.rows(h) {
+        let rows = region.rows(h);
+        for y in rows.clone() {
+            if rows.contains(&(y + PREFETCH_ROWS)) {
+                self.prefetch_row(px, y + PREFETCH_ROWS, w, region.columns(w));
+            }
             let row = &px[y * w * 3..(y + 1) * w * 3];
             let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
             let words = strong.row_mut(y);
@@ -509,7 +537,11 @@ impl Prepared {
                 let mut strong = BitMask::new(w, h);
                 let mut weak = BitMask::new(w, h);
                 let mut shady = BitMask::new(w, h);
-                for y in region.rows(h) {
+                let rows = region.rows(h);
+                for y in rows.clone() {
+                    if rows.contains(&(y + PREFETCH_ROWS)) {
+                        self.prefetch_row(px, y + PREFETCH_ROWS, w, region.columns(w));
+                    }
                     let row = &px[y * w * 3..(y + 1) * w * 3];
                     let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
                     let (s_row, w_row, d_row) =
@@ -540,6 +572,23 @@ impl Prepared {
             }
         }
     }
+}
+
+/// Rows ahead of the classified one whose bytes are asked for ([`Prepared::prefetch_row`]).
+const PREFETCH_ROWS: usize = 6;
+
+/// A hint that `bytes` will be read soon.
+#[inline]
+fn prefetch(bytes: &[u8]) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint: it reads nothing into the program, writes nothing and
+    // cannot fault, whatever the address; this one is inside a live slice anyway.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>(bytes.as_ptr().cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = bytes;
 }
 
 #[cfg(test)]
