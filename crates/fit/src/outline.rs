@@ -450,8 +450,12 @@ pub(crate) struct Spheres {
     grid: Grid,
 }
 
-/// Cells of `CELL` pixels over the image, each listing the spheres that may cover it.
+/// Cells of `CELL` pixels over the part of the image the spheres reach, each listing the
+/// spheres that may cover it.
 struct Grid {
+    /// The first cell's column and row in the image's grid.
+    x0: usize,
+    y0: usize,
     columns: usize,
     rows: usize,
     /// Cell `i` holds `members[starts[i]..starts[i + 1]]`.
@@ -464,17 +468,32 @@ const CELL: f64 = 8.0;
 
 impl Grid {
     fn new(width: f64, height: f64, items: &[(Point3<f64>, Vector2<f64>, f64)]) -> Self {
-        let columns = (width / CELL).ceil().max(1.0) as usize;
-        let rows = (height / CELL).ceil().max(1.0) as usize;
-        let span = |lo: f64, hi: f64, n: usize| {
-            let a = (lo / CELL).floor().clamp(0.0, (n - 1) as f64) as usize;
-            let b = (hi / CELL).floor().clamp(0.0, (n - 1) as f64) as usize;
-            a..=b
-        };
+        // The image's cells, then those the spheres reach: a tube covers a small part of the
+        // image, and the counts are cleared and summed over every cell.
+        let all = [
+            (width / CELL).ceil().max(1.0) as usize,
+            (height / CELL).ceil().max(1.0) as usize,
+        ];
+        let cell = |v: f64, k: usize| (v / CELL).floor().clamp(0.0, (all[k] - 1) as f64) as usize;
+        let (mut lo, mut hi) = ([usize::MAX; 2], [0usize; 2]);
+        for (_, px, rp) in items {
+            let reach = rp + 1.0;
+            for k in 0..2 {
+                lo[k] = lo[k].min(cell(px[k] - reach, k));
+                hi[k] = hi[k].max(cell(px[k] + reach, k));
+            }
+        }
+        if items.is_empty() {
+            (lo, hi) = ([0; 2], [0; 2]);
+        }
+        let [x0, y0] = lo;
+        let (columns, rows) = (hi[0] - x0 + 1, hi[1] - y0 + 1);
+        let span =
+            |lo: f64, hi: f64, k: usize| cell(lo, k) - [x0, y0][k]..=cell(hi, k) - [x0, y0][k];
         let cells = |(_, px, rp): &(Point3<f64>, Vector2<f64>, f64)| {
             let reach = rp + 1.0;
-            let xs = span(px.x - reach, px.x + reach, columns);
-            span(px.y - reach, px.y + reach, rows)
+            let xs = span(px.x - reach, px.x + reach, 0);
+            span(px.y - reach, px.y + reach, 1)
                 .flat_map(move |y| xs.clone().map(move |x| y * columns + x))
         };
         let mut counts = vec![0u32; columns * rows + 1];
@@ -495,6 +514,8 @@ impl Grid {
             }
         }
         Grid {
+            x0,
+            y0,
             columns,
             rows,
             starts: counts,
@@ -508,7 +529,11 @@ impl Grid {
         if !(p.x >= 0.0 && p.y >= 0.0) {
             return &[];
         }
-        let (x, y) = ((p.x / CELL) as usize, (p.y / CELL) as usize);
+        let (x, y) = (
+            ((p.x / CELL) as usize).wrapping_sub(self.x0),
+            ((p.y / CELL) as usize).wrapping_sub(self.y0),
+        );
+        // Left of or above the grid wraps round to beyond it.
         if x >= self.columns || y >= self.rows {
             return &[];
         }
