@@ -350,7 +350,7 @@ impl TubeFitter {
         let dof = (eq.rows as f64 - tube.parameters() as f64).max(1.0);
         let sigma_px = (eq.cost / dof).sqrt();
         // Only the covariance of control points that share a span (and with the radii) is
-        // read (`Fit::point_covariance`): Takahashi's recursion gives those entries of H⁻¹
+        // read (`Fit::sigma_across`): Takahashi's recursion gives those entries of H⁻¹
         // from its Cholesky factor, a few percent of the whole inverse's cost.
         let tail = tube.parameters() - tube.radius_column(0);
         let inverse = |h: DMatrix<f64>| match h.clone().cholesky() {
