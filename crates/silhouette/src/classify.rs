@@ -358,6 +358,7 @@ impl Prepared {
     /// a whole row apart from the next, which the hardware's own prefetching follows late,
     /// and a frame just captured is not in cache (tracking: silhouettes 0.40 → 0.37 ms a
     /// frame on one thread).
+    ///
     /// Whole rows are one stream, which the hardware follows: nothing is asked for them
     /// (asking cost the whole frame's classification 8 %).
     fn prefetch_row(&self, frame: &[u8], y: usize, w: usize, columns: std::ops::Range<usize>) {
