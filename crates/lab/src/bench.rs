@@ -7,8 +7,9 @@
 //! Two workloads: every frame through the whole chain from its hull (distinct poses from the
 //! sweep), and tracking (a smooth motion filmed at `rate_hz`, played back and forth as one
 //! continuous run, each frame started from an earlier one's shape as `flexshape track` does:
-//! with one frame per thread in flight, from the frame `threads` back). Each workload's records are also held against the simulator's
-//! truth, so that a setting that buys speed shows what it costs in accuracy.
+//! with one frame per thread in flight, from the frame `threads` back). Each workload's
+//! records are also held against the simulator's truth, so that a setting that buys speed
+//! shows what it costs in accuracy.
 
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -195,7 +196,15 @@ pub struct BenchReport {
 fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figures, LabError> {
     let refs: Vec<Vec<&RgbImage>> = frames.iter().map(|f| f.0.iter().collect()).collect();
     let steps = rounds * refs.len();
-    let shown = |step: usize| back_and_forth(step, refs.len());
+    // Frames from their hulls are independent: each is shown `rounds` times, in turn.
+    let tracks = pipeline.tracks();
+    let shown = |step: usize| {
+        if tracks {
+            back_and_forth(step, refs.len())
+        } else {
+            step % refs.len()
+        }
+    };
     let mut timings = Vec::new();
     let mut totals = Vec::new();
     let mut followed = 0usize;
@@ -241,9 +250,7 @@ fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figure
         frame_median_ms: quantile(&mut totals, 0.5),
         throughput_fps,
         // The run's first frame has nothing to start from.
-        followed: pipeline
-            .tracks()
-            .then(|| followed as f64 / (steps - 1).max(1) as f64),
+        followed: tracks.then(|| followed as f64 / (steps - 1).max(1) as f64),
         accuracy: Accuracy::of(&errors, frames.len()),
     })
 }
