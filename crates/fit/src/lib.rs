@@ -143,6 +143,8 @@ pub struct Fit {
     pub cameras: Vec<CameraCheck>,
     /// Gauss–Newton iterations run.
     pub iterations: usize,
+    /// Boundary measurements made (each of every camera's outline).
+    pub measurements: usize,
     /// Estimated noise of one outline residual, pixels.
     pub sigma_px: f64,
     /// Carved hull away from the fitted tube, as a length of tube, mm (see
@@ -265,22 +267,27 @@ impl TubeFitter {
     /// Moves `start` until its outline explains every view; the radius stays fixed unless
     /// `fit_radius`.
     pub fn fit(&self, views: &[View<'_>], start: Tube, fit_radius: bool) -> Result<Fit, FitError> {
-        Ok(self.fit_with(&self.settings, views, start, fit_radius)?.0)
+        Ok(self
+            .fit_with(&self.settings, views, start, fit_radius, true)?
+            .0)
     }
 
     /// [`TubeFitter::fit`] with other settings (a followed frame's sample spacing), and the
     /// fitted tube's visibility spheres in each camera (the check drew them; the bands use
-    /// them).
+    /// them). Unless `shortcut`, a tube that settled on its first boundaries is measured again
+    /// all the same (see [`ONE_MEASUREMENT_MM`]).
     fn fit_with(
         &self,
         s: &FitSettings,
         views: &[View<'_>],
         start: Tube,
         fit_radius: bool,
+        shortcut: bool,
     ) -> Result<(Fit, Vec<Spheres>), FitError> {
         let images = self.edge_images(views)?;
         let mut tube = start.clone();
         let mut iterations = 0;
+        let mut measurements = 0;
         let mut normal = None;
         // Boundaries are measured around the predicted outline, then the tube is fitted to
         // them as fixed data; re-measured once it stops moving across itself.
@@ -288,6 +295,7 @@ impl TubeFitter {
         let mut settled = None;
         'outer: for round in 0..MEASUREMENTS {
             let measured = measure(&self.cameras, &images, &tube, s);
+            measurements += 1;
             let mut current = measured.clone();
             let mut moved = 0.0;
             for inner in 0.. {
@@ -308,7 +316,8 @@ impl TubeFitter {
                 let radii = step.rows_range(tube.radius_column(0)..).amax();
                 let across = across_tube(&tube, &step).max(radii);
                 iterations += 1;
-                if inner > 0
+                if shortcut
+                    && inner > 0
                     && round == 0
                     && across < CONVERGED_MM
                     && moved + across < ONE_MEASUREMENT_MM
@@ -340,9 +349,10 @@ impl TubeFitter {
         let (measured, eq) = match settled {
             Some((measured, Some(eq))) => (measured, eq),
             other => {
-                let measured = other
-                    .map(|(m, _)| m)
-                    .unwrap_or_else(|| measure(&self.cameras, &images, &tube, s));
+                let measured = other.map(|(m, _)| m).unwrap_or_else(|| {
+                    measurements += 1;
+                    measure(&self.cameras, &images, &tube, s)
+                });
                 let eq = normal_equations(&tube, &start, &measured, s, fit_radius);
                 (measured, eq)
             }
@@ -401,6 +411,7 @@ impl TubeFitter {
             tube,
             cameras,
             iterations,
+            measurements,
             sigma_px,
             ghost_mm: None,
             covariance,
@@ -480,7 +491,7 @@ impl TubeFitter {
             Err(_) => return Ok((hull.clone(), None)),
         };
         let (mut fit, spheres) =
-            self.fit_with(s, views, start, radius.is_none() && s.fit_radius)?;
+            self.fit_with(s, views, start, radius.is_none() && s.fit_radius, true)?;
         let voxel_volume = volume.voxel_size.iter().product::<f64>();
         let reach = 1.5 * fit.tube.largest_radius() + 1.5 * voxel;
         fit.ghost_mm = Some(check::ghost_length(
@@ -494,9 +505,11 @@ impl TubeFitter {
     }
 
     /// The frame's shape from the images, started from an earlier frame's record (tracking):
-    /// from `start` — that frame's fitted tube, or a prediction from it — when given and its
-    /// control points are still evenly spread along it, else through the record's centerline
-    /// (cut where it leaves the volume) again; its radius and open ends. The ends stay open
+    /// from `start` — that frame's fitted tube, or a prediction from it — when given (its
+    /// control points spread again along the same curve if they drifted, see
+    /// [`Tube::spread_again`]), else through the record's centerline (cut where it leaves the
+    /// volume) again; its radius and open ends. A fit that settled on its first boundaries
+    /// but fails a camera's check is measured again before it is judged. The ends stay open
     /// or capped as they were and the proximal end stays where it was (the tube cannot
     /// turn round between frames). No hull is carved, so nothing is said about ghosts
     /// ([`Fit::ghost_mm`] is `None`); a fit that does not explain the images, or whose tip
@@ -552,8 +565,17 @@ impl TubeFitter {
             },
             ..s.clone()
         };
-        let (fit, spheres) =
-            self.fit_with(&followed, views, start, radius.is_none() && s.fit_radius)?;
+        let fit_radius = radius.is_none() && s.fit_radius;
+        let (mut fit, mut spheres) = self.fit_with(&followed, views, start, fit_radius, true)?;
+        if fit.measurements == 1 && fit.cameras.iter().any(|c| !self.explains(c)) {
+            // Settled on its first boundaries, which a camera's check then faults: the
+            // shortcut's assumption (boundaries searched about where the tube settled) may be
+            // what failed, and measuring again costs far less than the hull.
+            let iterations = fit.iterations;
+            (fit, spheres) = self.fit_with(&followed, views, fit.tube, fit_radius, false)?;
+            fit.iterations += iterations;
+            fit.measurements += 1;
+        }
         // What the hull would have said before the fit: whether the tip runs out of the
         // volume; bands come from the images alone.
         let base = ShapeRecord::empty(if open[1] {

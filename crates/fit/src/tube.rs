@@ -155,18 +155,26 @@ impl Tube {
         t / t.norm().max(1e-12)
     }
 
-    /// Whether the control points are still about evenly spread along the tube: the inner
-    /// sides of the control polygon (the clamped ends' are shorter by design) within a factor
-    /// of 1.5 of each other. A tube moved from frame to frame lets them drift along it; one
-    /// fitted afresh through its centerline spreads them again.
+    /// Whether the control points are still about evenly spread along the tube: every side
+    /// of the control polygon, the clamped ends' first two scaled to a whole span (a clamped
+    /// uniform spline places them a third and two thirds of a span apart), within a factor of
+    /// 1.5 of the others. A tube moved from frame to frame lets them drift along it (a tip's
+    /// last control points slide back toward the one before, which its cap hardly resists);
+    /// one fitted afresh through its centerline spreads them again. Everything that places a
+    /// point on the tube by its length (`u · length`) relies on this.
     pub fn evenly_spread(&self) -> bool {
         let ctrl = self.centerline.control();
         let n = ctrl.len();
         if n < 7 {
             return true;
         }
-        let sides: Vec<f64> = (2..n - 3)
-            .map(|k| (Vector3::from(ctrl[k + 1]) - Vector3::from(ctrl[k])).norm())
+        let design = |k: usize| match k.min(n - 2 - k) {
+            0 => 3.0,
+            1 => 1.5,
+            _ => 1.0,
+        };
+        let sides: Vec<f64> = (0..n - 1)
+            .map(|k| design(k) * (Vector3::from(ctrl[k + 1]) - Vector3::from(ctrl[k])).norm())
             .collect();
         let lo = sides.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = sides.iter().copied().fold(0.0, f64::max);
@@ -277,6 +285,7 @@ impl Tube {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::check;
 
     fn bent() -> Tube {
         let points: Vec<[f64; 3]> = (0..=120)
@@ -338,6 +347,43 @@ mod tests {
         let mut dragged = tube.clone();
         dragged.centerline.displace(&step);
         assert!(!dragged.evenly_spread());
+    }
+
+    #[test]
+    fn a_tip_whose_control_points_crowded_toward_it_is_no_longer_evenly_spread() {
+        // A straight capped tube of 15-mm spans. Followed frame after frame, its last control
+        // points crept toward the tip (seen: sides 20.5, 15.5, 5.5 and 1.5 mm where a clamped
+        // spline places 15, 15, 10 and 5). The curve still ends at the tip, but its last span
+        // covers 3 mm, not 15: read by `u · length`, points 7 mm apart along the tube were
+        // under 3 mm apart in space, and the self-check called the tube folded through
+        // itself, so the frame was carved again.
+        let line: Vec<[f64; 3]> = (0..=150).map(|i| [0.0, 0.0, i as f64]).collect();
+        let tube = Tube::through(&line, 3.0, [false, true], 15.0, 0.0).unwrap();
+        assert!(tube.evenly_spread());
+        let ctrl = tube.centerline.control();
+        let n = ctrl.len();
+        let sides: Vec<f64> = (n - 4..n - 1)
+            .map(|k| ctrl[k + 1][2] - ctrl[k][2])
+            .collect();
+        for (side, design) in sides.iter().zip([15.0, 10.0, 5.0]) {
+            assert!((side - design).abs() < 0.5, "{sides:?}");
+        }
+        let mut step = nalgebra::DVector::zeros(3 * n);
+        for (k, mm) in [(n - 4, 5.0), (n - 3, 8.0), (n - 2, 3.5)] {
+            step[3 * k + 2] = mm;
+        }
+        let mut crowded = tube.clone();
+        crowded.centerline.displace(&step);
+        let crossing = |t: &Tube| check::self_crossing(&check::stations(t, t.length(), |_| true));
+        assert!(
+            crossing(&crowded).is_some(),
+            "the misreading this guards against"
+        );
+        assert!(!crowded.evenly_spread());
+        let again = crowded.spread_again(15.0).unwrap();
+        assert!(again.evenly_spread());
+        assert_eq!(crossing(&again), None);
+        assert!((again.frame(1.0).0 - crowded.frame(1.0).0).norm() < 0.01);
     }
 
     #[test]

@@ -78,7 +78,7 @@ impl TubeFitter {
                 continue;
             };
             let (fit, spheres) =
-                self.fit_with(s, views, start, radius.is_none() && s.fit_radius)?;
+                self.fit_with(s, views, start, radius.is_none() && s.fit_radius, true)?;
             if self.verdict(&fit, volume).is_none() {
                 explaining.push((fit, spheres, base));
             }

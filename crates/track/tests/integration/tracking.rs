@@ -119,15 +119,18 @@ fn a_smooth_motion_is_tracked_without_carving_and_as_accurately() {
     assert!(worst <= worst_hull + 0.02);
 }
 
-/// A followed tip can curl back into the tube's own outline, where no image holds it: the
-/// fold looks like the tip's cap and the part folded back hides in the tube's silhouette, so
-/// every outline residual stays small. On this motion (seed 11, from its 20th frame), without
-/// the prior that holds the tip's last span, such a fold grew over a dozen frames to a tip
-/// 10.7 mm off, each frame `ok`. A tube bent tighter than its radius, or passing through
-/// itself, is no shape a tube can take: such a frame is `inconsistent` and starts again from
-/// its hull. With the prior (the default) no tip curls: every frame follows.
+/// A followed tip does not curl back into the tube's own outline. On this motion (seed 11,
+/// from its 20th frame) the tip's last control points used to crowd toward it, frame after
+/// frame, until its last span was a few millimetres long and free to fold back where no image
+/// holds it: the fold looks like the tip's cap and the part folded back hides in the tube's
+/// silhouette. Without the prior that holds the tip's last span, such a fold grew over a
+/// dozen frames to a tip 10.7 mm off, each frame `ok` (before the self-check caught it at
+/// frame 32 or 33). Control points that crowd are now spread again before a frame starts:
+/// every frame follows, with or without the prior, and every tip is right. (That a shape
+/// folded through itself or bent tighter than its radius is caught, and so never `ok`, is
+/// tested in `flexshape-fit`'s `check` module.)
 #[test]
-fn a_tip_curled_into_its_own_outline_is_never_ok() {
+fn a_followed_tip_does_not_curl_into_its_own_outline() {
     let (sim, pipeline) = common::chain_of(SimConfig {
         seed: 11,
         ..SimConfig::default()
@@ -144,7 +147,6 @@ fn a_tip_curled_into_its_own_outline_is_never_ok() {
     let frames: Vec<_> = (20..40)
         .map(|i| sim.render(i as u64, &poses[i]).unwrap())
         .collect();
-    let mut restarts = [0; 2];
     for (k, chain) in [&unheld, &pipeline].into_iter().enumerate() {
         let mut recent = Recent::new(chain);
         for (i, frame) in (20..).zip(&frames) {
@@ -159,20 +161,21 @@ fn a_tip_curled_into_its_own_outline_is_never_ok() {
                 t.shape.status,
                 t.start
             );
-            if t.shape.status.is_right() {
-                assert!(tip < 0.3, "frame {i}: right but the tip {tip:.3} mm off");
-                assert!(rms(&frame.truth, &sim, &t.shape) < 0.08, "frame {i}");
+            assert!(t.shape.status.is_right(), "frame {i}: {:?}", t.shape.status);
+            assert!(tip < 0.3, "frame {i}: the tip {tip:.3} mm off");
+            assert!(rms(&frame.truth, &sim, &t.shape) < 0.08, "frame {i}");
+            // Measured: every tip within 0.10 mm.
+            if i > 20 {
+                assert_eq!(
+                    t.start,
+                    Start::Previous,
+                    "frame {i} restarted (prior {})",
+                    k == 1
+                );
             }
-            restarts[k] += usize::from(i > 20 && t.start != Start::Previous);
             recent.update(i as u64, t.prior());
         }
     }
-    // Measured: one restart without the prior (frame 33, the curl caught), none with it.
-    assert!(
-        restarts[0] >= 1,
-        "without the prior no tip curled: the test says less"
-    );
-    assert_eq!(restarts[1], 0, "with the prior a followed frame restarted");
 }
 
 #[test]
