@@ -8,8 +8,11 @@
 //! crosses halfway between its level inside and outside the band. The surface a camera sees
 //! at the centerline's pixel is not the centerline's own section: the ray meets the tube's
 //! near side `r·cot α` closer to the camera along the tube (`α` the angle between ray and
-//! tangent), which is taken off. Cameras' edges are averaged; a band that runs into the tip
-//! ends there.
+//! tangent), which is taken off. Cameras' edges are averaged, each weighted by `sin⁴ α`: an
+//! edge's arc length from a camera that sees the tube obliquely errs as `1/sin α` with its
+//! pixels and as `r·δ/sin² α` with a tangent off by `δ` (through the shift), and seen at 30°
+//! one such camera put a tip band 0.19 mm off where the side-on ones agreed within 0.05. A
+//! band that runs into the tip ends there.
 
 use flexshape_camera::Camera;
 use flexshape_shape::CurveBand;
@@ -32,14 +35,23 @@ struct Sample {
     marked: bool,
     /// Arc-length shift of the seen surface, mm (`r·cot α`).
     shift: f64,
+    /// `sin α`: how side-on the camera sees the tube here.
+    sin: f64,
 }
 
 /// One camera's bands: arc lengths (from the tube's start) of their ends; `None` for an end cut
 /// by the tube's open start; the upper end at the tube's end means the band reaches the tip.
 struct Seen {
-    lower: Option<f64>,
-    upper: f64,
+    lower: Option<Edge>,
+    upper: Edge,
     at_tip: bool,
+}
+
+/// A band end's arc length, mm, and the weight its camera's view gives it.
+#[derive(Clone, Copy)]
+struct Edge {
+    at: f64,
+    weight: f64,
 }
 
 /// The bands on `tube`, as curve parameters, from every camera's image and marker mask;
@@ -145,6 +157,7 @@ fn sample(
                 colour: bilinear(image, pixel)?,
                 marked: mask.get(pixel.x.round() as usize, pixel.y.round() as usize),
                 shift: r * d.dot(&t) / sin,
+                sin,
             })
         })
         .collect()
@@ -205,7 +218,10 @@ fn runs(samples: &[Option<Sample>], tip_capped: bool) -> Vec<Seen> {
             .flatten();
         let reaches_tip = end == last && tip_capped;
         let upper = if reaches_tip {
-            Some(last as f64 * STEP)
+            Some(Edge {
+                at: last as f64 * STEP,
+                weight: 1.0,
+            })
         } else if end < last {
             edge(&q, samples, end, 1, inside)
         } else {
@@ -231,7 +247,7 @@ fn edge(
     at: usize,
     dir: isize,
     inside: f64,
-) -> Option<f64> {
+) -> Option<Edge> {
     let step = |i: usize, by: isize| i.checked_add_signed(by).filter(|&j| j < q.len());
     // Up to 3 mm beyond the crossing, leaving out the first half millimetre of mixed pixels.
     let (near, far) = (
@@ -249,29 +265,35 @@ fn edge(
     let next = step(at, dir)?;
     let (a, b) = (q[at]?, q[next]?);
     let frac = ((a - level) / (a - b)).clamp(0.0, 1.0);
-    let shift = samples[at]?.shift * (1.0 - frac) + samples[next]?.shift * frac;
-    Some((at as f64 + dir as f64 * frac) * STEP - shift)
+    let (s, n) = (samples[at]?, samples[next]?);
+    let shift = s.shift * (1.0 - frac) + n.shift * frac;
+    let sin = s.sin * (1.0 - frac) + n.sin * frac;
+    Some(Edge {
+        at: (at as f64 + dir as f64 * frac) * STEP - shift,
+        // The inverse of the shift's variance (see the module's doc).
+        weight: sin.powi(4),
+    })
 }
 
 /// Bands seen by several cameras, merged where they overlap: ends averaged over the cameras
-/// that saw them. `(lower, upper, at_tip)`, arc lengths from the tube's start, mm.
+/// that saw them, by their weights. `(lower, upper, at_tip)`, arc lengths from the tube's start, mm.
 fn merge(mut seen: Vec<Seen>, length: f64) -> Vec<(f64, f64, bool)> {
     seen.sort_by(|a, b| {
-        let key = |s: &Seen| s.lower.unwrap_or(s.upper);
+        let key = |s: &Seen| s.lower.unwrap_or(s.upper).at;
         key(a).total_cmp(&key(b))
     });
     let mut groups: Vec<Vec<Seen>> = Vec::new();
     for s in seen {
-        let low = s.lower.unwrap_or(s.upper);
+        let low = s.lower.unwrap_or(s.upper).at;
         match groups.last_mut() {
-            Some(g) if g.iter().any(|o| low <= o.upper) => g.push(s),
+            Some(g) if g.iter().any(|o| low <= o.upper.at) => g.push(s),
             _ => groups.push(vec![s]),
         }
     }
     groups
         .into_iter()
         .filter_map(|g| {
-            let lowers: Vec<f64> = g.iter().filter_map(|s| s.lower).collect();
+            let lowers: Vec<Edge> = g.iter().filter_map(|s| s.lower).collect();
             let lower = mean(&lowers)?;
             let tips = g.iter().filter(|s| s.at_tip).count();
             let at_tip = 2 * tips > g.len();
@@ -290,8 +312,9 @@ fn merge(mut seen: Vec<Seen>, length: f64) -> Vec<(f64, f64, bool)> {
         .collect()
 }
 
-fn mean(v: &[f64]) -> Option<f64> {
-    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+fn mean(v: &[Edge]) -> Option<f64> {
+    let total: f64 = v.iter().map(|e| e.weight).sum();
+    (total > 0.0).then(|| v.iter().map(|e| e.at * e.weight).sum::<f64>() / total)
 }
 
 fn median(v: &[Option<f64>]) -> f64 {

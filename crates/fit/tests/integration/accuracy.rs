@@ -92,3 +92,25 @@ fn default_scene_fit_beats_the_hull() {
     assert!(kappa.iter().all(|k| k.abs() <= 0.005), "{kappa:?}");
     assert!(kappa.len() >= 10);
 }
+
+/// The sweep's seventh pose points the tip band at one camera at about 30° to its ray: that
+/// camera's edge, averaged with the side-on cameras' on equal terms, put the band 0.19 mm off
+/// along the tube (seed 3; 0.09–0.10 mm on seeds 1 and 4) where the others agreed within
+/// 0.05 mm. Weighted by how side-on each camera sees the tube, the band is where they put it.
+#[test]
+fn a_band_seen_obliquely_by_one_camera_is_placed_by_the_side_on_ones() {
+    for seed in [1, 3, 4] {
+        let chain = Chain::new(SimConfig {
+            seed,
+            ..SimConfig::default()
+        });
+        let sim = &chain.sim;
+        let pose = &sim.sweep(10)[6];
+        let b = chain.run(sim.render(6, pose).unwrap());
+        assert_eq!(b.fitted.status, Status::Ok);
+        let e = band_error(&b.frame.truth, sim, &b.fitted);
+        println!("seed {seed}: band worst {e:.3} mm");
+        // Measured: 0.065–0.087 mm (0.091–0.192 before).
+        assert!(e < 0.1, "seed {seed}: a band {e:.3} mm off");
+    }
+}
