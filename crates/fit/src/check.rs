@@ -323,25 +323,33 @@ pub(crate) struct Station {
     pub judged: bool,
 }
 
-/// `tube`'s centerline every millimetre (`length` its length, mm), judged where `judge`
+/// `tube`'s centerline about every millimetre (`length` its length, mm), judged where `judge`
 /// holds (the part a record reports: inside the working volume). A curl or a fold spans
-/// several millimetres: finer steps find nothing more.
+/// several millimetres: finer steps find nothing more. Each station's arc length is summed
+/// along the stations themselves, not read as `u · length`: control points that crept along
+/// the tube bunch the parameter, and a fold read by it looks shorter or longer than it is.
 pub(crate) fn stations(
     tube: &Tube,
     length: f64,
     judge: impl Fn(&Point3<f64>) -> bool,
 ) -> Vec<Station> {
     let n = length.ceil().max(4.0) as usize;
+    let mut at = 0.0;
+    let mut previous: Option<Point3<f64>> = None;
     (0..=n)
         .map(|i| {
             let u = i as f64 / n as f64;
             let d = tube.centerline.eval(u);
             let point = Point3::from(d.value);
+            if let Some(p) = previous {
+                at += (point - p).norm();
+            }
+            previous = Some(point);
             let (d1, d2) = (Vector3::from(d.d1), Vector3::from(d.d2));
             let speed = d1.norm().max(1e-300);
             let radius = tube.radius_at(u, length);
             Station {
-                at: u * length,
+                at,
                 point,
                 radius,
                 bend: d1.cross(&d2).norm() / speed.powi(3) * radius,
@@ -379,11 +387,14 @@ pub(crate) struct SelfCrossing {
 /// 4/π radii apart in space, so the rule never flags a shape a tube can take.
 pub(crate) fn self_crossing(stations: &[Station]) -> Option<SelfCrossing> {
     let largest = stations.iter().map(|s| s.radius).fold(0.0, f64::max);
-    // Stations are evenly spaced along the tube.
-    let step = match stations {
-        [a, b, ..] => b.at - a.at,
-        _ => return None,
-    };
+    // The longest step between stations: skipping k of them goes at most k of these along.
+    let step = stations
+        .windows(2)
+        .map(|w| w[1].at - w[0].at)
+        .fold(0.0, f64::max);
+    if step <= 0.0 {
+        return None;
+    }
     let mut worst: Option<SelfCrossing> = None;
     for (i, a) in stations.iter().enumerate() {
         let mut j = i + 1;
@@ -501,6 +512,33 @@ mod tests {
         let t = tube(&arc(20.0, 1.5, 1.0), 5.0);
         let c = self_crossing(&all(&t)).expect("the loop passes through the tube");
         assert!(c.distance_mm < 1.5, "{c:?}");
+    }
+
+    #[test]
+    fn a_fold_is_placed_by_arc_length_whatever_the_parameter() {
+        // The fold above, fitted once with a parameter proportional to arc length and once
+        // with one that runs fast at first and bunches the control points toward the tip (as
+        // a followed tip's points crept): the fold is found where it is along the tube.
+        let mut fold: Vec<[f64; 3]> = (0..=100).map(|i| [0.0, 0.0, i as f64]).collect();
+        fold.extend((1..=40).map(|i| [2.0, 0.0, 100.0 - i as f64]));
+        let even: Vec<f64> = (0..fold.len()).map(|i| i as f64 / 140.0).collect();
+        let bunched: Vec<f64> = even.iter().map(|u| u.powf(0.6)).collect();
+        let found = |params: &[f64]| {
+            let t = Tube {
+                centerline: flexshape_curve::BSpline3::fit(params, &fold, 40).unwrap(),
+                radius: 3.0,
+                steps: Vec::new(),
+                capped: [true, true],
+            };
+            self_crossing(&all(&t)).expect("the fold passes through the tube")
+        };
+        // The closest pair moves a little with the fit; the turn between them stays at the
+        // fold's 100 mm (read by the parameter, the bunched fit's would be near 115).
+        for c in [found(&even), found(&bunched)] {
+            let turn = (c.at_mm[0] + c.at_mm[1]) / 2.0;
+            assert!((turn - 100.0).abs() < 1.5, "{c:?}");
+            assert!(c.at_mm[1] - c.at_mm[0] >= 6.0, "{c:?}");
+        }
     }
 
     #[test]
