@@ -218,6 +218,7 @@ fn runs(samples: &[Option<Sample>], tip_capped: bool) -> Vec<Seen> {
             .flatten();
         let reaches_tip = end == last && tip_capped;
         let upper = if reaches_tip {
+            // Never averaged: a band that reaches the tip ends at the tube's end (`merge`).
             Some(Edge {
                 at: last as f64 * STEP,
                 weight: 1.0,
@@ -276,7 +277,8 @@ fn edge(
 }
 
 /// Bands seen by several cameras, merged where they overlap: ends averaged over the cameras
-/// that saw them, by their weights. `(lower, upper, at_tip)`, arc lengths from the tube's start, mm.
+/// that saw them, by their weights. `(lower, upper, at_tip)`, arc lengths from the tube's
+/// start, mm.
 fn merge(mut seen: Vec<Seen>, length: f64) -> Vec<(f64, f64, bool)> {
     seen.sort_by(|a, b| {
         let key = |s: &Seen| s.lower.unwrap_or(s.upper).at;

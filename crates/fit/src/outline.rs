@@ -639,21 +639,22 @@ impl Spheres {
         // the image and moves the boundary found (seen: 0.95 px, where a tip pointing at the
         // camera lay just beside the outline of the tube behind it). The tube's own spheres
         // here reach the outline and no farther, so none covers its point by a quarter pixel.
-        let covers_outside = [0.0, 0.75, 1.5, self.clearance].iter().any(|&step| {
+        // At the point itself, one pass over its cell also asks whether the ray enters the
+        // tube before it.
+        let here = self.grid.near(p.pixel).iter().any(|&i| {
+            let (c, px, _) = &self.items[i as usize];
+            let (inner, outer) = self.reach2[i as usize];
+            let d2 = (px - p.pixel).norm_squared();
+            d2 < inner
+                || (d2 <= outer && enters_before(c, self.radii[i as usize], eye, &d, depth - 0.01))
+        });
+        here || [0.75, 1.5, self.clearance].iter().any(|&step| {
             let q = p.pixel + p.normal * step;
             self.grid.near(q).iter().any(|&i| {
                 let px = &self.items[i as usize].1;
                 (px - q).norm_squared() < self.reach2[i as usize].0
             })
-        });
-        covers_outside
-            || self.grid.near(p.pixel).iter().any(|&i| {
-                let (c, px, _) = &self.items[i as usize];
-                if (px - p.pixel).norm_squared() > self.reach2[i as usize].1 {
-                    return false;
-                }
-                enters_before(c, self.radii[i as usize], eye, &d, depth - 0.01)
-            })
+        })
     }
 }
 

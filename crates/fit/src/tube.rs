@@ -159,8 +159,8 @@ impl Tube {
     /// of the control polygon, the clamped ends' first two scaled to a whole span (a clamped
     /// uniform spline places them a third and two thirds of a span apart), within a factor of
     /// 1.5 of the others. A tube moved from frame to frame lets them drift along it (a tip's
-    /// last control points slide back toward the one before, which its cap hardly resists);
-    /// one fitted afresh through its centerline spreads them again. Everything that places a
+    /// last control points creep toward it, which its cap hardly resists); one fitted afresh
+    /// through its centerline spreads them again. Everything that places a
     /// point on the tube by its length (`u · length`) relies on this.
     pub fn evenly_spread(&self) -> bool {
         let ctrl = self.centerline.control();
