@@ -387,6 +387,7 @@ pub(crate) struct SelfCrossing {
 /// 4/π radii apart in space, so the rule never flags a shape a tube can take.
 pub(crate) fn self_crossing(stations: &[Station]) -> Option<SelfCrossing> {
     let largest = stations.iter().map(|s| s.radius).fold(0.0, f64::max);
+    let smallest = stations.iter().map(|s| s.radius).fold(largest, f64::min);
     // The longest step between stations: skipping k of them goes at most k of these along.
     let step = stations
         .windows(2)
@@ -396,14 +397,26 @@ pub(crate) fn self_crossing(stations: &[Station]) -> Option<SelfCrossing> {
         return None;
     }
     let mut worst: Option<SelfCrossing> = None;
+    // The first station at least two of the smallest radii along from `a`: none before can
+    // qualify, and it moves only forward with `a`.
+    let mut first = 0;
     for (i, a) in stations.iter().enumerate() {
-        let mut j = i + 1;
+        if !a.judged {
+            continue;
+        }
+        first = first.max(i + 1);
+        while stations
+            .get(first)
+            .is_some_and(|b| b.at - a.at < 2.0 * smallest)
+        {
+            first += 1;
+        }
+        let mut j = first;
         while let Some(b) = stations.get(j) {
             let r = a.radius.max(b.radius);
             let d = (b.point - a.point).norm();
             if b.at - a.at >= 2.0 * r
                 && d < r
-                && a.judged
                 && b.judged
                 && worst.is_none_or(|w| d < w.distance_mm)
             {

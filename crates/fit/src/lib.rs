@@ -162,20 +162,32 @@ impl Fit {
         let b = self.tube.centerline.basis_to::<1>(u);
         let d1 = Vector3::from(self.tube.centerline.eval_basis(&b).d1);
         let t = d1 / d1.norm().max(1e-300);
-        let mut cov = Matrix3::zeros();
+        // The trace of P·C·P, P = I − t·tᵀ the projection across the tube (idempotent), is
+        // the sum of C's entries weighted by P's. C is the point's covariance, Σ wⱼ·wₖ·Cⱼₖ over
+        // the 3×3 blocks of its control points; the covariance is symmetric and so is P, so
+        // each block off the diagonal counts twice for its mirror.
+        let across = Matrix3::identity() - t * t.transpose();
+        let (n, entries) = (self.covariance.nrows(), self.covariance.as_slice());
+        let w = &b.weights[0];
+        let mut variance = 0.0;
         for j in 0..4 {
-            for k in 0..4 {
-                let w = b.weights[0][j] * b.weights[0][k];
-                if w == 0.0 {
+            for k in j..4 {
+                let weight = w[j] * w[k] * if j == k { 1.0 } else { 2.0 };
+                if weight == 0.0 {
                     continue;
                 }
                 let (r, c) = (3 * (b.first + j), 3 * (b.first + k));
-                cov += self.covariance.fixed_view::<3, 3>(r, c) * w;
+                let mut sum = 0.0;
+                for q in 0..3 {
+                    let column = &entries[(c + q) * n + r..(c + q) * n + r + 3];
+                    sum += column[0] * across[(0, q)]
+                        + column[1] * across[(1, q)]
+                        + column[2] * across[(2, q)];
+                }
+                variance += weight * sum;
             }
         }
-        // The trace of P·C·P, P = I − t·tᵀ the projection across the tube (idempotent):
-        // trace(C·P) = trace(C) − tᵀ·C·t.
-        (cov.trace() - t.dot(&(cov * t))).max(0.0).sqrt()
+        variance.max(0.0).sqrt()
     }
 }
 
