@@ -62,6 +62,7 @@ mod check;
 mod edges;
 mod outline;
 mod pose;
+mod region;
 mod settings;
 mod solve;
 mod stereo;
@@ -71,7 +72,7 @@ mod verdict;
 use flexshape_camera::Camera;
 use flexshape_rig::Volume;
 use flexshape_shape::{FittedCurve, ShapeEstimator, ShapeRecord, Status};
-use flexshape_silhouette::{BitMask, Region};
+use flexshape_silhouette::{BitMask, Rows};
 use image::RgbImage;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use thiserror::Error;
@@ -611,32 +612,14 @@ impl TubeFitter {
         Ok((record, Some(fit)))
     }
 
-    /// The region of each camera's image (rig order) within `margin_px` of `tube`'s image (its
-    /// ends' continuations left out), or `None` for a camera that does not see the tube.
-    pub fn image_regions(&self, tube: &Tube, margin_px: f64) -> Vec<Option<Region>> {
+    /// The part of each camera's image (rig order) within `margin_px` of `tube`'s image (its
+    /// ends' continuations left out), row by row ([`region::around`]), or `None` for a camera
+    /// that does not see the tube.
+    pub fn image_regions(&self, tube: &Tube, margin_px: f64) -> Vec<Option<Rows>> {
         let centres = outline::sphere_centres(tube, tube.length());
         self.cameras
             .iter()
-            .map(|cam| {
-                let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-                // Every fourth sphere projected, those between interpolated (within 0.03 px):
-                // the box is rounded out to whole pixels and one more.
-                for (_, px, rp) in outline::spheres_along(cam, &centres).into_iter().flatten() {
-                    for k in 0..2 {
-                        lo[k] = lo[k].min(px[k] - rp - margin_px);
-                        hi[k] = hi[k].max(px[k] + rp + margin_px);
-                    }
-                }
-                let (w, h) = (cam.intrinsics.width as f64, cam.intrinsics.height as f64);
-                let (x0, y0) = (lo[0].floor().max(0.0), lo[1].floor().max(0.0));
-                let (x1, y1) = ((hi[0].ceil() + 1.0).min(w), (hi[1].ceil() + 1.0).min(h));
-                (x0 < x1 && y0 < y1).then_some(Region {
-                    x0: x0 as usize,
-                    y0: y0 as usize,
-                    x1: x1 as usize,
-                    y1: y1 as usize,
-                })
-            })
+            .map(|cam| region::around(cam, &centres, margin_px))
             .collect()
     }
 

@@ -54,13 +54,48 @@ impl Region {
         x1: usize::MAX,
         y1: usize::MAX,
     };
+}
 
+/// The part of an image to classify, row by row: row `y0 + i` within columns `columns[i]`
+/// (pixels, end exclusive; clipped to the image), no row outside. What a tracker classifies
+/// around a tube that crosses the image at a slant, where a rectangle around it would be
+/// mostly backdrop.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Rows {
+    /// First row.
+    pub y0: usize,
+    /// Each row's columns, from row `y0` on.
+    pub columns: Vec<std::ops::Range<usize>>,
+}
+
+/// Where in an image to classify: a [`Region`] or [`Rows`]. Pixels outside are background.
+pub trait Area {
+    /// The rows to classify, in an image `h` pixels high.
+    fn rows(&self, h: usize) -> std::ops::Range<usize>;
+    /// The columns of row `y` to classify, in an image `w` pixels wide (empty for none).
+    fn columns(&self, y: usize, w: usize) -> std::ops::Range<usize>;
+}
+
+impl Area for Region {
     fn rows(&self, h: usize) -> std::ops::Range<usize> {
         self.y0.min(h)..self.y1.min(h)
     }
 
-    fn columns(&self, w: usize) -> std::ops::Range<usize> {
+    fn columns(&self, _y: usize, w: usize) -> std::ops::Range<usize> {
         self.x0.min(w)..self.x1.min(w)
+    }
+}
+
+impl Area for Rows {
+    fn rows(&self, h: usize) -> std::ops::Range<usize> {
+        self.y0.min(h)..(self.y0 + self.columns.len()).min(h)
+    }
+
+    fn columns(&self, y: usize, w: usize) -> std::ops::Range<usize> {
+        match y.checked_sub(self.y0).and_then(|i| self.columns.get(i)) {
+            Some(c) => c.start.min(w)..c.end.min(w),
+            None => 0..0,
+        }
     }
 }
 
@@ -426,7 +461,7 @@ impl Prepared {
 
     /// Classifies a frame into the foreground mask (before clean-up): the pixels of `region`
     /// (rounded out to whole 64-pixel words across), the rest background.
-    pub fn foreground(&self, frame: &RgbImage, region: &Region) -> BitMask {
+    pub fn foreground(&self, frame: &RgbImage, region: &impl Area) -> BitMask {
         let (strong, weak, shady) = self.classify(frame, region);
         let Kind::Colour {
             bg, inv_e2, edge, ..
@@ -487,7 +522,7 @@ impl Prepared {
     fn single_test(
         &self,
         frame: &RgbImage,
-        region: &Region,
+        region: &impl Area,
         fg: impl Fn(usize, &[u8]) -> bool,
     ) -> (BitMask, BitMask, BitMask) {
         let (w, h) = (frame.width() as usize, frame.height() as usize);
@@ -496,12 +531,17 @@ impl Prepared {
         let rows = region.rows(h);
         for y in rows.clone() {
             if rows.contains(&(y + PREFETCH_ROWS)) {
-                self.prefetch_row(px, y + PREFETCH_ROWS, w, region.columns(w));
+                self.prefetch_row(
+                    px,
+                    y + PREFETCH_ROWS,
+                    w,
+                    region.columns(y + PREFETCH_ROWS, w),
+                );
             }
             let row = &px[y * w * 3..(y + 1) * w * 3];
             let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
             let words = strong.row_mut(y);
-            self.busy_blocks(row, bg_row, y, w, region.columns(w), |x0, x1| {
+            self.busy_blocks(row, bg_row, y, w, region.columns(y, w), |x0, x1| {
                 let mut bits = 0u64;
                 for x in x0..x1 {
                     bits |= (fg(y * w + x, &row[x * 3..x * 3 + 3]) as u64) << (x - x0);
@@ -516,7 +556,7 @@ impl Prepared {
 
     /// Classifies a frame: the strict foreground, the loose candidates (equal for green
     /// matting and plain difference) and the shadow-like pixels (none but for colour).
-    fn classify(&self, frame: &RgbImage, region: &Region) -> (BitMask, BitMask, BitMask) {
+    fn classify(&self, frame: &RgbImage, region: &impl Area) -> (BitMask, BitMask, BitMask) {
         match &self.kind {
             Kind::Green { limit } => self.single_test(frame, region, |i, p| p[1] < limit[i]),
             Kind::Difference { bg, margin } => self.single_test(frame, region, |i, p| {
@@ -541,13 +581,18 @@ impl Prepared {
                 let rows = region.rows(h);
                 for y in rows.clone() {
                     if rows.contains(&(y + PREFETCH_ROWS)) {
-                        self.prefetch_row(px, y + PREFETCH_ROWS, w, region.columns(w));
+                        self.prefetch_row(
+                            px,
+                            y + PREFETCH_ROWS,
+                            w,
+                            region.columns(y + PREFETCH_ROWS, w),
+                        );
                     }
                     let row = &px[y * w * 3..(y + 1) * w * 3];
                     let bg_row = &self.bg_bytes[y * w * 3..(y + 1) * w * 3];
                     let (s_row, w_row, d_row) =
                         (strong.row_mut(y), weak.row_mut(y), shady.row_mut(y));
-                    self.busy_blocks(row, bg_row, y, w, region.columns(w), |x0, x1| {
+                    self.busy_blocks(row, bg_row, y, w, region.columns(y, w), |x0, x1| {
                         let (mut s_bits, mut w_bits, mut d_bits) = (0u64, 0u64, 0u64);
                         for x in x0..x1 {
                             let i = y * w + x;

@@ -38,7 +38,7 @@ mod trial;
 
 pub use background::{BackgroundModel, CHANGED_LEVELS, CHANGED_SPREADS, DEFAULT_SPREAD};
 pub use bitmask::BitMask;
-pub use classify::{Classifier, ColourShadow, Difference, GreenMatte, Region};
+pub use classify::{Area, Classifier, ColourShadow, Difference, GreenMatte, Region, Rows};
 pub use components::KeepComponents;
 pub use error::SilhouetteError;
 pub use markers::MarkerSettings;

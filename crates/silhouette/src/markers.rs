@@ -87,7 +87,9 @@ pub(crate) fn find_markers(frame: &RgbImage, object: &BitMask, s: &MarkerSetting
         }
     });
     let mut out = tape.clone();
-    let edge = object.and_not(&interior);
+    // An edge pixel with no tape within 2 pixels has no vote for it: only those near tape
+    // are counted (tape is a few bands; the edge runs all along the object).
+    let edge = object.and_not(&interior).and(&tape.dilate(2));
     for_each_set(&edge, |x, y| {
         // Majority of interior neighbours within 1, else within 2 pixels.
         for r in 1..=2usize {
@@ -108,4 +110,71 @@ pub(crate) fn find_markers(frame: &RgbImage, object: &BitMask, s: &MarkerSetting
         }
     });
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bitmask::random_mask;
+
+    /// Every edge pixel voted on, as the rule reads (the reference for the one that skips
+    /// those far from tape).
+    fn every_edge_voted(frame: &RgbImage, object: &BitMask, s: &MarkerSettings) -> BitMask {
+        let (w, h) = (object.width(), object.height());
+        let interior = object.erode(1).and(object);
+        let t = s
+            .colour
+            .map(|c| c / s.colour.iter().map(|c| c * c).sum::<f32>().sqrt());
+        let mut tape = BitMask::new(w, h);
+        for_each_set(&interior, |x, y| {
+            let [r, g, b] = frame.get_pixel(x as u32, y as u32).0.map(f32::from);
+            let len = (r * r + g * g + b * b).sqrt();
+            let cos = s.max_angle_deg.to_radians().cos();
+            if r + g + b >= s.min_level && r * t[0] + g * t[1] + b * t[2] >= cos * len {
+                tape.set(x, y, true);
+            }
+        });
+        let mut out = tape.clone();
+        for_each_set(&object.and_not(&interior), |x, y| {
+            for r in 1..=2usize {
+                let (mut yes, mut no) = (0, 0);
+                for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+                    for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                        if interior.get(xx, yy) {
+                            if tape.get(xx, yy) { yes += 1 } else { no += 1 }
+                        }
+                    }
+                }
+                if yes + no > 0 {
+                    out.set(x, y, yes > no);
+                    break;
+                }
+            }
+        });
+        out
+    }
+
+    #[test]
+    fn edge_pixels_far_from_tape_are_left_out_without_changing_the_vote() {
+        let s = MarkerSettings::default();
+        for seed in 0..6 {
+            // Blobs of object (a dense random mask closed), tape-red in patches.
+            let object = random_mask(150, 90, 9, seed).close(1);
+            let colours = random_mask(150, 90, 3, seed + 100).dilate(2);
+            let frame = RgbImage::from_fn(150, 90, |x, y| {
+                if colours.get(x as usize, y as usize) {
+                    image::Rgb([200, 25, 20])
+                } else {
+                    image::Rgb([40, 60, 120])
+                }
+            });
+            let found = find_markers(&frame, &object, &s);
+            assert!(
+                found.count() > 100,
+                "seed {seed}: {} tape pixels",
+                found.count()
+            );
+            assert_eq!(found, every_edge_voted(&frame, &object, &s), "seed {seed}");
+        }
+    }
 }

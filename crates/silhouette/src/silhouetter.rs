@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::background::BackgroundModel;
 use crate::bitmask::BitMask;
-use crate::classify::{Classifier, Prepared, Region};
+use crate::classify::{Area, Classifier, Prepared, Region};
 use crate::components::{KeepComponents, keep_components};
 use crate::error::SilhouetteError;
 use crate::markers::{MarkerSettings, find_markers};
@@ -236,13 +236,13 @@ impl Silhouetter {
         self.process_within(frame, &Region::ALL)
     }
 
-    /// Silhouette of an 8-bit RGB frame within `region` (rounded out to whole 64-pixel words
-    /// across): pixels outside it are background. A tracker that knows where the object is
-    /// looks only around it.
+    /// Silhouette of an 8-bit RGB frame within `region` (a [`Region`] or [`Rows`](crate::Rows);
+    /// each row's columns rounded out to whole 64-pixel words): pixels outside it are
+    /// background. A tracker that knows where the object is looks only around it.
     pub fn process_within(
         &self,
         frame: &RgbImage,
-        region: &Region,
+        region: &impl Area,
     ) -> Result<Silhouette, SilhouetteError> {
         let (w, h) = frame.dimensions();
         if w == 0 || h == 0 {

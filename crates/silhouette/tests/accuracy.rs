@@ -131,6 +131,36 @@ fn a_region_gives_the_same_pixels_inside_and_none_outside() {
     let within = s.process_within(frame, &around).unwrap();
     assert_eq!(within.object, whole.object);
     assert_eq!(within.markers, whole.markers);
+    // Row by row: each row's own extent of the object, grown by 8 pixels each way (and the
+    // rows within 8 of the object's).
+    let extent = |y: usize| {
+        let xs = (0..w).filter(|&x| whole.object.get(x, y));
+        xs.clone().min().zip(xs.max())
+    };
+    let rows = flexshape_silhouette::Rows {
+        y0: around.y0,
+        columns: (around.y0..(y1 + 8).min(h))
+            .map(|y| {
+                let near = y.saturating_sub(8)..(y + 9).min(h);
+                let (lo, hi) = near
+                    .filter_map(extent)
+                    .fold((w, 0), |(lo, hi), (a, b)| (lo.min(a), hi.max(b + 1)));
+                lo.saturating_sub(8)..(hi + 8).min(w)
+            })
+            .collect(),
+    };
+    let covered: usize = rows.columns.iter().map(|c| c.len()).sum();
+    assert!(covered < (around.x1 - around.x0) * (around.y1 - around.y0));
+    let by_rows = s.process_within(frame, &rows).unwrap();
+    assert_eq!(by_rows.object, whole.object);
+    assert_eq!(by_rows.markers, whole.markers);
+    // Rows that miss part of the tube leave that part out, and only that part.
+    let mut half = rows.clone();
+    for c in &mut half.columns[..rows.columns.len() / 2] {
+        *c = 0..0;
+    }
+    let cut = s.process_within(frame, &half).unwrap();
+    assert!(cut.object.count() > 0 && cut.object.count() < whole.object.count());
     // A region away from the tube: nothing.
     let away = if x0 > 40 {
         Region {

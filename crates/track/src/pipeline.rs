@@ -490,13 +490,14 @@ impl Pipeline {
             .zip(&self.names)
             .zip(&regions)
             .map(|(((b, img), name), region)| {
-                let region = region.unwrap_or(Region::ALL);
-                b.silhouetter
-                    .process_within(img, &region)
-                    .map_err(|source| TrackError::Silhouette {
-                        camera: name.clone(),
-                        source,
-                    })
+                match region {
+                    Some(rows) => b.silhouetter.process_within(img, rows),
+                    None => b.silhouetter.process_within(img, &Region::ALL),
+                }
+                .map_err(|source| TrackError::Silhouette {
+                    camera: name.clone(),
+                    source,
+                })
             })
             .collect::<Result<Vec<_>, _>>()?;
         let silhouettes_ms = ms(t);
