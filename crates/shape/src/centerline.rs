@@ -166,8 +166,17 @@ impl Centerline {
 
     fn over(spline: Smooth, start: f64, end: f64, table_step: f64) -> Self {
         let steps = ((end - start) / table_step).ceil().max(1.0) as usize;
+        // The last entry is `end` itself: `start + (end − start)` may round past it, and a
+        // tip read a rounding beyond the curve's end is on its straight continuation, with
+        // no curvature.
         let params: Vec<f64> = (0..=steps)
-            .map(|i| start + (end - start) * i as f64 / steps as f64)
+            .map(|i| {
+                if i == steps {
+                    end
+                } else {
+                    start + (end - start) * i as f64 / steps as f64
+                }
+            })
             .collect();
         let mut arcs = Vec::with_capacity(params.len());
         let mut prev = spline.value(start);
@@ -348,4 +357,37 @@ pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A start at which `start + (1 − start)·n/n` rounds past 1 must still leave the tip on the
+    /// curve: read on its straight continuation, the tip's curvature would be 0.
+    #[test]
+    fn the_tip_of_the_table_is_the_curve_end_itself() {
+        let curve = BSpline3::new(
+            (0..8)
+                .map(|i| {
+                    let a = i as f64 * 0.3;
+                    [60.0 * a.sin(), 0.0, 60.0 * a.cos()]
+                })
+                .collect(),
+        )
+        .unwrap();
+        let start = 0.005848;
+        let steps = 401;
+        let step = (1.0 - start) / steps as f64;
+        assert!(start + (1.0 - start) * steps as f64 / steps as f64 > 1.0);
+        let line = Centerline::over(Smooth::BSpline(curve), start, 1.0, step);
+        assert_eq!(line.tip_param(), 1.0);
+        let (tip, before) = (line.sample(line.length()), line.sample(line.length() - 0.5));
+        assert!(
+            tip.curvature > 0.5 * before.curvature,
+            "tip {} against {} half a millimetre before",
+            tip.curvature,
+            before.curvature
+        );
+    }
 }
