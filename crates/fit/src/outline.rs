@@ -523,22 +523,31 @@ impl Grid {
         }
     }
 
-    /// The spheres that may cover pixel `p`.
-    fn near(&self, p: Vector2<f64>) -> &[u32] {
+    /// The grid cell of pixel `p`, `None` outside the grid.
+    fn cell(&self, p: Vector2<f64>) -> Option<usize> {
         // Truncation is the floor for the positions kept (and no library call).
         if !(p.x >= 0.0 && p.y >= 0.0) {
-            return &[];
+            return None;
         }
         let (x, y) = (
             ((p.x / CELL) as usize).wrapping_sub(self.x0),
             ((p.y / CELL) as usize).wrapping_sub(self.y0),
         );
         // Left of or above the grid wraps round to beyond it.
-        if x >= self.columns || y >= self.rows {
-            return &[];
+        (x < self.columns && y < self.rows).then_some(y * self.columns + x)
+    }
+
+    /// The spheres that may cover the pixels of `cell`.
+    fn members(&self, cell: Option<usize>) -> &[u32] {
+        match cell {
+            Some(c) => &self.members[self.starts[c] as usize..self.starts[c + 1] as usize],
+            None => &[],
         }
-        let c = y * self.columns + x;
-        &self.members[self.starts[c] as usize..self.starts[c + 1] as usize]
+    }
+
+    /// The spheres that may cover pixel `p`.
+    fn near(&self, p: Vector2<f64>) -> &[u32] {
+        self.members(self.cell(p))
     }
 }
 
@@ -640,21 +649,27 @@ impl Spheres {
         // camera lay just beside the outline of the tube behind it). The tube's own spheres
         // here reach the outline and no farther, so none covers its point by a quarter pixel.
         // At the point itself, one pass over its cell also asks whether the ray enters the
-        // tube before it.
-        let here = self.grid.near(p.pixel).iter().any(|&i| {
-            let (c, px, _) = &self.items[i as usize];
-            let (inner, outer) = self.reach2[i as usize];
+        // tube before it; the points outward in that cell (most are) are asked in the same
+        // pass, the others in their own cells.
+        let cell = self.grid.cell(p.pixel);
+        let outward = [0.75, 1.5, self.clearance].map(|step| {
+            let q = p.pixel + p.normal * step;
+            (q, self.grid.cell(q) == cell)
+        });
+        let covers =
+            |i: usize, q: &Vector2<f64>| (self.items[i].1 - q).norm_squared() < self.reach2[i].0;
+        let here = self.grid.members(cell).iter().any(|&i| {
+            let i = i as usize;
+            let (c, px, _) = &self.items[i];
+            let (inner, outer) = self.reach2[i];
             let d2 = (px - p.pixel).norm_squared();
             d2 < inner
-                || (d2 <= outer && enters_before(c, self.radii[i as usize], eye, &d, depth - 0.01))
+                || outward.iter().any(|(q, same)| *same && covers(i, q))
+                || (d2 <= outer && enters_before(c, self.radii[i], eye, &d, depth - 0.01))
         });
-        here || [0.75, 1.5, self.clearance].iter().any(|&step| {
-            let q = p.pixel + p.normal * step;
-            self.grid.near(q).iter().any(|&i| {
-                let px = &self.items[i as usize].1;
-                (px - q).norm_squared() < self.reach2[i as usize].0
-            })
-        })
+        here || outward
+            .iter()
+            .any(|(q, same)| !*same && self.grid.near(*q).iter().any(|&i| covers(i as usize, q)))
     }
 }
 
