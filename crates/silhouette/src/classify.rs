@@ -262,11 +262,13 @@ enum Kind {
     Green { limit: Vec<u8> },
     /// Foreground iff some channel differs from `bg[i]` by more than `margin[i]`.
     Difference { bg: Vec<[f32; 3]>, margin: Vec<f32> },
-    /// Per pixel: background colour, `1 / E·E`, and squared chromaticity thresholds.
+    /// Per pixel, each in its own plane (a block of pixels is read as whole vectors):
+    /// background colour channel by channel, `1 / E·E`, and the strict and loose squared
+    /// chromaticity thresholds.
     Colour {
-        bg: Vec<[f32; 3]>,
+        bg: [Vec<f32>; 3],
         inv_e2: Vec<f32>,
-        cd2: Vec<[f32; 2]>,
+        cd2: [Vec<f32>; 2],
         dark: f32,
         dark_weak: f32,
         bright: f32,
@@ -330,9 +332,9 @@ impl Prepared {
             }) => {
                 // Shadow-like pixels are only looked for when sharp regions count.
                 let shade = if edge > 0.0 { shade } else { 0.0 };
-                let mut bg = Vec::with_capacity(n);
+                let mut bg: [Vec<f32>; 3] = std::array::from_fn(|_| Vec::with_capacity(n));
                 let mut inv_e2 = Vec::with_capacity(n);
-                let mut cd2 = Vec::with_capacity(n);
+                let mut cd2: [Vec<f32>; 2] = std::array::from_fn(|_| Vec::with_capacity(n));
                 for (i, tol) in tolerance.iter_mut().enumerate() {
                     let e = model.mean(i);
                     let e2 = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).max(1.0);
@@ -344,9 +346,12 @@ impl Prepared {
                     let room = w.min(1.0 - dark_weak.max(shade)).min(bright - 1.0) * e2.sqrt()
                         / 3f32.sqrt();
                     *tol = room - 0.5 - 1e-3;
-                    bg.push(e);
+                    for (plane, v) in bg.iter_mut().zip(e) {
+                        plane.push(v);
+                    }
                     inv_e2.push(1.0 / e2);
-                    cd2.push([s * s, w * w]);
+                    cd2[0].push(s * s);
+                    cd2[1].push(w * w);
                 }
                 Kind::Colour {
                     bg,
@@ -491,7 +496,7 @@ impl Prepared {
                     }
                 }
             }
-            let e = bg[y * w + x];
+            let e = bg.each_ref().map(|plane| plane[y * w + x]);
             let i = colour(x, y);
             let d: [f32; 3] = std::array::from_fn(|k| sum[k] / n - e[k]);
             let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
@@ -504,7 +509,7 @@ impl Prepared {
         if *edge > 0.0 {
             let alpha = |x: usize, y: usize| {
                 let i = y * w + x;
-                let (p, e) = (colour(x, y), bg[i]);
+                let (p, e) = (colour(x, y), bg.each_ref().map(|plane| plane[i]));
                 (p[0] * e[0] + p[1] * e[1] + p[2] * e[2]) * inv_e2[i]
             };
             // Pixels beside the strict foreground are its outline, which the ring above
@@ -593,22 +598,33 @@ impl Prepared {
                     let (s_row, w_row, d_row) =
                         (strong.row_mut(y), weak.row_mut(y), shady.row_mut(y));
                     self.busy_blocks(row, bg_row, y, w, region.columns(y, w), |x0, x1| {
-                        let (mut s_bits, mut w_bits, mut d_bits) = (0u64, 0u64, 0u64);
-                        for x in x0..x1 {
-                            let i = y * w + x;
-                            let p = &row[x * 3..x * 3 + 3];
-                            let (r, g, b) = (p[0] as f32, p[1] as f32, p[2] as f32);
-                            let e = bg[i];
-                            let alpha = (r * e[0] + g * e[1] + b * e[2]) * inv_e2[i];
-                            let cd = (r * r + g * g + b * b) * inv_e2[i] - alpha * alpha;
-                            let [s2, w2] = cd2[i];
-                            let strict = cd > s2 || alpha < *dark || alpha > *bright;
-                            let loose = cd > w2 || alpha < *dark_weak || alpha > *bright;
-                            let dim = !strict && alpha < *shade;
-                            s_bits |= (strict as u64) << (x - x0);
-                            w_bits |= (loose as u64) << (x - x0);
-                            d_bits |= (dim as u64) << (x - x0);
+                        let (i0, n) = (y * w + x0, x1 - x0);
+                        let (e, inv, limits) = (
+                            bg.each_ref().map(|v| &v[i0..i0 + n]),
+                            &inv_e2[i0..i0 + n],
+                            cd2.each_ref().map(|v| &v[i0..i0 + n]),
+                        );
+                        // The block's colours channel by channel, then each test for every
+                        // pixel as one byte: the loop over the planes runs as vectors.
+                        let mut c = [[0f32; BLOCK]; 3];
+                        for (k, p) in row[x0 * 3..x1 * 3].chunks_exact(3).enumerate() {
+                            for ch in 0..3 {
+                                c[ch][k] = p[ch] as f32;
+                            }
                         }
+                        let mut tests = [[0u8; BLOCK]; 3];
+                        for k in 0..n {
+                            let (r, g, b) = (c[0][k], c[1][k], c[2][k]);
+                            let alpha = (r * e[0][k] + g * e[1][k] + b * e[2][k]) * inv[k];
+                            let cd = (r * r + g * g + b * b) * inv[k] - alpha * alpha;
+                            let strict = cd > limits[0][k] || alpha < *dark || alpha > *bright;
+                            let loose = cd > limits[1][k] || alpha < *dark_weak || alpha > *bright;
+                            let dim = !strict && alpha < *shade;
+                            tests[0][k] = strict as u8;
+                            tests[1][k] = loose as u8;
+                            tests[2][k] = dim as u8;
+                        }
+                        let [s_bits, w_bits, d_bits] = tests.map(|t| pack_bits(&t));
                         s_row[x0 / 64] |= s_bits << (x0 % 64);
                         w_row[x0 / 64] |= w_bits << (x0 % 64);
                         d_row[x0 / 64] |= d_bits << (x0 % 64);
@@ -618,6 +634,17 @@ impl Prepared {
             }
         }
     }
+}
+
+/// The bits of a block's tests, pixel `k`'s at bit `k` (each byte 0 or 1): eight at a time by
+/// one multiplication, whose partial products land on distinct bits of the top byte.
+fn pack_bits(t: &[u8; BLOCK]) -> u64 {
+    t.chunks_exact(8)
+        .enumerate()
+        .fold(0, |bits, (half, bytes)| {
+            let v = u64::from_le_bytes(bytes.try_into().unwrap_or([0; 8]));
+            bits | (v.wrapping_mul(0x0102_0408_1020_4080) >> 56) << (8 * half)
+        })
 }
 
 /// Rows ahead of the classified one whose bytes are asked for ([`Prepared::prefetch_row`]).
