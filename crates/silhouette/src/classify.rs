@@ -709,6 +709,65 @@ mod tests {
     }
 
     #[test]
+    fn packed_bits_are_the_bytes_in_order() {
+        let mut x = 7u64;
+        for _ in 0..200 {
+            let bytes: [u8; BLOCK] = std::array::from_fn(|_| {
+                x = x
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (x >> 63) as u8
+            });
+            let one_by_one = (0..BLOCK).fold(0u64, |m, k| m | u64::from(bytes[k]) << k);
+            assert_eq!(pack_bits(&bytes), one_by_one, "{bytes:?}");
+        }
+    }
+
+    /// The colour tests of every pixel, written out one pixel at a time from the model's
+    /// planes, against the blocks' vector loop.
+    #[test]
+    fn the_colour_blocks_test_each_pixel_as_written() {
+        let mut config = SimConfig::default();
+        config.render.shadows = true;
+        let sim = Simulator::new(config).unwrap();
+        let model = BackgroundModel::from_frames(&sim.backgrounds()[..1]).unwrap();
+        let mut colour = ColourShadow::default();
+        colour.edge = 0.5;
+        let prepared = Prepared::new(&model, &Classifier::ColourShadow(colour));
+        let Kind::Colour {
+            bg,
+            inv_e2,
+            cd2,
+            dark,
+            dark_weak,
+            bright,
+            shade,
+            ..
+        } = &prepared.kind
+        else {
+            panic!("a colour classifier")
+        };
+        let frame = &sim.render(0, &sim.sweep(1)[0]).unwrap().views[0].image;
+        let (strong, weak, shady) = prepared.classify(frame, &Region::ALL);
+        let mut set = 0;
+        for (x, y, p) in frame.enumerate_pixels() {
+            let (x, y) = (x as usize, y as usize);
+            let i = y * frame.width() as usize + x;
+            let [r, g, b] = p.0.map(f32::from);
+            let alpha = (r * bg[0][i] + g * bg[1][i] + b * bg[2][i]) * inv_e2[i];
+            let cd = (r * r + g * g + b * b) * inv_e2[i] - alpha * alpha;
+            let strict = cd > cd2[0][i] || alpha < *dark || alpha > *bright;
+            let loose = cd > cd2[1][i] || alpha < *dark_weak || alpha > *bright;
+            let dim = !strict && alpha < *shade;
+            // Skipped blocks included: skipping is exact.
+            let got = [strong.get(x, y), weak.get(x, y), shady.get(x, y)];
+            assert_eq!(got, [strict, loose, dim], "pixel ({x}, {y})");
+            set += usize::from(strict);
+        }
+        assert!(set > 1000, "{set} strict pixels");
+    }
+
+    #[test]
     fn difference_marks_pixels_off_the_backdrop_in_any_channel() {
         let model = BackgroundModel::uniform(70, 3, [10.0, 10.0, 10.0], 2.0).unwrap();
         let d = Difference {
