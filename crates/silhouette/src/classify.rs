@@ -731,8 +731,10 @@ mod tests {
         config.render.shadows = true;
         let sim = Simulator::new(config).unwrap();
         let model = BackgroundModel::from_frames(&sim.backgrounds()[..1]).unwrap();
-        let mut colour = ColourShadow::default();
-        colour.edge = 0.5;
+        let colour = ColourShadow {
+            edge: 0.5,
+            ..ColourShadow::default()
+        };
         let prepared = Prepared::new(&model, &Classifier::ColourShadow(colour));
         let Kind::Colour {
             bg,
