@@ -757,12 +757,13 @@ pub(crate) fn sphere(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use flexshape_camera::{Distortion, Intrinsics, Pose};
     use flexshape_curve::BSpline3;
 
-    fn camera() -> Camera {
+    /// A 640×480 camera with strong distortion at `eye`, looking at the origin, z up.
+    pub(crate) fn camera_at(eye: Point3<f64>) -> Camera {
         let intr = Intrinsics::new(
             640,
             480,
@@ -773,14 +774,11 @@ mod tests {
             Distortion::from_opencv(&[-0.2, 0.1, 0.001, -0.0005, -0.02]).unwrap(),
         )
         .unwrap();
-        Camera::new(
-            intr,
-            Pose::look_at(
-                Point3::new(40.0, -500.0, 120.0),
-                Point3::new(0.0, 0.0, 0.0),
-                Vector3::z(),
-            ),
-        )
+        Camera::new(intr, Pose::look_at(eye, Point3::origin(), Vector3::z()))
+    }
+
+    fn camera() -> Camera {
+        camera_at(Point3::new(40.0, -500.0, 120.0))
     }
 
     fn tube() -> Tube {

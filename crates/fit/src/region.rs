@@ -64,23 +64,10 @@ pub(crate) fn around(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use flexshape_camera::{Distortion, Intrinsics, Pose};
+    use crate::outline::tests::camera_at as camera;
+    use flexshape_camera::Pose;
     use flexshape_silhouette::Area;
     use nalgebra::Vector3;
-
-    fn camera(eye: Point3<f64>) -> Camera {
-        let intr = Intrinsics::new(
-            640,
-            480,
-            800.0,
-            805.0,
-            322.0,
-            236.0,
-            Distortion::from_opencv(&[-0.2, 0.1, 0.001, -0.0005, -0.02]).unwrap(),
-        )
-        .unwrap();
-        Camera::new(intr, Pose::look_at(eye, Point3::origin(), Vector3::z()))
-    }
 
     /// A tube of radius 3 mm bent across the view: from lower left to upper right.
     fn centres() -> Vec<(Point3<f64>, f64)> {

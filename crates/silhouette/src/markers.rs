@@ -68,48 +68,57 @@ pub(crate) fn for_each_set(mask: &BitMask, mut f: impl FnMut(usize, usize)) {
 
 /// The marker mask of `frame` within `object`.
 pub(crate) fn find_markers(frame: &RgbImage, object: &BitMask, s: &MarkerSettings) -> BitMask {
-    let (w, h) = (object.width(), object.height());
-    let norm = s.colour.iter().map(|c| c * c).sum::<f32>().sqrt();
-    let t = s.colour.map(|c| c / norm);
-    let cos_min = s.max_angle_deg.to_radians().cos();
-    let px = frame.as_raw();
-    let is_tape = |x: usize, y: usize| {
-        let i = (y * w + x) * 3;
-        let (r, g, b) = (px[i] as f32, px[i + 1] as f32, px[i + 2] as f32);
-        let len = (r * r + g * g + b * b).sqrt();
-        r + g + b >= s.min_level && (r * t[0] + g * t[1] + b * t[2]) >= cos_min * len
-    };
     let interior = object.erode(1).and(object);
-    let mut tape = BitMask::new(w, h);
-    for_each_set(&interior, |x, y| {
-        if is_tape(x, y) {
-            tape.set(x, y, true);
-        }
-    });
+    let tape = tape_inside(frame, &interior, s);
     let mut out = tape.clone();
     // An edge pixel with no tape within 2 pixels has no vote for it: only those near tape
     // are counted (tape is a few bands; the edge runs all along the object).
     let edge = object.and_not(&interior).and(&tape.dilate(2));
     for_each_set(&edge, |x, y| {
-        // Majority of interior neighbours within 1, else within 2 pixels.
-        for r in 1..=2usize {
-            let (mut yes, mut no) = (0, 0);
-            for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
-                for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
-                    if interior.get(xx, yy) {
-                        if tape.get(xx, yy) { yes += 1 } else { no += 1 }
-                    }
-                }
-            }
-            if yes + no > 0 {
-                if yes > no {
-                    out.set(x, y, true);
-                }
-                break;
-            }
+        if voted_tape(&interior, &tape, x, y) {
+            out.set(x, y, true);
         }
     });
     out
+}
+
+/// The pixels of `interior` whose colour is the tape's.
+fn tape_inside(frame: &RgbImage, interior: &BitMask, s: &MarkerSettings) -> BitMask {
+    let w = interior.width();
+    let norm = s.colour.iter().map(|c| c * c).sum::<f32>().sqrt();
+    let t = s.colour.map(|c| c / norm);
+    let cos_min = s.max_angle_deg.to_radians().cos();
+    let px = frame.as_raw();
+    let mut tape = BitMask::new(w, interior.height());
+    for_each_set(interior, |x, y| {
+        let i = (y * w + x) * 3;
+        let (r, g, b) = (px[i] as f32, px[i + 1] as f32, px[i + 2] as f32);
+        let len = (r * r + g * g + b * b).sqrt();
+        if r + g + b >= s.min_level && (r * t[0] + g * t[1] + b * t[2]) >= cos_min * len {
+            tape.set(x, y, true);
+        }
+    });
+    tape
+}
+
+/// Whether the edge pixel `(x, y)` is tape: the majority of the interior pixels within 1 of
+/// it, or within 2 when none is within 1.
+fn voted_tape(interior: &BitMask, tape: &BitMask, x: usize, y: usize) -> bool {
+    let (w, h) = (interior.width(), interior.height());
+    for r in 1..=2usize {
+        let (mut yes, mut no) = (0, 0);
+        for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+            for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                if interior.get(xx, yy) {
+                    if tape.get(xx, yy) { yes += 1 } else { no += 1 }
+                }
+            }
+        }
+        if yes + no > 0 {
+            return yes > no;
+        }
+    }
+    false
 }
 
 #[cfg(test)]
@@ -117,39 +126,13 @@ mod tests {
     use super::*;
     use crate::bitmask::random_mask;
 
-    /// Every edge pixel voted on, as the rule reads (the reference for the one that skips
-    /// those far from tape).
+    /// Every edge pixel voted on (the reference for the rule that skips those far from tape).
     fn every_edge_voted(frame: &RgbImage, object: &BitMask, s: &MarkerSettings) -> BitMask {
-        let (w, h) = (object.width(), object.height());
         let interior = object.erode(1).and(object);
-        let t = s
-            .colour
-            .map(|c| c / s.colour.iter().map(|c| c * c).sum::<f32>().sqrt());
-        let mut tape = BitMask::new(w, h);
-        for_each_set(&interior, |x, y| {
-            let [r, g, b] = frame.get_pixel(x as u32, y as u32).0.map(f32::from);
-            let len = (r * r + g * g + b * b).sqrt();
-            let cos = s.max_angle_deg.to_radians().cos();
-            if r + g + b >= s.min_level && r * t[0] + g * t[1] + b * t[2] >= cos * len {
-                tape.set(x, y, true);
-            }
-        });
+        let tape = tape_inside(frame, &interior, s);
         let mut out = tape.clone();
         for_each_set(&object.and_not(&interior), |x, y| {
-            for r in 1..=2usize {
-                let (mut yes, mut no) = (0, 0);
-                for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
-                    for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
-                        if interior.get(xx, yy) {
-                            if tape.get(xx, yy) { yes += 1 } else { no += 1 }
-                        }
-                    }
-                }
-                if yes + no > 0 {
-                    out.set(x, y, yes > no);
-                    break;
-                }
-            }
+            out.set(x, y, voted_tape(&interior, &tape, x, y));
         });
         out
     }
