@@ -613,7 +613,7 @@ impl TubeFitter {
     }
 
     /// The part of each camera's image (rig order) within `margin_px` of `tube`'s image (its
-    /// ends' continuations left out), row by row ([`region::around`]), or `None` for a camera
+    /// ends' continuations left out), row by row (see `region::around`), or `None` for a camera
     /// that does not see the tube.
     pub fn image_regions(&self, tube: &Tube, margin_px: f64) -> Vec<Option<Rows>> {
         let centres = outline::sphere_centres(tube, tube.length());
