@@ -294,29 +294,35 @@ impl BSpline3 {
     }
 
     fn eval_inside(&self, u: f64) -> Derivatives {
-        let ([c0, c1, c2, c3], t) = self.piece(u);
+        let (piece, t) = self.piece(u);
+        let (value, d1) = self.value_and_d1(piece, t);
+        let [_, _, c2, c3] = piece;
         let s = self.pieces.len() as f64;
         Derivatives {
-            value: std::array::from_fn(|c| ((c3[c] * t + c2[c]) * t + c1[c]) * t + c0[c]),
-            d1: std::array::from_fn(|c| ((3.0 * c3[c] * t + 2.0 * c2[c]) * t + c1[c]) * s),
+            value,
+            d1,
             d2: std::array::from_fn(|c| (6.0 * c3[c] * t + 2.0 * c2[c]) * s * s),
             d3: std::array::from_fn(|c| 6.0 * c3[c] * s * s * s),
         }
+    }
+
+    /// Position and first derivative by `u` at `t` across a span's cubic (Horner's rule).
+    fn value_and_d1(&self, [c0, c1, c2, c3]: &[[f64; 3]; 4], t: f64) -> ([f64; 3], [f64; 3]) {
+        let s = self.pieces.len() as f64;
+        (
+            std::array::from_fn(|c| ((c3[c] * t + c2[c]) * t + c1[c]) * t + c0[c]),
+            std::array::from_fn(|c| ((3.0 * c3[c] * t + 2.0 * c2[c]) * t + c1[c]) * s),
+        )
     }
 
     /// Position and first derivative at `u` (continued straight beyond `[0, 1]`, as
     /// [`BSpline3::eval`]), at about half its cost.
     pub fn point_and_d1(&self, u: f64) -> ([f64; 3], [f64; 3]) {
         let inside = u.clamp(0.0, 1.0);
-        let ([c0, c1, c2, c3], t) = self.piece(inside);
-        let s = self.pieces.len() as f64;
-        let d1: [f64; 3] =
-            std::array::from_fn(|c| ((3.0 * c3[c] * t + 2.0 * c2[c]) * t + c1[c]) * s);
+        let (piece, t) = self.piece(inside);
+        let (value, d1) = self.value_and_d1(piece, t);
         let du = u - inside;
-        (
-            std::array::from_fn(|c| ((c3[c] * t + c2[c]) * t + c1[c]) * t + c0[c] + d1[c] * du),
-            d1,
-        )
+        (std::array::from_fn(|c| value[c] + d1[c] * du), d1)
     }
 
     /// Position and derivatives where `basis` was taken (from [`BSpline3::basis`] of this

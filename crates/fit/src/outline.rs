@@ -654,7 +654,7 @@ impl Spheres {
         let cell = self.grid.cell(p.pixel);
         let outward = [0.75, 1.5, self.clearance].map(|step| {
             let q = p.pixel + p.normal * step;
-            (q, self.grid.cell(q) == cell)
+            (q, self.grid.cell(q))
         });
         let covers =
             |i: usize, q: &Vector2<f64>| (self.items[i].1 - q).norm_squared() < self.reach2[i].0;
@@ -664,12 +664,17 @@ impl Spheres {
             let (inner, outer) = self.reach2[i];
             let d2 = (px - p.pixel).norm_squared();
             d2 < inner
-                || outward.iter().any(|(q, same)| *same && covers(i, q))
+                || outward.iter().any(|(q, at)| *at == cell && covers(i, q))
                 || (d2 <= outer && enters_before(c, self.radii[i], eye, &d, depth - 0.01))
         });
-        here || outward
-            .iter()
-            .any(|(q, same)| !*same && self.grid.near(*q).iter().any(|&i| covers(i as usize, q)))
+        here || outward.iter().any(|(q, at)| {
+            *at != cell
+                && self
+                    .grid
+                    .members(*at)
+                    .iter()
+                    .any(|&i| covers(i as usize, q))
+        })
     }
 }
 
