@@ -594,32 +594,37 @@ impl Prepared {
                         (strong.row_mut(y), weak.row_mut(y), shady.row_mut(y));
                     self.busy_blocks(row, bg_row, y, w, region.columns(y, w), |x0, x1| {
                         let (i0, n) = (y * w + x0, x1 - x0);
-                        let (e, inv, limits) = (
-                            bg.each_ref().map(|v| &v[i0..i0 + n]),
-                            &inv_e2[i0..i0 + n],
-                            cd2.each_ref().map(|v| &v[i0..i0 + n]),
-                        );
-                        // The block's colours channel by channel, then each test for every
-                        // pixel as one byte: the loop over the planes runs as vectors.
+                        let at = |v: &[f32]| -> [f32; BLOCK] {
+                            // A whole block as it lies; the row's last, partial one padded.
+                            let mut a = [0f32; BLOCK];
+                            if let Ok(whole) = v[i0..i0 + n].try_into() {
+                                a = whole;
+                            } else {
+                                a[..n].copy_from_slice(&v[i0..i0 + n]);
+                            }
+                            a
+                        };
                         let mut c = [[0f32; BLOCK]; 3];
-                        for (k, p) in row[x0 * 3..x1 * 3].chunks_exact(3).enumerate() {
+                        let mut bytes = [0u8; 3 * BLOCK];
+                        if let Ok(whole) = row[x0 * 3..x1 * 3].try_into() {
+                            bytes = whole;
+                        } else {
+                            bytes[..3 * n].copy_from_slice(&row[x0 * 3..x1 * 3]);
+                        }
+                        for (k, p) in bytes.chunks_exact(3).enumerate() {
                             for ch in 0..3 {
                                 c[ch][k] = p[ch] as f32;
                             }
                         }
-                        let mut tests = [[0u8; BLOCK]; 3];
-                        for k in 0..n {
-                            let (r, g, b) = (c[0][k], c[1][k], c[2][k]);
-                            let alpha = (r * e[0][k] + g * e[1][k] + b * e[2][k]) * inv[k];
-                            let cd = (r * r + g * g + b * b) * inv[k] - alpha * alpha;
-                            let strict = cd > limits[0][k] || alpha < *dark || alpha > *bright;
-                            let loose = cd > limits[1][k] || alpha < *dark_weak || alpha > *bright;
-                            let dim = !strict && alpha < *shade;
-                            tests[0][k] = strict as u8;
-                            tests[1][k] = loose as u8;
-                            tests[2][k] = dim as u8;
-                        }
-                        let [s_bits, w_bits, d_bits] = tests.map(|t| pack_bits(&t));
+                        let planes = BlockPlanes {
+                            e: bg.each_ref().map(|v| at(v)),
+                            inv: at(inv_e2),
+                            limits: cd2.each_ref().map(|v| at(v)),
+                        };
+                        let tests = planes.tests(&c, [*dark, *dark_weak, *bright, *shade]);
+                        // Bits past the row's end (a partial block) stay clear.
+                        let keep = if n == BLOCK { !0 } else { (1u64 << n) - 1 };
+                        let [s_bits, w_bits, d_bits] = tests.map(|t| pack_bits(&t) & keep);
                         s_row[x0 / 64] |= s_bits << (x0 % 64);
                         w_row[x0 / 64] |= w_bits << (x0 % 64);
                         d_row[x0 / 64] |= d_bits << (x0 % 64);
@@ -631,25 +636,73 @@ impl Prepared {
     }
 }
 
+/// One block's background planes, each a lane per pixel.
+struct BlockPlanes {
+    /// The background colour, channel by channel.
+    e: [[f32; BLOCK]; 3],
+    /// `1 / ‖E‖²`.
+    inv: [f32; BLOCK],
+    /// The squared chroma limits: strict, loose.
+    limits: [[f32; BLOCK]; 2],
+}
+
+impl BlockPlanes {
+    /// Each test for every pixel of colours `c` (channel by channel) as one byte, 0 or 1:
+    /// strict foreground, loose foreground, shadow-like. `[dark, dark_weak, bright, shade]`
+    /// are the classifier's brightness limits. Fixed-size lanes, so the loop runs as vectors.
+    #[inline]
+    fn tests(
+        &self,
+        c: &[[f32; BLOCK]; 3],
+        [dark, dark_weak, bright, shade]: [f32; 4],
+    ) -> [[u8; BLOCK]; 3] {
+        let (e, inv, limits) = (&self.e, &self.inv, &self.limits);
+        let mut tests = [[0u8; BLOCK]; 3];
+        for k in 0..BLOCK {
+            let (r, g, b) = (c[0][k], c[1][k], c[2][k]);
+            let alpha = (r * e[0][k] + g * e[1][k] + b * e[2][k]) * inv[k];
+            let cd = (r * r + g * g + b * b) * inv[k] - alpha * alpha;
+            let strict = cd > limits[0][k] || alpha < dark || alpha > bright;
+            let loose = cd > limits[1][k] || alpha < dark_weak || alpha > bright;
+            let dim = !strict && alpha < shade;
+            tests[0][k] = strict as u8;
+            tests[1][k] = loose as u8;
+            tests[2][k] = dim as u8;
+        }
+        tests
+    }
+}
+
 /// The largest difference between a byte of `frame` and the byte of `bg` at its place (the
-/// two of equal length): sixteen bytes at a time in one vector's lanes, which the
-/// compiler keeps in registers (a fold over the zipped bytes ran byte by byte).
+/// two of equal length): 64 bytes at a time (a word of pixels is three such), then 16 (a
+/// block is three such), each in one vector's lanes; a fold over the zipped bytes vectorised
+/// the words but ran a block's 48 bytes byte by byte.
 #[inline]
 fn max_deviation(frame: &[u8], bg: &[u8]) -> u8 {
     debug_assert_eq!(frame.len(), bg.len());
-    let (chunks, rest) = frame.as_chunks::<16>();
-    let (bg_chunks, bg_rest) = bg.as_chunks::<16>();
-    let mut lanes = [0u8; 16];
-    for (f, b) in chunks.iter().zip(bg_chunks) {
-        for k in 0..16 {
-            lanes[k] = lanes[k].max(f[k].abs_diff(b[k]));
+    let (wide, rest) = frame.as_chunks::<64>();
+    let (bg_wide, bg_rest) = bg.as_chunks::<64>();
+    let (narrow, tail) = rest.as_chunks::<16>();
+    let (bg_narrow, bg_tail) = bg_rest.as_chunks::<16>();
+    let wide = lane_max(wide, bg_wide);
+    let narrow = lane_max(narrow, bg_narrow);
+    let tail = tail
+        .iter()
+        .zip(bg_tail)
+        .fold(0u8, |m, (a, b)| m.max(a.abs_diff(*b)));
+    wide.into_iter().chain(narrow).fold(tail, u8::max)
+}
+
+/// Lane by lane, the largest difference between the chunks of `a` and those of `b`.
+#[inline]
+fn lane_max<const N: usize>(a: &[[u8; N]], b: &[[u8; N]]) -> [u8; N] {
+    let mut lanes = [0u8; N];
+    for (x, y) in a.iter().zip(b) {
+        for k in 0..N {
+            lanes[k] = lanes[k].max(x[k].abs_diff(y[k]));
         }
     }
-    let tail = rest
-        .iter()
-        .zip(bg_rest)
-        .fold(0u8, |m, (a, b)| m.max(a.abs_diff(*b)));
-    lanes.into_iter().fold(tail, u8::max)
+    lanes
 }
 
 /// The bits of a block's tests, pixel `k`'s at bit `k` (each byte 0 or 1): eight at a time by
