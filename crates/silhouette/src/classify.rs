@@ -814,12 +814,33 @@ mod tests {
         let mut config = SimConfig::default();
         config.render.shadows = true;
         let sim = Simulator::new(config).unwrap();
-        let model = BackgroundModel::from_frames(&sim.backgrounds()[..1]).unwrap();
+        let mut frame = sim.render(0, &sim.sweep(1)[0]).unwrap().views[0]
+            .image
+            .clone();
+        // Something at the images' right edge, so that a row's last block is classified.
+        for y in 100..140 {
+            for x in 600..640 {
+                frame.put_pixel(x, y, image::Rgb([200, 30, 30]));
+            }
+        }
+        let backdrop = sim.backgrounds()[0].clone();
+        // Whole blocks, and rows ending in a partial block (630 = 39·16 + 6).
+        for width in [640, 630] {
+            let crop =
+                |i: &RgbImage| image::imageops::crop_imm(i, 0, 0, width, i.height()).to_image();
+            let model = BackgroundModel::from_frames(&[crop(&backdrop)]).unwrap();
+            colour_blocks_as_written(&model, &crop(&frame));
+        }
+    }
+
+    /// The colour classifier's three masks of `frame` against its tests written out per pixel
+    /// (skipped blocks included: skipping is exact), with no bit set past the image's width.
+    fn colour_blocks_as_written(model: &BackgroundModel, frame: &RgbImage) {
         let colour = ColourShadow {
             edge: 0.5,
             ..ColourShadow::default()
         };
-        let prepared = Prepared::new(&model, &Classifier::ColourShadow(colour));
+        let prepared = Prepared::new(model, &Classifier::ColourShadow(colour));
         let Kind::Colour {
             bg,
             inv_e2,
@@ -833,9 +854,8 @@ mod tests {
         else {
             panic!("a colour classifier")
         };
-        let frame = &sim.render(0, &sim.sweep(1)[0]).unwrap().views[0].image;
         let (strong, weak, shady) = prepared.classify(frame, &Region::ALL);
-        let mut set = 0;
+        let mut set = [0; 3];
         for (x, y, p) in frame.enumerate_pixels() {
             let (x, y) = (x as usize, y as usize);
             let i = y * frame.width() as usize + x;
@@ -845,12 +865,14 @@ mod tests {
             let strict = cd > cd2[0][i] || alpha < *dark || alpha > *bright;
             let loose = cd > cd2[1][i] || alpha < *dark_weak || alpha > *bright;
             let dim = !strict && alpha < *shade;
-            // Skipped blocks included: skipping is exact.
             let got = [strong.get(x, y), weak.get(x, y), shady.get(x, y)];
             assert_eq!(got, [strict, loose, dim], "pixel ({x}, {y})");
-            set += usize::from(strict);
+            for (n, t) in set.iter_mut().zip([strict, loose, dim]) {
+                *n += usize::from(t);
+            }
         }
-        assert!(set > 1000, "{set} strict pixels");
+        assert!(set[0] > 1000, "{} strict pixels", set[0]);
+        assert_eq!([strong.count(), weak.count(), shady.count()], set);
     }
 
     #[test]
