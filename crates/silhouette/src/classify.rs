@@ -594,32 +594,32 @@ impl Prepared {
                         (strong.row_mut(y), weak.row_mut(y), shady.row_mut(y));
                     self.busy_blocks(row, bg_row, y, w, region.columns(y, w), |x0, x1| {
                         let (i0, n) = (y * w + x0, x1 - x0);
-                        let at = |v: &[f32]| -> [f32; BLOCK] {
-                            // A whole block as it lies; the row's last, partial one padded.
-                            let mut a = [0f32; BLOCK];
-                            if let Ok(whole) = v[i0..i0 + n].try_into() {
-                                a = whole;
-                            } else {
-                                a[..n].copy_from_slice(&v[i0..i0 + n]);
-                            }
-                            a
-                        };
                         let mut c = [[0f32; BLOCK]; 3];
                         let mut bytes = [0u8; 3 * BLOCK];
-                        if let Ok(whole) = row[x0 * 3..x1 * 3].try_into() {
-                            bytes = whole;
-                        } else {
-                            bytes[..3 * n].copy_from_slice(&row[x0 * 3..x1 * 3]);
-                        }
+                        bytes[..3 * n].copy_from_slice(&row[x0 * 3..x1 * 3]);
                         for (k, p) in bytes.chunks_exact(3).enumerate() {
                             for ch in 0..3 {
                                 c[ch][k] = p[ch] as f32;
                             }
                         }
+                        // A whole block's planes as they lie; the row's last, partial one
+                        // padded.
+                        let [e0, e1, e2] = bg.each_ref().map(Vec::as_slice);
+                        let [l0, l1] = cd2.each_ref().map(Vec::as_slice);
+                        let planes = [e0, e1, e2, inv_e2.as_slice(), l0, l1];
+                        let mut padded = [[0f32; BLOCK]; 6];
+                        let planes: [&[f32]; 6] = if n == BLOCK {
+                            planes.map(|v| &v[i0..i0 + BLOCK])
+                        } else {
+                            for (pad, v) in padded.iter_mut().zip(planes) {
+                                pad[..n].copy_from_slice(&v[i0..i0 + n]);
+                            }
+                            padded.each_ref().map(|p| p.as_slice())
+                        };
                         let planes = BlockPlanes {
-                            e: bg.each_ref().map(|v| at(v)),
-                            inv: at(inv_e2),
-                            limits: cd2.each_ref().map(|v| at(v)),
+                            e: [planes[0], planes[1], planes[2]],
+                            inv: planes[3],
+                            limits: [planes[4], planes[5]],
                         };
                         let tests = planes.tests(&c, [*dark, *dark_weak, *bright, *shade]);
                         // Bits past the row's end (a partial block) stay clear.
@@ -636,27 +636,30 @@ impl Prepared {
     }
 }
 
-/// One block's background planes, each a lane per pixel.
-struct BlockPlanes {
+/// One block's background planes, each [`BLOCK`] values, a pixel's at its place.
+struct BlockPlanes<'a> {
     /// The background colour, channel by channel.
-    e: [[f32; BLOCK]; 3],
+    e: [&'a [f32]; 3],
     /// `1 / ‖E‖²`.
-    inv: [f32; BLOCK],
+    inv: &'a [f32],
     /// The squared chroma limits: strict, loose.
-    limits: [[f32; BLOCK]; 2],
+    limits: [&'a [f32]; 2],
 }
 
-impl BlockPlanes {
+impl BlockPlanes<'_> {
     /// Each test for every pixel of colours `c` (channel by channel) as one byte, 0 or 1:
     /// strict foreground, loose foreground, shadow-like. `[dark, dark_weak, bright, shade]`
-    /// are the classifier's brightness limits. Fixed-size lanes, so the loop runs as vectors.
+    /// are the classifier's brightness limits. The planes cut to [`BLOCK`] values first, so
+    /// the loop runs as vectors of a known length.
     #[inline]
     fn tests(
         &self,
         c: &[[f32; BLOCK]; 3],
         [dark, dark_weak, bright, shade]: [f32; 4],
     ) -> [[u8; BLOCK]; 3] {
-        let (e, inv, limits) = (&self.e, &self.inv, &self.limits);
+        let e = self.e.map(|v| &v[..BLOCK]);
+        let inv = &self.inv[..BLOCK];
+        let limits = self.limits.map(|v| &v[..BLOCK]);
         let mut tests = [[0u8; BLOCK]; 3];
         for k in 0..BLOCK {
             let (r, g, b) = (c[0][k], c[1][k], c[2][k]);
