@@ -782,8 +782,9 @@ mod tests {
 
     #[test]
     fn the_largest_deviation_is_the_largest_byte_difference() {
-        // Lengths around the 16-byte lanes, the largest difference at every place in turn.
-        for len in [0, 1, 15, 16, 17, 47, 48, 49, 192] {
+        // Lengths around the 64- and 16-byte lanes (a block is 48 bytes, a word 192), the
+        // largest difference at every place in turn.
+        for len in [0, 1, 15, 16, 17, 47, 48, 49, 63, 64, 65, 80, 127, 192] {
             for at in 0..len {
                 let bg: Vec<u8> = (0..len).map(|i| (i * 37 % 251) as u8).collect();
                 let mut frame: Vec<u8> = bg.iter().map(|&b| b.wrapping_add(3)).collect();
