@@ -204,9 +204,13 @@ impl Tube {
 
     /// This tube carried on as it moved since `earlier`: each control point moved again by
     /// `ratio` times its move since then (the next frame of a smooth motion, `ratio` its
-    /// frames ahead over the frames between the two). `None` when the tubes do not pair up
-    /// point for point (another number of control points, other ends) or a point would move
-    /// more than `limit_mm`.
+    /// frames ahead over the frames between the two). Should an inner control point's move
+    /// exceed `limit_mm`, every inner point is moved across the tube only: such a move is a
+    /// slide along the tube (the fit spreads its control points again now and then, and a
+    /// tip's crowd them), which carries no motion on, and discarding the whole prediction for
+    /// it started a fast-moving frame a frame's motion behind. `None` when the tubes do not
+    /// pair up point for point (another number of control points, other ends), or an end, or
+    /// an inner point across the tube, would move more than `limit_mm`.
     pub fn carried_on(&self, earlier: &Tube, ratio: f64, limit_mm: f64) -> Option<Tube> {
         let (now, then) = (self.centerline.control(), earlier.centerline.control());
         if now.len() != then.len()
@@ -216,10 +220,24 @@ impl Tube {
         {
             return None;
         }
+        let last = now.len() - 1;
+        let moves: Vec<Vector3<f64>> = now
+            .iter()
+            .zip(then)
+            .map(|(a, b)| (Vector3::from(*a) - Vector3::from(*b)) * ratio)
+            .collect();
+        // NaN moves fail every comparison, so `!(‖d‖ ≤ limit)` catches them too.
+        let within = |d: &Vector3<f64>| d.norm() <= limit_mm;
+        let slid = moves[1..last].iter().any(|d| !within(d));
         let mut step = nalgebra::DVector::zeros(3 * now.len());
-        for (k, (a, b)) in now.iter().zip(then).enumerate() {
-            let d = (Vector3::from(*a) - Vector3::from(*b)) * ratio;
-            if d.norm().is_nan() || d.norm() > limit_mm {
+        for (k, d) in moves.into_iter().enumerate() {
+            let d = if slid && k > 0 && k < last {
+                let t = self.control_tangent(k);
+                d - t * d.dot(&t)
+            } else {
+                d
+            };
+            if !within(&d) {
                 return None;
             }
             step.fixed_rows_mut::<3>(3 * k).copy_from(&d);
@@ -331,6 +349,60 @@ mod tests {
         )
         .unwrap();
         assert!(now.carried_on(&longer, 1.0, 3.0).is_none());
+    }
+
+    #[test]
+    fn a_control_point_that_slid_along_the_tube_carries_on_only_the_moves_across_it() {
+        let then = bent();
+        let n = then.centerline.control().len();
+        let k = n / 2;
+        // Every point 0.5 mm sideways (across the bend's plane), one inner point also 4 mm
+        // along the tube: beyond the 3-mm limit, a slide rather than a motion.
+        let side = Vector3::new(0.0, 0.5, 0.0);
+        let slide = then.control_tangent(k) * 4.0;
+        let mut shift = nalgebra::DVector::zeros(3 * n);
+        for j in 0..n {
+            let d = if j == k { side + slide } else { side };
+            shift.fixed_rows_mut::<3>(3 * j).copy_from(&d);
+        }
+        let mut now = then.clone();
+        now.centerline.displace(&shift);
+        let next = now.carried_on(&then, 1.0, 3.0).unwrap();
+        for (j, (a, b)) in next
+            .centerline
+            .control()
+            .iter()
+            .zip(now.centerline.control())
+            .enumerate()
+        {
+            let moved = Vector3::from(*a) - Vector3::from(*b);
+            let expected = if j == 0 || j == n - 1 {
+                side
+            } else {
+                // Across the tube: the slide and the sideways move's part along it are left out.
+                let t = now.control_tangent(j);
+                let d = Vector3::from(*b) - Vector3::from(then.centerline.control()[j]);
+                d - t * d.dot(&t)
+            };
+            assert!(
+                (moved - expected).norm() < 1e-12,
+                "point {j}: {moved} against {expected}"
+            );
+            assert!(moved.dot(&now.control_tangent(j)).abs() < 1e-12 || j == 0 || j == n - 1);
+        }
+        // A slide that large at an end, or a move that large across the tube: no prediction.
+        let mut end = then.clone();
+        let mut at_end = nalgebra::DVector::zeros(3 * n);
+        at_end
+            .fixed_rows_mut::<3>(3 * (n - 1))
+            .copy_from(&(then.control_tangent(n - 1) * 4.0));
+        end.centerline.displace(&at_end);
+        assert!(end.carried_on(&then, 1.0, 3.0).is_none());
+        let mut across = then.clone();
+        let mut sideways = nalgebra::DVector::zeros(3 * n);
+        sideways[3 * k + 1] = 4.0;
+        across.centerline.displace(&sideways);
+        assert!(across.carried_on(&then, 1.0, 3.0).is_none());
     }
 
     #[test]
