@@ -118,8 +118,7 @@ pub struct Figures {
     pub stages: Vec<StageSummary>,
     /// Median ms of the whole chain, one frame at a time.
     pub frame_median_ms: f64,
-    /// Frames per second with one frame per thread in flight (the median of
-    /// [`THROUGHPUT_PASSES`] runs).
+    /// Frames per second with one frame per thread in flight (the median of three runs).
     pub throughput_fps: f64,
     /// Tracking only: share of frames that started from an earlier frame (the rest were
     /// carved again), the run's first frame, which has none, left out.
