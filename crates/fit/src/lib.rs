@@ -227,10 +227,10 @@ fn across_tube(tube: &Tube, step: &nalgebra::DVector<f64>) -> f64 {
             let d = Vector3::new(step[3 * k], step[3 * k + 1], step[3 * k + 2]);
             let capped = (k == 0 && tube.capped[0]) || (k == last && tube.capped[1]);
             if capped {
-                return d.norm();
+                d.norm()
+            } else {
+                tube.across(k, d).norm()
             }
-            let t = tube.control_tangent(k);
-            (d - t * d.dot(&t)).norm()
         })
         .fold(0.0, f64::max)
 }

@@ -155,6 +155,13 @@ impl Tube {
         t / t.norm().max(1e-12)
     }
 
+    /// The part of a move `d` of control point `k` across the tube: its part along
+    /// [`Tube::control_tangent`] left out.
+    pub fn across(&self, k: usize, d: Vector3<f64>) -> Vector3<f64> {
+        let t = self.control_tangent(k);
+        d - t * d.dot(&t)
+    }
+
     /// Whether the control points are still about evenly spread along the tube: every side
     /// of the control polygon, the clamped ends' first two scaled to a whole span (a clamped
     /// uniform spline places them a third and two thirds of a span apart), within a factor of
@@ -232,8 +239,7 @@ impl Tube {
         let mut step = nalgebra::DVector::zeros(3 * now.len());
         for (k, d) in moves.into_iter().enumerate() {
             let d = if slid && k > 0 && k < last {
-                let t = self.control_tangent(k);
-                d - t * d.dot(&t)
+                self.across(k, d)
             } else {
                 d
             };

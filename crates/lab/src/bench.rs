@@ -194,11 +194,11 @@ const THROUGHPUT_PASSES: usize = 3;
 
 /// Figures over `rounds` passes of `frames`: latency one frame at a time, throughput with one
 /// frame per thread in flight (thread `k` takes steps `k`, `k + n`, …; the median of
-/// [`THROUGHPUT_PASSES`] runs). A pipeline that tracks
-/// plays the frames back and forth (0 … last … 0 …: a motion that reverses, never a jump) as
-/// one continuous run, each frame started from the one before (for throughput, from its own
-/// previous one, `n` steps back, as the runner's workers do): only a run's first frames start
-/// from their hulls, as in a recording. One that does not starts every frame from its hull.
+/// [`THROUGHPUT_PASSES`] runs). A pipeline that tracks plays the frames back and forth
+/// (0 … last … 0 …: a motion that reverses, never a jump) as one continuous run, each frame
+/// started from the one before (for throughput, from its own previous one, `n` steps back, as
+/// the runner's workers do): only a run's first frames start from their hulls, as in a
+/// recording. One that does not starts every frame from its hull.
 fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figures, LabError> {
     let refs: Vec<Vec<&RgbImage>> = frames.iter().map(|f| f.0.iter().collect()).collect();
     let steps = rounds * refs.len();

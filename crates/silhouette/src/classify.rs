@@ -604,22 +604,20 @@ impl Prepared {
                         }
                         // A whole block's planes as they lie; the row's last, partial one
                         // padded.
-                        let [e0, e1, e2] = bg.each_ref().map(Vec::as_slice);
-                        let [l0, l1] = cd2.each_ref().map(Vec::as_slice);
-                        let planes = [e0, e1, e2, inv_e2.as_slice(), l0, l1];
+                        let whole = [&bg[0], &bg[1], &bg[2], inv_e2, &cd2[0], &cd2[1]];
                         let mut padded = [[0f32; BLOCK]; 6];
-                        let planes: [&[f32]; 6] = if n == BLOCK {
-                            planes.map(|v| &v[i0..i0 + BLOCK])
+                        let [e0, e1, e2, inv, strict, loose]: [&[f32]; 6] = if n == BLOCK {
+                            whole.map(|v| &v[i0..i0 + BLOCK])
                         } else {
-                            for (pad, v) in padded.iter_mut().zip(planes) {
+                            for (pad, v) in padded.iter_mut().zip(whole) {
                                 pad[..n].copy_from_slice(&v[i0..i0 + n]);
                             }
                             padded.each_ref().map(|p| p.as_slice())
                         };
                         let planes = BlockPlanes {
-                            e: [planes[0], planes[1], planes[2]],
-                            inv: planes[3],
-                            limits: [planes[4], planes[5]],
+                            e: [e0, e1, e2],
+                            inv,
+                            limits: [strict, loose],
                         };
                         let tests = planes.tests(&c, [*dark, *dark_weak, *bright, *shade]);
                         // Bits past the row's end (a partial block) stay clear.
