@@ -27,6 +27,11 @@ use crate::tube::Tube;
 const STEP: f64 = 0.5;
 /// Smallest sine of the angle between a camera's ray and the tube for its colour to count.
 const MIN_SIN: f64 = 0.5;
+/// Smallest step of the tape's share `q` across a band's end for the end to count (tape 1,
+/// body 0): a camera that sees the tip obliquely read `q` ≈ 0.45–0.6 over 4 mm before a tip
+/// band (its pixels mixing cap and side), and the halfway crossing of that plateau put the
+/// band's end 5.6 mm off where the side-on cameras agreed within 0.01 mm.
+const MIN_STEP: f64 = 0.5;
 
 /// One camera's colour sample at one place along the tube.
 #[derive(Clone, Copy)]
@@ -262,7 +267,11 @@ fn edge(
     if outside.iter().flatten().count() < 3 {
         return None;
     }
-    let level = (inside + median(&outside)) / 2.0;
+    let beyond = median(&outside);
+    if inside - beyond < MIN_STEP {
+        return None;
+    }
+    let level = (inside + beyond) / 2.0;
     let next = step(at, dir)?;
     let (a, b) = (q[at]?, q[next]?);
     let frac = ((a - level) / (a - b)).clamp(0.0, 1.0);
@@ -384,5 +393,69 @@ impl ArcTable {
         let (a0, a1) = (self.arc[i - 1], self.arc[i]);
         let t = ((s - a0) / (a1 - a0).max(1e-12)).clamp(0.0, 1.0);
         self.u[i - 1] + t * (self.u[i] - self.u[i - 1])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One camera's side-on samples every `STEP` along a tube, from the tape's share `q` of
+    /// each (blue body, red tape; the marker mask marks where `q` ≥ 0.9).
+    fn samples(q: &[f64]) -> Vec<Option<Sample>> {
+        let (body, tape) = ([30.0, 40.0, 120.0], [160.0, 30.0, 30.0]);
+        q.iter()
+            .map(|&q| {
+                Some(Sample {
+                    colour: std::array::from_fn(|c| (body[c] + q * (tape[c] - body[c])) as f32),
+                    marked: q >= 0.9,
+                    shift: 0.0,
+                    sin: 1.0,
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_band_at_the_tip_ends_where_the_tape_share_crosses_halfway() {
+        // Body to sample 60, tape from 61 to the tip, sample 60 three-quarters tape.
+        let mut q = vec![0.0; 60];
+        q.push(0.75);
+        q.extend([1.0; 20]);
+        let seen = runs(&samples(&q), true);
+        assert_eq!(seen.len(), 1);
+        let lower = seen[0].lower.expect("the band's lower end");
+        // Halfway between 0 and 1 is two thirds of the way from sample 59 to 60.
+        let expected = (59.0 + 2.0 / 3.0) * STEP;
+        assert!(
+            (lower.at - expected).abs() < 1e-9,
+            "{} against {expected}",
+            lower.at
+        );
+        assert!(seen[0].at_tip);
+    }
+
+    #[test]
+    fn a_band_end_without_a_clear_step_in_the_tape_share_is_not_placed() {
+        // What a camera seeing the tip obliquely read before a tip band: the tape's share
+        // hovering about a half for 4 mm (cap and side mixed in its pixels), then the tape.
+        // The halfway crossing of that plateau put the band's end 5.6 mm off.
+        let plateau = [
+            0.46, 0.49, 0.48, 0.48, 0.50, 0.50, 0.48, 0.49, 0.51, 0.52, 0.52, 0.53, 0.54, 0.54,
+            0.55, 0.54, 0.56, 0.58, 0.61, 0.79,
+        ];
+        // The body's colour, from the unmarked samples, is the whole tube's below the band.
+        let mut q = vec![0.0; 400];
+        q.extend(plateau);
+        q.extend([1.0; 3]);
+        let seen = runs(&samples(&q), true);
+        assert_eq!(seen.len(), 1);
+        assert!(
+            seen[0].lower.is_none(),
+            "placed at {:?}",
+            seen[0].lower.map(|e| e.at)
+        );
+        // It still says the band reaches the tip.
+        assert!(seen[0].at_tip);
     }
 }

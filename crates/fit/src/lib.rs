@@ -553,7 +553,10 @@ impl TubeFitter {
             .map_or(steps.as_slice(), |t| t.steps.as_slice());
         // A start whose control points drifted along it is spread again along the same curve
         // (it may carry the motion on, which the previous shape does not).
-        let given = start.and_then(|t| t.spread_again(s.span_mm)).map(|mut t| {
+        let given = start.and_then(|t| t.spread_again(s.span_mm)).map(|t| {
+            let mut t = t
+                .reopened(|p| depth_inside(volume, p.into()), s.extend_mm, s.span_mm)
+                .unwrap_or(t);
             if radius.is_some() {
                 t.radius = r0;
                 t.steps = steps.clone();

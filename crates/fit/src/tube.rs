@@ -6,6 +6,14 @@
 use flexshape_curve::{BSpline3, CurveError, Polyline, RadiusStep, radius_at, section_at};
 use nalgebra::{Point3, Vector3};
 
+/// Half-millimetre steps an open end that stops inside the volume is run on by at most, to
+/// reach its boundary (2 m).
+const MAX_RUN_ON: usize = 4000;
+
+/// Samples (an eighth of a span apart, about 2 mm) over which an open end's direction is
+/// taken when it is run on.
+const CHORD_SAMPLES: usize = 3;
+
 /// A swept sphere along a B-spline centerline.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tube {
@@ -209,6 +217,80 @@ impl Tube {
         Some(tube)
     }
 
+    /// This tube with each open end again `extend_mm` beyond where it leaves the region that
+    /// `depth` measures (mm inside it, negative outside: the working volume), through control
+    /// points about `span_mm` apart; `None` when every open end is already within half of
+    /// `extend_mm` of that, or the tube never enters the region. Nothing in the images ends an
+    /// open end, so a followed fit only holds it where it started: carried on frame after
+    /// frame, one slid 21 mm along a tube being inserted, 11 mm into the volume, and the
+    /// reported centerline's base, continued straight from there, stood 0.6 mm off.
+    pub fn reopened(
+        &self,
+        depth: impl Fn(Point3<f64>) -> f64,
+        extend_mm: f64,
+        span_mm: f64,
+    ) -> Option<Tube> {
+        // Sampled far closer than the control points are spaced (as `spread_again`).
+        let n = 8 * self.centerline.control().len();
+        let points: Vec<Point3<f64>> = (0..=n).map(|i| self.frame(i as f64 / n as f64).0).collect();
+        let depths: Vec<f64> = points.iter().map(|&p| depth(p)).collect();
+        let first = depths.iter().position(|&d| d > 0.0)?;
+        let last = depths.iter().rposition(|&d| d > 0.0)?;
+        let mut arc = vec![0.0];
+        for w in points.windows(2) {
+            arc.push(arc[arc.len() - 1] + (w[1] - w[0]).norm());
+        }
+        // Where the tube crosses the boundary between samples `inner` (inside) and `outer`:
+        // the point, and its arc length from the proximal end.
+        let crossing = |inner: usize, outer: usize| {
+            let f = depths[inner] / (depths[inner] - depths[outer]);
+            (
+                points[inner] + (points[outer] - points[inner]) * f,
+                arc[inner] + (arc[outer] - arc[inner]) * f,
+            )
+        };
+        let mut kept: Vec<Point3<f64>> = Vec::with_capacity(last - first + 3);
+        // How far each end runs on beyond the region (negative: it stops inside).
+        let mut beyond = [-depths[0], -depths[n]];
+        if first > 0 {
+            let (p, at) = crossing(first, first - 1);
+            kept.push(p);
+            beyond[0] = at;
+        }
+        kept.extend_from_slice(&points[first..=last]);
+        if last < n {
+            let (p, at) = crossing(last, last + 1);
+            kept.push(p);
+            beyond[1] = arc[n] - at;
+        }
+        let drifted =
+            (0..2).any(|e| !self.capped[e] && (beyond[e] - extend_mm).abs() > 0.5 * extend_mm);
+        if !drifted {
+            return None;
+        }
+        // An open end that stops inside runs on straight to the region's boundary first, in
+        // its direction over the last few millimetres (a chord: a clamped spline's last
+        // samples may bend a little).
+        let chord = CHORD_SAMPLES.min(kept.len() - 1);
+        for (e, (&capped, &beyond)) in self.capped.iter().zip(&beyond).enumerate() {
+            if capped || beyond > 0.0 || chord == 0 {
+                continue;
+            }
+            if e == 0 {
+                let run = run_on(kept[0], kept[chord], &depth);
+                kept.splice(0..0, run.into_iter().rev());
+            } else {
+                let n = kept.len() - 1;
+                let run = run_on(kept[n], kept[n - chord], &depth);
+                kept.extend(run);
+            }
+        }
+        let kept: Vec<[f64; 3]> = kept.iter().map(|p| [p.x, p.y, p.z]).collect();
+        let mut tube = Tube::through(&kept, self.radius, self.capped, span_mm, extend_mm).ok()?;
+        tube.steps = self.steps.clone();
+        Some(tube)
+    }
+
     /// This tube carried on as it moved since `earlier`: each control point moved again by
     /// `ratio` times its move since then (the next frame of a smooth motion, `ratio` its
     /// frames ahead over the frames between the two). Should an inner control point's move
@@ -306,6 +388,31 @@ impl Tube {
     }
 }
 
+/// Points every half millimetre on the straight line from `end` away from `from`, while
+/// `depth` says they are inside, then the point where the line crosses the boundary (none
+/// beyond [`MAX_RUN_ON`] steps).
+fn run_on(
+    end: Point3<f64>,
+    from: Point3<f64>,
+    depth: &impl Fn(Point3<f64>) -> f64,
+) -> Vec<Point3<f64>> {
+    let dir = (end - from) / (end - from).norm().max(1e-300);
+    let mut run = Vec::new();
+    let mut inner = (end, depth(end));
+    for k in 1..=MAX_RUN_ON {
+        let p = end + dir * (0.5 * k as f64);
+        let d = depth(p);
+        if d <= 0.0 {
+            // Between the last point inside and this one.
+            run.push(inner.0 + (p - inner.0) * (inner.1 / (inner.1 - d)));
+            break;
+        }
+        run.push(p);
+        inner = (p, d);
+    }
+    run
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -319,6 +426,87 @@ mod tests {
             })
             .collect();
         Tube::through(&points, 3.0, [false, true], 15.0, 10.0).unwrap()
+    }
+
+    /// How far `p` lies inside the box `lo`–`hi` (negative outside), mm.
+    fn depth_in(lo: [f64; 3], hi: [f64; 3]) -> impl Fn(Point3<f64>) -> f64 {
+        move |p| {
+            (0..3)
+                .map(|k| (p[k] - lo[k]).min(hi[k] - p[k]))
+                .fold(f64::INFINITY, f64::min)
+        }
+    }
+
+    /// Largest distance from `tube`'s centerline points inside `depth`'s region to `other`'s
+    /// centerline, mm: how far `other` left the part of `tube` inside.
+    fn inside_off(tube: &Tube, other: &Tube, depth: &impl Fn(Point3<f64>) -> f64) -> f64 {
+        let dense = |t: &Tube| -> Vec<Point3<f64>> {
+            (0..=4000).map(|i| t.frame(i as f64 / 4000.0).0).collect()
+        };
+        let theirs = dense(other);
+        dense(tube)
+            .into_iter()
+            .filter(|&p| depth(p) > 0.0)
+            .map(|p| {
+                theirs
+                    .iter()
+                    .map(|q| (p - q).norm())
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn an_open_end_that_slid_along_the_tube_is_put_back_beyond_the_volume() {
+        // `bent` starts at the origin heading along +x, continued 10 mm straight back.
+        let tube = bent();
+        let box_from = |x: f64| depth_in([x, -50.0, -50.0], [200.0, 50.0, 150.0]);
+        // Entering at x = 0: 10 mm beyond, as it should be.
+        assert!(tube.reopened(box_from(0.0), 10.0, 15.0).is_none());
+        // Within half the extension either way: left as it is.
+        assert!(tube.reopened(box_from(4.0), 10.0, 15.0).is_none());
+        assert!(tube.reopened(box_from(-4.0), 10.0, 15.0).is_none());
+        // The volume starting 11 mm further on (the end 21 mm beyond it) or 20 mm before (the
+        // end 10 mm inside): the end is put 10 mm beyond, the curve inside kept.
+        for x in [11.0, -20.0] {
+            let depth = box_from(x);
+            let again = tube.reopened(&depth, 10.0, 15.0).unwrap();
+            let start = again.frame(0.0).0;
+            assert!((depth(start) + 10.0).abs() < 0.3, "x {x}: start {start}");
+            assert_eq!(again.capped, tube.capped);
+            // A few hundredths, as any refit through control points 15 mm apart (here where
+            // the straight run meets the bend, a jump in curvature neither spline follows).
+            let off = inside_off(&tube, &again, &depth);
+            assert!(off < 0.06, "x {x}: {off:.4} mm off the curve");
+        }
+    }
+
+    #[test]
+    fn an_open_end_inside_the_volume_runs_on_straight_out_of_it() {
+        let points: Vec<[f64; 3]> = (0..=100).map(|i| [i as f64, 0.0, 0.0]).collect();
+        let tube = Tube::through(&points, 3.0, [false, true], 15.0, 10.0).unwrap();
+        // The end at x = −10, 10 mm inside.
+        let depth = depth_in([-20.0, -50.0, -50.0], [200.0, 50.0, 50.0]);
+        let again = tube.reopened(&depth, 10.0, 15.0).unwrap();
+        let start = again.frame(0.0).0;
+        assert!((start.x + 30.0).abs() < 0.3, "start {start}");
+        assert!(
+            start.y.abs() < 1e-6 && start.z.abs() < 1e-6,
+            "start {start}"
+        );
+        let off = inside_off(&tube, &again, &depth);
+        // Within the dense samples' half spacing.
+        assert!(off < 0.03, "{off}");
+    }
+
+    #[test]
+    fn capped_tubes_and_tubes_outside_the_volume_are_not_reopened() {
+        let mut capped = bent();
+        capped.capped = [true, true];
+        let depth = depth_in([11.0, -50.0, -50.0], [200.0, 50.0, 150.0]);
+        assert!(capped.reopened(&depth, 10.0, 15.0).is_none());
+        let far = depth_in([500.0, 500.0, 500.0], [600.0, 600.0, 600.0]);
+        assert!(bent().reopened(far, 10.0, 15.0).is_none());
     }
 
     #[test]

@@ -8,8 +8,9 @@
 //! sweep), and tracking (a smooth motion filmed at `rate_hz`, played back and forth as one
 //! continuous run, each frame started from an earlier one's shape as `flexshape track` does:
 //! with one frame per thread in flight, from the frame `threads` back). Each workload's
-//! records are also held against the simulator's truth, so that a setting that buys speed
-//! shows what it costs in accuracy.
+//! records are also held against the simulator's truth, one frame at a time and as the
+//! throughput run makes them (its lanes start from frames further back), so that a setting
+//! that buys speed shows what it costs in accuracy.
 
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -18,7 +19,7 @@ use flexshape_recording::Truth;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, Simulator};
 use flexshape_track::{
-    Pipeline, Recent, StageSummary, Start, TrackError, quantile, stage_summaries,
+    Pipeline, Recent, StageSummary, Start, TrackError, Tracked, quantile, stage_summaries,
 };
 use image::RgbImage;
 use rayon::prelude::*;
@@ -126,6 +127,9 @@ pub struct Figures {
     pub followed: Option<f64>,
     /// The records of the first pass (one frame at a time) against the simulator's truth.
     pub accuracy: Accuracy,
+    /// The records of the throughput run (`threads` lanes, each frame started from the one
+    /// `threads` back), every step of it, against the simulator's truth.
+    pub throughput_accuracy: Accuracy,
 }
 
 /// A workload's records against the simulator's truth, mm: over the frames whose status says
@@ -239,19 +243,21 @@ fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figure
     let mut passes = Vec::with_capacity(THROUGHPUT_PASSES);
     for _ in 0..THROUGHPUT_PASSES {
         let start = Instant::now();
-        (0..threads)
-            .into_par_iter()
-            .map(|first| {
-                let mut recent = Recent::new(pipeline);
-                for step in (first..steps).step_by(threads) {
-                    let prior = recent.for_frame(step as u64);
-                    let tracked = pipeline.process_after(&refs[shown(step)], prior.as_deref())?;
-                    recent.update(step as u64, tracked.prior());
-                }
-                Ok(())
-            })
-            .collect::<Result<Vec<()>, TrackError>>()?;
+        lanes(pipeline, &refs, steps, threads, &shown, |_, _| ())?;
         passes.push(steps as f64 / start.elapsed().as_secs_f64());
+    }
+    // Once more, untimed, with every record held against the truth: lanes start from
+    // frames further back, so their records differ from one frame at a time.
+    let mut in_lanes = DemoFigures::default();
+    let checked = lanes(pipeline, &refs, steps, threads, &shown, |step, tracked| {
+        if tracked.shape.status.is_right() {
+            ShapeErrors::of(pipeline, &frames[shown(step)].1, tracked)
+        } else {
+            None
+        }
+    })?;
+    for e in checked.iter().flatten() {
+        in_lanes.add(e);
     }
     let throughput_fps = quantile(&mut passes, 0.5);
     Ok(Figures {
@@ -262,7 +268,36 @@ fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figure
         // The run's first frame has nothing to start from.
         followed: tracks.then(|| followed as f64 / (steps - 1).max(1) as f64),
         accuracy: Accuracy::of(&errors, frames.len()),
+        throughput_accuracy: Accuracy::of(&in_lanes, steps),
     })
+}
+
+/// Runs the tracking or hull workload as the throughput figure does: `threads` lanes, lane
+/// `k` taking steps `k`, `k + threads`, … each started from its own previous frame. Returns
+/// what `check` made of every step's record, lane by lane.
+fn lanes<T: Send>(
+    pipeline: &Pipeline,
+    refs: &[Vec<&RgbImage>],
+    steps: usize,
+    threads: usize,
+    shown: &(impl Fn(usize) -> usize + Sync),
+    check: impl Fn(usize, &Tracked) -> T + Sync,
+) -> Result<Vec<T>, TrackError> {
+    let per_lane = (0..threads)
+        .into_par_iter()
+        .map(|first| {
+            let mut recent = Recent::new(pipeline);
+            let mut checked = Vec::new();
+            for step in (first..steps).step_by(threads) {
+                let prior = recent.for_frame(step as u64);
+                let tracked = pipeline.process_after(&refs[shown(step)], prior.as_deref())?;
+                checked.push(check(step, &tracked));
+                recent.update(step as u64, tracked.prior());
+            }
+            Ok(checked)
+        })
+        .collect::<Result<Vec<Vec<T>>, TrackError>>()?;
+    Ok(per_lane.into_iter().flatten().collect())
 }
 
 /// The frame shown at step `step` of a run back and forth over `n` frames: 0, 1, …, n − 1,
@@ -394,10 +429,26 @@ fn figures_table(out: &mut String, title: &str, results: &[Figures]) {
         "{:<22} {:>18.0} {:>18.0}",
         "throughput (frames/s)", results[0].throughput_fps, results[1].throughput_fps
     );
-    let a = &results[0].accuracy;
     _ = writeln!(
         out,
-        "against truth (1 thread): {} of {} frames right; centerline rms median {:.3} mm, worst {:.3}; tip median {:.3} mm, worst {:.3}; band worst {:.3} mm",
+        "against truth (1 thread): {}",
+        accuracy_line(&results[0].accuracy)
+    );
+    for f in results {
+        _ = writeln!(
+            out,
+            "against truth, throughput run ({} thread{}, every frame): {}",
+            f.threads,
+            if f.threads == 1 { "" } else { "s" },
+            accuracy_line(&f.throughput_accuracy)
+        );
+    }
+}
+
+/// Frames right and their errors from the truth, as the table prints them.
+fn accuracy_line(a: &Accuracy) -> String {
+    format!(
+        "{} of {} frames right; centerline rms median {:.3} mm, worst {:.3}; tip median {:.3} mm, worst {:.3}; band worst {:.3} mm",
         a.right,
         a.frames,
         a.centerline_rms_mm[0],
@@ -405,5 +456,5 @@ fn figures_table(out: &mut String, title: &str, results: &[Figures]) {
         a.tip_mm[0],
         a.tip_mm[1],
         a.band_mm
-    );
+    )
 }

@@ -5,6 +5,7 @@ mod common;
 
 mod accuracy;
 mod floating_base;
+mod following;
 mod hard_scenes;
 mod selfcheck;
 mod two_cameras;
