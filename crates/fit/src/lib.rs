@@ -674,6 +674,8 @@ impl TubeFitter {
                     record.arc[i], s.max_sigma_mm
                 ),
             };
+        } else if let Some(reason) = self.end_unseen(&fit.tube) {
+            record.status = Status::Ambiguous { reason };
         }
         record
     }
