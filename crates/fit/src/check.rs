@@ -54,6 +54,23 @@ pub struct CameraCheck {
     /// RMS of their residuals, pixels.
     #[serde(default)]
     pub end_residual_px: f64,
+    /// Samples of each capped end's rounded outline (proximal end, tip) where a boundary was
+    /// found: where this camera sees the cap. An end the tube hides in this view (the tip
+    /// folded over the shaft, or seen end-on) has none or few.
+    #[serde(default)]
+    pub cap_found: [usize; 2],
+}
+
+/// The samples of each end's cap outline (proximal end, tip) in `measured` where a boundary
+/// was found.
+pub(crate) fn cap_found(measured: &[Measured]) -> [usize; 2] {
+    let mut found = [0; 2];
+    for m in measured.iter().filter(|m| m.residual.is_some()) {
+        if let crate::outline::Part::Cap(end) = m.point.part {
+            found[end.min(1)] += 1;
+        }
+    }
+    found
 }
 
 /// Residual statistics of one camera's measured outline: samples, found, RMS and mean, each

@@ -417,6 +417,7 @@ impl TubeFitter {
                     end_samples: ends.samples,
                     end_found: ends.found,
                     end_residual_px: ends.rms,
+                    cap_found: check::cap_found(m),
                 }
             })
             .collect();
@@ -674,7 +675,7 @@ impl TubeFitter {
                     record.arc[i], s.max_sigma_mm
                 ),
             };
-        } else if let Some(reason) = self.end_unseen(&fit.tube) {
+        } else if let Some(reason) = self.end_unseen(&fit.tube, &fit.cameras) {
             record.status = Status::Ambiguous { reason };
         }
         record

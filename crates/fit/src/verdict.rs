@@ -29,44 +29,58 @@ const END_ZONE_PX: f64 = 4.0;
 /// off across the tube, every camera's outline explained.
 const MIN_END_VIEW: f64 = 15.0 * std::f64::consts::PI / 180.0;
 
+/// Samples of a cap's outline a camera must find to see the end: three points place a circle.
+/// (A cap seen side-on has five at the default spacing; on a two-camera rig, tips whose cap
+/// one camera saw at 0–2 samples, folded over the shaft, were fitted up to 2.7 mm off along
+/// the other camera's rays, every outline explained.)
+const MIN_CAP_FOUND: usize = 3;
+
 impl TubeFitter {
-    /// Why a capped end's place is not seen, if it is not: fewer than two cameras have it in
-    /// their image seen from the side (at [`MIN_END_VIEW`] or more from the tube), so where it
-    /// lies along the one camera's rays that does is only the curve's continuation.
-    pub(crate) fn end_unseen(&self, tube: &Tube) -> Option<String> {
+    /// Why a capped end's place is not seen, if it is not: fewer than two cameras see it —
+    /// have it in their image, find [`MIN_CAP_FOUND`] samples of its cap's outline
+    /// (`checks`, the rig's order), and look at the tube there from the side
+    /// ([`MIN_END_VIEW`] or more) — so where it lies along the one camera's rays that does
+    /// is only the curve's continuation.
+    pub(crate) fn end_unseen(&self, tube: &Tube, checks: &[CameraCheck]) -> Option<String> {
         for end in [0, 1].into_iter().filter(|&e| tube.capped[e]) {
             let (at, along) = tube.frame(end as f64);
-            let mut side_on = 0;
+            let mut seen = 0;
             let mut end_on = None;
-            for (cam, name) in self.cameras.iter().zip(&self.names) {
-                let Ok(seen) = cam.project(&at) else {
+            let mut hidden = None;
+            for ((cam, name), check) in self.cameras.iter().zip(&self.names).zip(checks) {
+                let Ok(projected) = cam.project(&at) else {
                     continue;
                 };
-                if !cam.intrinsics.contains(seen.pixel) {
+                if !cam.intrinsics.contains(projected.pixel) {
                     continue;
                 }
                 let ray = (at - cam.centre()).normalize();
                 let angle = ray.dot(&along).abs().min(1.0).acos();
-                if angle >= MIN_END_VIEW {
-                    side_on += 1;
-                } else {
+                if angle < MIN_END_VIEW {
                     end_on = Some((name, angle));
+                } else if check.cap_found[end] < MIN_CAP_FOUND {
+                    hidden = Some((name, check.cap_found[end]));
+                } else {
+                    seen += 1;
                 }
             }
-            if side_on >= 2 {
+            if seen >= 2 {
                 continue;
             }
             let which = if end == 1 { "tip" } else { "proximal end" };
-            let why = match end_on {
-                Some((name, angle)) => format!(
+            let why = match (end_on, hidden) {
+                (Some((name, angle)), _) => format!(
                     "the {which} points along camera {name}'s line of sight ({:.0}° from it; at least {:.0}° for a camera to see where it is)",
                     angle.to_degrees(),
                     MIN_END_VIEW.to_degrees()
                 ),
-                None => format!("the {which} is in the image of {side_on} camera(s)"),
+                (None, Some((name, found))) => format!(
+                    "camera {name} finds {found} samples of the {which}'s rounded outline (at least {MIN_CAP_FOUND}): the tube hides it there"
+                ),
+                (None, None) => format!("the {which} is in the image of {seen} camera(s)"),
             };
             return Some(format!(
-                "{why}: fewer than two cameras see the {which} from the side, so where it lies along the other's rays is not seen; add a camera that sees it from another side"
+                "{why}: fewer than two cameras see the {which}, so where it lies along the other's rays is not seen; add a camera that sees it from another side"
             ));
         }
         None

@@ -154,3 +154,23 @@ fn two_cameras_do_not_report_a_tip_one_of_them_sees_end_on_as_ok() {
         .count();
     assert!(end_on >= 2, "{end_on} frames flagged for a tip seen end-on");
 }
+
+/// A motion whose tip folds over the shaft in one camera's view (frames 60–75 of seed 5): that
+/// camera finds little or nothing of the tip's rounded outline, so again only the other one
+/// sees the tip. From their hulls, frames 65–74 were `ok` with the tip up to 1.1 mm off along
+/// the other camera's rays (every outline explained, 1-σ at the tip 0.04–0.06 mm); every `ok`
+/// frame must be right (checked in `tally`), and those say the tip is hidden.
+#[test]
+fn two_cameras_do_not_report_a_tip_one_of_them_cannot_see_as_ok() {
+    let t = tally(5, |sim| sim.motion(76, 120.0)[60..].to_vec());
+    let hidden = t
+        .reasons
+        .iter()
+        .filter(|r| r.contains("rounded outline"))
+        .count();
+    // Measured: 11 of the 16 frames flagged for it (0–2 samples found).
+    assert!(
+        hidden >= 6,
+        "{hidden} frames flagged for a tip the tube hides"
+    );
+}
