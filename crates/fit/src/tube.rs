@@ -232,6 +232,17 @@ impl Tube {
     ) -> Option<Tube> {
         // Sampled far closer than the control points are spaced (as `spread_again`).
         let n = 8 * self.centerline.control().len();
+        // Nearly always each open end is where it belongs: found walking in from it over a
+        // few samples, without sampling the whole tube.
+        let in_place = |e: usize| {
+            self.capped[e]
+                || self
+                    .beyond_from(e, n, &depth)
+                    .is_some_and(|b| (b - extend_mm).abs() <= 0.5 * extend_mm)
+        };
+        if in_place(0) && in_place(1) {
+            return None;
+        }
         let points: Vec<Point3<f64>> = (0..=n).map(|i| self.frame(i as f64 / n as f64).0).collect();
         let depths: Vec<f64> = points.iter().map(|&p| depth(p)).collect();
         let first = depths.iter().position(|&d| d > 0.0)?;
@@ -289,6 +300,38 @@ impl Tube {
         let mut tube = Tube::through(&kept, self.radius, self.capped, span_mm, extend_mm).ok()?;
         tube.steps = self.steps.clone();
         Some(tube)
+    }
+
+    /// How far end `end` (0 proximal, 1 tip) runs on beyond the region `depth` measures, mm
+    /// (negative: it stops inside), walking in from it over the `n + 1` samples `reopened`
+    /// takes; `None` when no sample is inside.
+    fn beyond_from(
+        &self,
+        end: usize,
+        n: usize,
+        depth: &impl Fn(Point3<f64>) -> f64,
+    ) -> Option<f64> {
+        let at = |k: usize| {
+            let i = if end == 0 { k } else { n - k };
+            self.frame(i as f64 / n as f64).0
+        };
+        let mut outer = at(0);
+        let mut outer_depth = depth(outer);
+        if outer_depth > 0.0 {
+            return Some(-outer_depth);
+        }
+        let mut arc = 0.0;
+        for k in 1..=n {
+            let p = at(k);
+            let d = depth(p);
+            let step = (p - outer).norm();
+            if d > 0.0 {
+                return Some(arc + step * outer_depth / (outer_depth - d));
+            }
+            arc += step;
+            (outer, outer_depth) = (p, d);
+        }
+        None
     }
 
     /// This tube carried on as it moved since `earlier`: each control point moved again by
