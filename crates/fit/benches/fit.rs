@@ -85,7 +85,7 @@ fn bench(c: &mut Criterion) {
     let predicted = fit1
         .unwrap()
         .tube
-        .carried_on(&fit0.unwrap().tube, 1.0, 3.0)
+        .carried_on(&fit0.unwrap().tube, 1.0, 3.0, 3.0)
         .unwrap();
     let views2 = views(&rendered[2], &models, &sils[2]);
     group.bench_function("follow_predicted_120hz_3cam", |b| {

@@ -337,13 +337,19 @@ impl Tube {
     /// This tube carried on as it moved since `earlier`: each control point moved again by
     /// `ratio` times its move since then (the next frame of a smooth motion, `ratio` its
     /// frames ahead over the frames between the two). Should an inner control point's move
-    /// exceed `limit_mm`, every inner point is moved across the tube only: such a move is a
+    /// exceed `slide_mm`, every inner point is moved across the tube only: such a move is a
     /// slide along the tube (the fit spreads its control points again now and then, and a
     /// tip's crowd them), which carries no motion on, and discarding the whole prediction for
     /// it started a fast-moving frame a frame's motion behind. `None` when the tubes do not
     /// pair up point for point (another number of control points, other ends), or an end, or
     /// an inner point across the tube, would move more than `limit_mm`.
-    pub fn carried_on(&self, earlier: &Tube, ratio: f64, limit_mm: f64) -> Option<Tube> {
+    pub fn carried_on(
+        &self,
+        earlier: &Tube,
+        ratio: f64,
+        slide_mm: f64,
+        limit_mm: f64,
+    ) -> Option<Tube> {
         let (now, then) = (self.centerline.control(), earlier.centerline.control());
         if now.len() != then.len()
             || self.capped != earlier.capped
@@ -359,8 +365,8 @@ impl Tube {
             .map(|(a, b)| (Vector3::from(*a) - Vector3::from(*b)) * ratio)
             .collect();
         // NaN moves fail every comparison, so `!(‖d‖ ≤ limit)` catches them too.
-        let within = |d: &Vector3<f64>| d.norm() <= limit_mm;
-        let slid = moves[1..last].iter().any(|d| !within(d));
+        let within = |d: &Vector3<f64>, limit: f64| d.norm() <= limit;
+        let slid = moves[1..last].iter().any(|d| !within(d, slide_mm));
         let mut step = nalgebra::DVector::zeros(3 * now.len());
         for (k, d) in moves.into_iter().enumerate() {
             let d = if slid && k > 0 && k < last {
@@ -368,7 +374,7 @@ impl Tube {
             } else {
                 d
             };
-            if !within(&d) {
+            if !within(&d, limit_mm) {
                 return None;
             }
             step.fixed_rows_mut::<3>(3 * k).copy_from(&d);
@@ -560,7 +566,7 @@ mod tests {
             [0.3, -0.1, 0.2][i % 3] * (1.0 + (i / 3) as f64 * 0.05)
         });
         now.centerline.displace(&shift);
-        let next = now.carried_on(&then, 0.5, 3.0).unwrap();
+        let next = now.carried_on(&then, 0.5, 3.0, 3.0).unwrap();
         for ((a, b), k) in next
             .centerline
             .control()
@@ -573,10 +579,10 @@ mod tests {
             }
         }
         // A jerk beyond the limit, tubes that do not pair up: no prediction.
-        assert!(now.carried_on(&then, 10.0, 3.0).is_none());
+        assert!(now.carried_on(&then, 10.0, 3.0, 3.0).is_none());
         let mut capped = then.clone();
         capped.capped = [true, true];
-        assert!(now.carried_on(&capped, 1.0, 3.0).is_none());
+        assert!(now.carried_on(&capped, 1.0, 3.0, 3.0).is_none());
         let longer = Tube::through(
             &[[0.0; 3], [0.0, 0.0, 300.0]],
             3.0,
@@ -585,7 +591,7 @@ mod tests {
             10.0,
         )
         .unwrap();
-        assert!(now.carried_on(&longer, 1.0, 3.0).is_none());
+        assert!(now.carried_on(&longer, 1.0, 3.0, 3.0).is_none());
     }
 
     #[test]
@@ -604,7 +610,7 @@ mod tests {
         }
         let mut now = then.clone();
         now.centerline.displace(&shift);
-        let next = now.carried_on(&then, 1.0, 3.0).unwrap();
+        let next = now.carried_on(&then, 1.0, 3.0, 3.0).unwrap();
         for (j, (a, b)) in next
             .centerline
             .control()
@@ -634,12 +640,12 @@ mod tests {
             .fixed_rows_mut::<3>(3 * (n - 1))
             .copy_from(&(then.control_tangent(n - 1) * 4.0));
         end.centerline.displace(&at_end);
-        assert!(end.carried_on(&then, 1.0, 3.0).is_none());
+        assert!(end.carried_on(&then, 1.0, 3.0, 3.0).is_none());
         let mut across = then.clone();
         let mut sideways = nalgebra::DVector::zeros(3 * n);
         sideways[3 * k + 1] = 4.0;
         across.centerline.displace(&sideways);
-        assert!(across.carried_on(&then, 1.0, 3.0).is_none());
+        assert!(across.carried_on(&then, 1.0, 3.0, 3.0).is_none());
     }
 
     #[test]

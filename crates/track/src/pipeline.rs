@@ -156,11 +156,19 @@ impl Prior {
     /// frames from this shape to the one to start, over frames from `earlier` to this one).
     /// A start this close to where a smoothly moving tube is saves the fit a round of
     /// boundary measurements. `None` (start from this shape as it is) when the tubes do not
-    /// pair up or the motion is a jerk.
-    pub fn predicted(&self, earlier: &Prior, ratio: f64, limit_mm: f64) -> Option<Prior> {
+    /// pair up or the motion is a jerk. `slide_mm` and `limit_mm` as in [`Tube::carried_on`].
+    pub fn predicted(
+        &self,
+        earlier: &Prior,
+        ratio: f64,
+        slide_mm: f64,
+        limit_mm: f64,
+    ) -> Option<Prior> {
         Some(Prior {
             record: self.record.clone(),
-            tube: self.tube.carried_on(&earlier.tube, ratio, limit_mm)?,
+            tube: self
+                .tube
+                .carried_on(&earlier.tube, ratio, slide_mm, limit_mm)?,
         })
     }
 }

@@ -148,8 +148,15 @@ impl Recent {
             .clone()
             .find(|(s0, _)| s1 - s0 >= ahead)
             .or_else(|| earlier.last());
-        let predicted = chosen
-            .and_then(|(s0, p0)| p1.predicted(p0, ahead as f64 / (s1 - s0) as f64, self.limit_mm));
+        // The limit is a move per frame: a start `ahead` frames on may move a point that many
+        // times as far (two workers start each frame from the one two back; at 60 frames/s
+        // with the limit unscaled, nearly every prediction was refused and 2 threads ran at
+        // 40 % of 1 thread's speed). Slides along the tube are told from motion by the limit
+        // of one frame's move (scaled too, they carried slides on as motion: 5 % slower).
+        let limit = self.limit_mm * ahead as f64;
+        let predicted = chosen.and_then(|(s0, p0)| {
+            p1.predicted(p0, ahead as f64 / (s1 - s0) as f64, self.limit_mm, limit)
+        });
         Some(predicted.map_or_else(|| p1.clone(), Arc::new))
     }
 

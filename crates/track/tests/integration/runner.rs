@@ -3,6 +3,7 @@
 //! followed recording gives the same records on every run.
 
 use crate::common;
+use flexshape_fit::FitSettings;
 
 use std::ops::ControlFlow;
 use std::sync::atomic::AtomicBool;
@@ -242,14 +243,44 @@ fn a_prediction_extrapolates_no_farther_than_it_measured() {
     let control = |p: &flexshape_track::Prior| p.tube().centerline.control().to_vec();
     // (frame to start, the earlier shape's frame, frames ahead over frames between)
     for (seq, earlier, ratio) in [(3, 1, 1.0), (4, 0, 1.0), (5, 0, 1.5)] {
-        let expected = priors[2].predicted(&priors[earlier], ratio, limit).unwrap();
+        let ahead = (seq - 2) as f64;
+        let expected = priors[2]
+            .predicted(&priors[earlier], ratio, limit, limit * ahead)
+            .unwrap();
         let got = recent.for_frame(seq).unwrap();
         assert_eq!(control(&got), control(&expected), "frame {seq}");
     }
     // Both differ from the other choice, so the test tells them apart.
-    let doubled = priors[2].predicted(&priors[1], 2.0, limit).unwrap();
+    let doubled = priors[2]
+        .predicted(&priors[1], 2.0, limit, 2.0 * limit)
+        .unwrap();
     assert_ne!(control(&doubled), control(&recent.for_frame(4).unwrap()));
     // A frame that was not right forgets what came before it.
     recent.update(3, None);
     assert!(recent.for_frame(4).is_none());
+
+    // The move limit is per frame: a start two frames on may move a point up to twice it.
+    // With the limit at 3/4 of the largest move between frames 0 and 2, a prediction one
+    // frame on from them would be refused, and two frames on it is made.
+    let largest = control(&priors[2])
+        .iter()
+        .zip(control(&priors[0]))
+        .map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    let tight = FitSettings {
+        track_max_move_mm: 0.75 * largest,
+        ..pipeline.fit_settings().clone()
+    };
+    let tight = pipeline.clone().with_fit_settings(tight).unwrap();
+    let mut lane = Recent::new(&tight);
+    lane.update(0, Some(priors[0].clone()));
+    lane.update(2, Some(priors[2].clone()));
+    let limit = 0.75 * largest;
+    assert!(priors[2].predicted(&priors[0], 1.0, limit, limit).is_none());
+    let got = lane.for_frame(4).unwrap();
+    assert_ne!(
+        control(&got),
+        control(&priors[2]),
+        "no prediction two frames on"
+    );
 }
