@@ -81,7 +81,7 @@ pub struct FitSettings {
     pub track_margin_px: f64,
     /// Tracking: a followed fit whose tip moved farther than this from where it started (the
     /// previous frame's, carried on) is not trusted (the frame is carved again), mm; also the
-    /// largest move a prediction may give a control point.
+    /// largest move a prediction may give a control point per frame it looks ahead.
     pub track_max_move_mm: f64,
     /// Tracking: outline samples along the sides of a followed frame's tube, mm apart, on
     /// rigs of three cameras or more (`spacing_mm` for a frame fitted from its hull, and on
