@@ -235,14 +235,6 @@ fn across_tube(tube: &Tube, step: &nalgebra::DVector<f64>) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// How far `p` lies inside the volume's box (negative outside), mm.
-fn depth_inside(volume: &Volume, p: [f64; 3]) -> f64 {
-    let max = volume.max_corner();
-    (0..3)
-        .map(|k| (p[k] - volume.origin[k]).min(max[k] - p[k]))
-        .fold(f64::INFINITY, f64::min)
-}
-
 /// Fits tubes to one rig's images.
 #[derive(Debug, Clone)]
 pub struct TubeFitter {
@@ -495,7 +487,7 @@ impl TubeFitter {
             .copied()
             .fold(f64::INFINITY, f64::min);
         let open = [
-            hull.enters_volume || depth_inside(volume, hull.points[0]) <= r0 + 2.0 * voxel,
+            hull.enters_volume || volume.depth(&hull.points[0].into()) <= r0 + 2.0 * voxel,
             hull.status == Status::LeavesVolume,
         ];
         let capped = open.map(|o| !o);
@@ -556,7 +548,7 @@ impl TubeFitter {
         // (it may carry the motion on, which the previous shape does not).
         let given = start.and_then(|t| t.spread_again(s.span_mm)).map(|t| {
             let mut t = t
-                .reopened(|p| depth_inside(volume, p.into()), s.extend_mm, s.span_mm)
+                .reopened(|p| volume.depth(&p), s.extend_mm, s.span_mm)
                 .unwrap_or(t);
             if radius.is_some() {
                 t.radius = r0;

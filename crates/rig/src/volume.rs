@@ -162,6 +162,15 @@ impl Volume {
         })
     }
 
+    /// How far `p` (world mm) lies inside the box: its distance to the nearest face, mm,
+    /// negative outside.
+    pub fn depth(&self, p: &Point3<f64>) -> f64 {
+        let hi = self.max_corner();
+        (0..3)
+            .map(|a| (p[a] - self.origin[a]).min(hi[a] - p[a]))
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// True when `p` (world mm) lies inside the box.
     pub fn contains(&self, p: &Point3<f64>) -> bool {
         let hi = self.max_corner();
@@ -180,6 +189,9 @@ mod tests {
         assert_eq!(v.voxel_centre(0, 0, 0), Point3::new(-127.5, -127.5, -127.5));
         assert_eq!(v.max_corner(), Point3::new(128.0, 128.0, 128.0));
         assert!(v.contains(&Point3::origin()));
+        // The nearest face decides; outside, negative.
+        assert_eq!(v.depth(&Point3::new(100.0, -20.0, 0.0)), 28.0);
+        assert_eq!(v.depth(&Point3::new(0.0, 0.0, -138.0)), -10.0);
     }
 
     #[test]

@@ -354,7 +354,8 @@ fn orient(occ: &Occupancy, slices: &mut Slices, voxel: f64, settings: &ShapeSett
     // An end that stops a few voxels short of the boundary still enters there (the hull's
     // cut end can fall short), when the other end is well inside.
     let near = 4.0 * voxel;
-    let (d_first, d_last) = (boundary_distance(occ, first), boundary_distance(occ, last));
+    let depth = |p: [f64; 3]| occ.volume.depth(&p.into());
+    let (d_first, d_last) = (depth(first), depth(last));
     let (flip, oriented) = match (low, high) {
         (true, false) => (false, true),
         (false, true) => (true, true),
@@ -384,15 +385,6 @@ pub(crate) fn reverse(slices: &mut Slices) {
     slices.s.reverse();
     slices.centroid.reverse();
     slices.count.reverse();
-}
-
-/// Distance from `p` to the nearest face of the volume's box, mm.
-fn boundary_distance(occ: &Occupancy, p: [f64; 3]) -> f64 {
-    let v = &occ.volume;
-    let max = v.max_corner();
-    (0..3)
-        .map(|a| (p[a] - v.origin[a]).min(max[a] - p[a]))
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// Three-point moving average keeping the ends, to take the corners off an axis.

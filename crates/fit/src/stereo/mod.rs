@@ -13,7 +13,7 @@ use flexshape_shape::{ShapeEstimator, ShapeRecord, Status};
 use nalgebra::Point3;
 
 use crate::outline::Spheres;
-use crate::{Fit, FitError, Tube, TubeFitter, View, depth_inside};
+use crate::{Fit, FitError, Tube, TubeFitter, View};
 
 /// Spacing of the image centerlines' points, pixels.
 const SPACING_PX: f64 = 2.0;
@@ -134,7 +134,7 @@ fn oriented(
     let mut points = tri.points;
     let ends = [points[0], points[points.len() - 1]];
     let mut open =
-        [0, 1].map(|k| tri.leaves_view[k] || depth_inside(volume, ends[k]) <= near_boundary);
+        [0, 1].map(|k| tri.leaves_view[k] || volume.depth(&ends[k].into()) <= near_boundary);
     let hint = estimator.settings().proximal_hint;
     let flip = match open {
         [false, true] => true,

@@ -11,11 +11,7 @@ use nalgebra::Point3;
 
 /// How far `p` lies inside the rig's volume (negative outside), mm.
 fn depth(chain: &Chain, p: Point3<f64>) -> f64 {
-    let v = &chain.sim.rig().volume;
-    let max = v.max_corner();
-    (0..3)
-        .map(|k| (p[k] - v.origin[k]).min(max[k] - p[k]))
-        .fold(f64::INFINITY, f64::min)
+    chain.sim.rig().volume.depth(&p)
 }
 
 /// Nothing in the images ends a tube where it runs out of the volume: a followed fit held its
