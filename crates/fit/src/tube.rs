@@ -232,52 +232,35 @@ impl Tube {
     ) -> Option<Tube> {
         // Sampled far closer than the control points are spaced (as `spread_again`).
         let n = 8 * self.centerline.control().len();
-        // Nearly always each open end is where it belongs: found walking in from it over a
-        // few samples, without sampling the whole tube.
+        // How far each end runs on beyond the region, found walking in from it over a few
+        // samples (nearly always each open end is where it belongs): the whole tube is
+        // sampled only when one is not.
+        let beyond = [0, 1].map(|e| self.beyond_from(e, n, &depth));
         let in_place = |e: usize| {
-            self.capped[e]
-                || self
-                    .beyond_from(e, n, &depth)
-                    .is_some_and(|b| (b - extend_mm).abs() <= 0.5 * extend_mm)
+            self.capped[e] || beyond[e].is_some_and(|b| (b - extend_mm).abs() <= 0.5 * extend_mm)
         };
         if in_place(0) && in_place(1) {
             return None;
         }
+        // `None`: no sample inside.
+        let beyond = [beyond[0]?, beyond[1]?];
         let points: Vec<Point3<f64>> = (0..=n).map(|i| self.frame(i as f64 / n as f64).0).collect();
         let depths: Vec<f64> = points.iter().map(|&p| depth(p)).collect();
         let first = depths.iter().position(|&d| d > 0.0)?;
         let last = depths.iter().rposition(|&d| d > 0.0)?;
-        let mut arc = vec![0.0];
-        for w in points.windows(2) {
-            arc.push(arc[arc.len() - 1] + (w[1] - w[0]).norm());
-        }
-        // Where the tube crosses the boundary between samples `inner` (inside) and `outer`:
-        // the point, and its arc length from the proximal end.
+        // Where the tube crosses the boundary between samples `inner` (inside) and `outer`.
         let crossing = |inner: usize, outer: usize| {
             let f = depths[inner] / (depths[inner] - depths[outer]);
-            (
-                points[inner] + (points[outer] - points[inner]) * f,
-                arc[inner] + (arc[outer] - arc[inner]) * f,
-            )
+            points[inner] + (points[outer] - points[inner]) * f
         };
+        // The part inside, from where it enters to where it leaves.
         let mut kept: Vec<Point3<f64>> = Vec::with_capacity(last - first + 3);
-        // How far each end runs on beyond the region (negative: it stops inside).
-        let mut beyond = [-depths[0], -depths[n]];
         if first > 0 {
-            let (p, at) = crossing(first, first - 1);
-            kept.push(p);
-            beyond[0] = at;
+            kept.push(crossing(first, first - 1));
         }
         kept.extend_from_slice(&points[first..=last]);
         if last < n {
-            let (p, at) = crossing(last, last + 1);
-            kept.push(p);
-            beyond[1] = arc[n] - at;
-        }
-        let drifted =
-            (0..2).any(|e| !self.capped[e] && (beyond[e] - extend_mm).abs() > 0.5 * extend_mm);
-        if !drifted {
-            return None;
+            kept.push(crossing(last, last + 1));
         }
         // An open end that stops inside runs on straight to the region's boundary first, in
         // its direction over the last few millimetres (a chord: a clamped spline's last
