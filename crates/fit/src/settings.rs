@@ -48,6 +48,11 @@ pub struct FitSettings {
     /// span is held near zero. Without it a followed tip, which only its cap's outline holds,
     /// can curl back into its own outline frame after frame (0 turns it off).
     pub tip_curl_prior: f64,
+    /// Weight holding a span the cameras see from too few sides (fewer than three cameras, or
+    /// from directions less than 30° apart) from changing its curvature in the direction they
+    /// see least, px per mm, as `tip_curl_prior` a capped end's: two cameras leave a stretch
+    /// near their epipolar plane free to wiggle within it (0 turns it off).
+    pub weak_span_prior: f64,
     /// Self-check: largest outline residual RMS in any camera, pixels.
     pub max_residual_px: f64,
     /// Self-check: largest 90th percentile of the outline residuals' size in any camera,
@@ -106,6 +111,7 @@ impl Default for FitSettings {
             slide_prior: 0.5,
             end_anchor: 5.0,
             tip_curl_prior: 3.0,
+            weak_span_prior: 3.0,
             max_residual_px: 0.6,
             max_p90_px: 0.25,
             min_found: 0.6,
@@ -156,6 +162,7 @@ impl FitSettings {
             ("slide_prior", self.slide_prior, 0.0, 1e6),
             ("end_anchor", self.end_anchor, 0.0, 1e6),
             ("tip_curl_prior", self.tip_curl_prior, 0.0, 1e6),
+            ("weak_span_prior", self.weak_span_prior, 0.0, 1e6),
             ("max_ghost_mm", self.max_ghost_mm, 0.0, 1e5),
             ("max_sigma_mm", self.max_sigma_mm, 0.0, 1e3),
             ("track_margin_px", self.track_margin_px, 0.0, 1000.0),

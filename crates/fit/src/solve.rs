@@ -10,7 +10,7 @@
 //! images ends it), and a tiny ridge keeps spans no camera sees in place.
 
 use flexshape_camera::Camera;
-use nalgebra::{DMatrix, DVector, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
 
 use crate::edges::EdgeImage;
 use crate::outline::{OutlinePoint, Part, Sampled, again, outline};
@@ -124,12 +124,30 @@ pub(crate) fn normal_equations(
     let mut h = DMatrix::<f64>::zeros(n, n);
     let mut g = DVector::<f64>::zeros(n);
     let (mut cost, mut rows) = (0.0, 0usize);
+    let spans = tube.centerline.control().len() - 3;
+    // Which cameras see each span (the knots are uniform in the parameter).
+    let mut cameras = vec![0u64; spans];
     for_each_row(tube, measured, settings, fit_radius, |row| {
         add_row(&mut h, &mut g, row.entries, row.r, row.w);
         cost += row.w * row.r * row.r;
         rows += 1;
+        let p = &row.measured.point;
+        if let Part::Side(_) = p.part {
+            cameras[((p.u * spans as f64) as usize).min(spans - 1)] |= 1 << row.camera.min(63);
+        }
     });
-    priors(tube, start, settings, fit_radius, &mut h, &mut g);
+    // How a span is seen: the images' information on its two middle control points, the
+    // diagonal blocks of `h` so far (upper triangles), Σ w·b²·d·dᵀ over the rows on them.
+    let block = |k: usize| Matrix3::from_fn(|r, c| h[(3 * k + r.min(c), 3 * k + r.max(c))]);
+    let seen: Vec<SpanSeen> = cameras
+        .iter()
+        .enumerate()
+        .map(|(k, &cameras)| SpanSeen {
+            information: block(k + 1) + block(k + 2),
+            cameras,
+        })
+        .collect();
+    priors(tube, start, &seen, settings, fit_radius, &mut h, &mut g);
     mirror_upper(&mut h);
     Normal { h, g, cost, rows }
 }
@@ -203,6 +221,7 @@ pub(crate) fn for_each_row(
 fn priors(
     tube: &Tube,
     start: &Tube,
+    seen: &[SpanSeen],
     settings: &FitSettings,
     fit_radius: bool,
     h: &mut DMatrix<f64>,
@@ -259,6 +278,7 @@ fn priors(
             add_row(h, g, &entries, scale * d.d3[c], 1.0);
         }
     }
+    hold_weakly_seen_spans(tube, seen, settings, &mut entries, h, g);
     if !fit_radius {
         for k in 0..=tube.steps.len() {
             let col = tube.radius_column(k);
@@ -266,6 +286,107 @@ fn priors(
         }
     }
 }
+
+/// Holds the shape of spans the cameras see from too few sides.
+///
+/// Two cameras see a stretch of tube that lies near their epipolar plane from one direction:
+/// both outlines hold it across that plane and neither within it, where noise and a few
+/// hundredths of a pixel of edge bias then bend it by up to a millimetre (two-camera motions:
+/// wiggles of 0.5–0.9 mm with a 1-σ of 0.1 mm, and the fit lands in one or another of them as
+/// it starts). Where a span is seen by fewer than three cameras, or by more but from
+/// directions less than [`SEEN_APART_DEG`] apart, its third derivative along the direction
+/// it is seen least (a change of curvature there, or a wiggle) is held near zero as the
+/// tip-curl prior holds a capped end's. Fewer than three cameras always leave a direction
+/// weak; among more, the weight fades to nothing as the directions open, so a span three
+/// cameras see from well apart is the images' alone (a prior there too rounds off the step
+/// in curvature where a bending section starts: +0.07 % of curvature bias on the default
+/// scene).
+fn hold_weakly_seen_spans(
+    tube: &Tube,
+    seen: &[SpanSeen],
+    settings: &FitSettings,
+    entries: &mut Vec<(usize, f64)>,
+    h: &mut DMatrix<f64>,
+    g: &mut DVector<f64>,
+) {
+    if settings.weak_span_prior <= 0.0 {
+        return;
+    }
+    let spans = seen.len() as f64;
+    // Two directions φ apart, seen equally, give the across-tube information eigenvalues
+    // 1 ± cos φ: a ratio of tan²(φ/2).
+    let open = (SEEN_APART_DEG.to_radians() / 2.0).tan().powi(2);
+    // Per mm of the displacement the third derivative makes over a span, as the tip-curl
+    // prior's.
+    let scale = settings.weak_span_prior / (6.0 * spans.powi(3));
+    for (k, span) in seen.iter().enumerate() {
+        let b = tube.centerline.basis((k as f64 + 0.5) / spans);
+        let d = tube.centerline.eval_basis(&b);
+        let t = Vector3::from(d.d1).normalize();
+        let other = if t.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        let n1 = t.cross(&other).normalize();
+        let n2 = t.cross(&n1);
+        let info = &span.information;
+        let (a, c, off) = (
+            n1.dot(&(info * n1)),
+            n2.dot(&(info * n2)),
+            n1.dot(&(info * n2)),
+        );
+        let (mean, half) = ((a + c) / 2.0, (((a - c) / 2.0).powi(2) + off * off).sqrt());
+        let (strong, weak) = (mean + half, mean - half);
+        if strong <= 0.0 {
+            // No camera sees it: the ridge holds it where it is.
+            continue;
+        }
+        let fade = if span.cameras.count_ones() < 3 {
+            1.0
+        } else {
+            (1.0 - weak.max(0.0) / (strong * open)).max(0.0)
+        };
+        if fade == 0.0 {
+            continue;
+        }
+        // The weak eigenvector, from whichever row of (A − weak·I) is better conditioned.
+        let (e1, e2) = if (a - weak).abs() > (c - weak).abs() {
+            (off, weak - a)
+        } else {
+            (weak - c, off)
+        };
+        let norm = e1.hypot(e2);
+        let w = if norm > 0.0 {
+            (n1 * e1 + n2 * e2) / norm
+        } else {
+            n1
+        };
+        let s = scale * fade;
+        entries.clear();
+        for j in 0..4 {
+            for c in 0..3 {
+                entries.push((3 * (b.first + j) + c, s * b.weights[3][j] * w[c]));
+            }
+        }
+        add_row(h, g, entries, s * w.dot(&Vector3::from(d.d3)), 1.0);
+    }
+}
+
+/// How the cameras see one span of the centerline.
+#[derive(Clone, Copy)]
+struct SpanSeen {
+    /// Information of the image rows on its middle control points' positions, px²/mm²: Σ
+    /// w·b²·d·dᵀ, d the direction the outline moves per mm of the surface, b the point's
+    /// weight in the sample.
+    information: Matrix3<f64>,
+    /// The cameras with a side sample on it, one bit each (the 64th stands for any beyond).
+    cameras: u64,
+}
+
+/// The angle between the directions cameras see a span from beyond which its outlines alone
+/// shape it (see [`hold_weakly_seen_spans`]), degrees.
+const SEEN_APART_DEG: f64 = 30.0;
 
 /// The ridge's weight, px² per mm² (far below any camera's: a span no camera sees stays put).
 const RIDGE: f64 = 1e-4;
@@ -299,5 +420,70 @@ fn mirror_upper(h: &mut DMatrix<f64>) {
         for i in j + 1..n {
             h[(i, j)] = h[(j, i)];
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A straight capped tube along x, 60 mm in 4 spans, and the normal equations the prior
+    /// adds to when every span is seen from `directions` by the cameras in `cameras`.
+    fn held(directions: &[Vector3<f64>], cameras: u64) -> DMatrix<f64> {
+        let points: Vec<[f64; 3]> = (0..=60).map(|i| [i as f64, 0.0, 0.0]).collect();
+        let tube = Tube::through(&points, 3.0, [true, true], 15.0, 0.0).unwrap();
+        let information = directions.iter().map(|d| d * d.transpose()).sum();
+        let spans = tube.centerline.control().len() - 3;
+        let seen = vec![
+            SpanSeen {
+                information,
+                cameras
+            };
+            spans
+        ];
+        let n = tube.parameters();
+        let (mut h, mut g) = (DMatrix::zeros(n, n), DVector::zeros(n));
+        let settings = FitSettings::default();
+        hold_weakly_seen_spans(&tube, &seen, &settings, &mut Vec::new(), &mut h, &mut g);
+        // Straight: nothing to pull towards, only to hold.
+        assert!(g.amax() < 1e-12, "{g}");
+        h
+    }
+
+    /// The largest entry `h` has for coordinate `c` of any control point.
+    fn largest(h: &DMatrix<f64>, c: usize) -> f64 {
+        (0..h.nrows() / 3)
+            .map(|k| h[(3 * k + c, 3 * k + c)].abs())
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn three_cameras_seeing_a_span_from_well_apart_leave_it_to_the_images() {
+        let dirs = [
+            Vector3::y(),
+            Vector3::z(),
+            (Vector3::y() + Vector3::z()).normalize(),
+        ];
+        assert_eq!(held(&dirs, 0b111).amax(), 0.0);
+    }
+
+    #[test]
+    fn a_span_seen_from_one_side_is_held_in_the_direction_seen_least() {
+        // Three cameras, 10° apart about the tube: the weak direction is z.
+        let tilt = |deg: f64| Vector3::new(0.0, deg.to_radians().cos(), deg.to_radians().sin());
+        let h = held(&[tilt(-10.0), tilt(0.0), tilt(10.0)], 0b111);
+        assert!(largest(&h, 2) > 0.0);
+        assert!(largest(&h, 1) < 1e-6 * largest(&h, 2), "{h}");
+        assert_eq!(largest(&h, 0), 0.0);
+    }
+
+    #[test]
+    fn two_cameras_always_leave_a_direction_held() {
+        // Seen from 90° apart, more evenly from y: the weak direction is z.
+        let h = held(&[Vector3::y() * 2.0, Vector3::z()], 0b11);
+        assert!(largest(&h, 2) > 0.0);
+        assert!(largest(&h, 1) < 1e-6 * largest(&h, 2), "{h}");
+        // The same seen by three cameras is left to the images.
+        assert_eq!(held(&[Vector3::y() * 2.0, Vector3::z()], 0b111).amax(), 0.0);
     }
 }

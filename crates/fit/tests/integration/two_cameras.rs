@@ -29,6 +29,11 @@ fn sweep(seed: u64, frames: usize) -> Tally {
 
 /// The poses `poses` gives of the simulated two-camera rig of `seed`, through the chain.
 fn tally(seed: u64, poses: impl Fn(&Simulator) -> Vec<CatheterPose>) -> Tally {
+    tally_from(seed, 0, poses)
+}
+
+/// As [`tally`], the frames numbered (their noise drawn) from `first` on, as a recording's.
+fn tally_from(seed: u64, first: usize, poses: impl Fn(&Simulator) -> Vec<CatheterPose>) -> Tally {
     let config = SimConfig {
         rig: SimRigConfig {
             cameras: 2,
@@ -42,6 +47,7 @@ fn tally(seed: u64, poses: impl Fn(&Simulator) -> Vec<CatheterPose>) -> Tally {
     let (mut ok, mut ghosts_resolved, mut ghosts_caught) = (0, 0, 0);
     let mut reasons = Vec::new();
     for (n, pose) in poses(sim).iter().enumerate() {
+        let n = first + n;
         let (b, from_views) = chain.run_two_views(sim.render(n as u64, pose).unwrap());
         let truth = &b.frame.truth;
         let inside: Vec<Point3<f64>> = truth
@@ -101,17 +107,20 @@ fn tally(seed: u64, poses: impl Fn(&Simulator) -> Vec<CatheterPose>) -> Tally {
 #[test]
 fn two_cameras_never_report_a_ghost_as_ok() {
     let t = sweep(SimConfig::default().seed, 20);
-    // Measured: 12 of 20 ok (rms ≤ 0.081 mm, tips ≤ 0.25 mm, lengths within 0.2 mm), 7 of them
+    // Measured: 16 of 20 ok (rms ≤ 0.045 mm, tips ≤ 0.11 mm, lengths within 0.2 mm), 11 of them
     // frames whose hull is a ghost or in pieces (rms > 1 mm), started from the two views (the
-    // start from the hull alone gave 5 ok). The rest are `ambiguous` (the two views leave the
-    // centerline loose: 1-σ across the tube above 0.1 mm) or `inconsistent`.
+    // start from the hull alone gave 5 ok; 12 before spans seen from one side were held, see
+    // `two_cameras_hold_a_stretch_along_their_epipolar_plane`). The rest are `ambiguous` (the
+    // two views leave the centerline loose: 1-σ across the tube above 0.1 mm, or a tip seen
+    // end-on) or `inconsistent` (a tip the fit did not reach). The check of the outline's 90th
+    // percentile, which fired here too before, is shown in `selfcheck.rs`.
     println!(
         "{} ok, {} ghosts resolved, {} caught",
         t.ok, t.ghosts_resolved, t.ghosts_caught
     );
-    assert!(t.ok >= 10, "only {} frames ok", t.ok);
+    assert!(t.ok >= 14, "only {} frames ok", t.ok);
     assert!(
-        t.ghosts_resolved >= 5,
+        t.ghosts_resolved >= 9,
         "only {} ghost frames resolved",
         t.ghosts_resolved
     );
@@ -119,7 +128,7 @@ fn two_cameras_never_report_a_ghost_as_ok() {
         t.ghosts_caught >= 1,
         "no ghost frame left unresolved: the test says less"
     );
-    for kind in ["from the image's boundary", "pin the centerline"] {
+    for kind in ["pin the centerline", "free end"] {
         assert!(
             t.reasons.iter().any(|r| r.contains(kind)),
             "no frame flagged for '{kind}': {:#?}",
@@ -132,7 +141,8 @@ fn two_cameras_never_report_a_ghost_as_ok() {
 #[test]
 fn two_cameras_on_another_seed_report_no_wrong_shape_as_ok() {
     let t = sweep(3, 20);
-    // Measured: 10 ok, 5 of them ghost frames resolved.
+    // Measured: 18 ok, 14 of them ghost frames resolved (10 and 5 before spans seen from one
+    // side were held).
     println!("{} ok, {} ghosts resolved", t.ok, t.ghosts_resolved);
     assert!(t.ok >= 7, "only {} frames ok", t.ok);
 }
@@ -173,4 +183,19 @@ fn two_cameras_do_not_report_a_tip_one_of_them_cannot_see_as_ok() {
         hidden >= 6,
         "{hidden} frames flagged for a tip the tube hides"
     );
+}
+
+/// A motion whose tube lies along the two cameras' epipolar plane over a stretch: both
+/// outlines hold it across that plane and neither within it. Fitted from their hulls, frames
+/// 15–19 of seed 12 came out 0.46–0.49 mm RMS off (a wiggle in that plane; 1-σ 0.09–0.10 mm),
+/// each explaining both images, and frame 17 `ok`. Held from bending where the cameras see it
+/// from one side, the same frames are within 0.05 mm; every `ok` frame is right (checked in
+/// `tally`).
+#[test]
+fn two_cameras_hold_a_stretch_along_their_epipolar_plane() {
+    let t = tally_from(12, 15, |sim| sim.motion(20, 120.0)[15..].to_vec());
+    // Measured: 3 of 5 ok (rms 0.040–0.045 mm); frame 15 shows a ghost in the hull, frame 18
+    // misses half its tip's outline in one camera.
+    println!("{} of 5 ok", t.ok);
+    assert!(t.ok >= 3, "{} of 5 ok", t.ok);
 }
