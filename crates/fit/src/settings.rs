@@ -48,10 +48,11 @@ pub struct FitSettings {
     /// span is held near zero. Without it a followed tip, which only its cap's outline holds,
     /// can curl back into its own outline frame after frame (0 turns it off).
     pub tip_curl_prior: f64,
-    /// Weight holding a span the cameras see from too few sides (fewer than three cameras, or
-    /// from directions less than 30° apart) from changing its curvature in the direction they
-    /// see least, px per mm, as `tip_curl_prior` a capped end's: two cameras leave a stretch
-    /// near their epipolar plane free to wiggle within it (0 turns it off).
+    /// Weight holding a span the cameras see from too few sides (every span when fewer than
+    /// three cameras see the tube; else one seen from directions less than 30° apart) from
+    /// changing its curvature in the direction they see least, px per mm, as `tip_curl_prior`
+    /// a capped end's: two cameras leave a stretch near their epipolar plane free to wiggle
+    /// within it (0 turns it off).
     pub weak_span_prior: f64,
     /// Self-check: largest outline residual RMS in any camera, pixels.
     pub max_residual_px: f64,
