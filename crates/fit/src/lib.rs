@@ -210,6 +210,14 @@ const SETTLED_MM: f64 = 0.02;
 /// worst RMS over 4 seeds × 40 frames) and saved a fifth of the fit.
 const ONE_MEASUREMENT_MM: f64 = 0.3;
 
+/// [`ONE_MEASUREMENT_MM`] for a followed frame, mm. Two workers start from the frame two
+/// back, and at 60 Hz their first moves pass 0.3 mm: at 0.6, tracked accuracy over seeds 1–6
+/// at 60 and 120 Hz (1 and 2 threads) moved by at most 0.003 mm, and two threads ran 3–10 %
+/// faster. A start from the hull is farther off, and there 0.6 left a tip's outline
+/// unexplained (floating-base frames `inconsistent` at 0.6–0.9 px that a second measurement
+/// fits to 0.1).
+const ONE_MEASUREMENT_FOLLOWED_MM: f64 = 0.6;
+
 /// Gauss–Newton steps on one measurement's boundaries at most: where a moved tip left most
 /// of its cap unmeasured, fresh boundaries serve better than more steps on the few found.
 const INNER_STEPS: usize = 4;
@@ -273,21 +281,21 @@ impl TubeFitter {
     /// `fit_radius`.
     pub fn fit(&self, views: &[View<'_>], start: Tube, fit_radius: bool) -> Result<Fit, FitError> {
         Ok(self
-            .fit_with(&self.settings, views, start, fit_radius, true)?
+            .fit_with(&self.settings, views, start, fit_radius, ONE_MEASUREMENT_MM)?
             .0)
     }
 
     /// [`TubeFitter::fit`] with other settings (a followed frame's sample spacing), and the
     /// fitted tube's visibility spheres in each camera (the check drew them; the bands use
-    /// them). Unless `shortcut`, a tube that settled on its first boundaries is measured again
-    /// all the same (see [`ONE_MEASUREMENT_MM`]).
+    /// them). A tube that settled on its first boundaries within `one_measurement_mm` of
+    /// `start` is not measured again (see [`ONE_MEASUREMENT_MM`]; 0: always measured again).
     fn fit_with(
         &self,
         s: &FitSettings,
         views: &[View<'_>],
         start: Tube,
         fit_radius: bool,
-        shortcut: bool,
+        one_measurement_mm: f64,
     ) -> Result<(Fit, Vec<Spheres>), FitError> {
         let images = self.edge_images(views)?;
         let mut tube = start.clone();
@@ -321,11 +329,10 @@ impl TubeFitter {
                 let radii = step.rows_range(tube.radius_column(0)..).amax();
                 let across = across_tube(&tube, &step).max(radii);
                 iterations += 1;
-                if shortcut
-                    && inner > 0
+                if inner > 0
                     && round == 0
                     && across < CONVERGED_MM
-                    && moved + across < ONE_MEASUREMENT_MM
+                    && moved + across < one_measurement_mm
                 {
                     // Started close (a followed frame) and converged: the boundaries were
                     // searched around nearly where the tube settled, and they and this
@@ -496,8 +503,13 @@ impl TubeFitter {
             Ok(t) => t.with_steps(steps),
             Err(_) => return Ok((hull.clone(), None)),
         };
-        let (mut fit, spheres) =
-            self.fit_with(s, views, start, radius.is_none() && s.fit_radius, true)?;
+        let (mut fit, spheres) = self.fit_with(
+            s,
+            views,
+            start,
+            radius.is_none() && s.fit_radius,
+            ONE_MEASUREMENT_MM,
+        )?;
         let voxel_volume = volume.voxel_size.iter().product::<f64>();
         let reach = 1.5 * fit.tube.largest_radius() + 1.5 * voxel;
         fit.ghost_mm = Some(check::ghost_length(
@@ -575,13 +587,19 @@ impl TubeFitter {
             ..s.clone()
         };
         let fit_radius = radius.is_none() && s.fit_radius;
-        let (mut fit, mut spheres) = self.fit_with(&followed, views, start, fit_radius, true)?;
+        let (mut fit, mut spheres) = self.fit_with(
+            &followed,
+            views,
+            start,
+            fit_radius,
+            ONE_MEASUREMENT_FOLLOWED_MM,
+        )?;
         if fit.measurements == 1 && fit.cameras.iter().any(|c| !self.explains(c)) {
             // Settled on its first boundaries, which a camera's check then faults: the
             // shortcut's assumption (boundaries searched about where the tube settled) may be
             // what failed, and measuring again costs far less than the hull.
             let iterations = fit.iterations;
-            (fit, spheres) = self.fit_with(&followed, views, fit.tube, fit_radius, false)?;
+            (fit, spheres) = self.fit_with(&followed, views, fit.tube, fit_radius, 0.0)?;
             fit.iterations += iterations;
             fit.measurements += 1;
         }

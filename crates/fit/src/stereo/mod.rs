@@ -77,8 +77,13 @@ impl TubeFitter {
             else {
                 continue;
             };
-            let (fit, spheres) =
-                self.fit_with(s, views, start, radius.is_none() && s.fit_radius, true)?;
+            let (fit, spheres) = self.fit_with(
+                s,
+                views,
+                start,
+                radius.is_none() && s.fit_radius,
+                crate::ONE_MEASUREMENT_MM,
+            )?;
             if self.verdict(&fit, volume).is_none() {
                 explaining.push((fit, spheres, base));
             }
