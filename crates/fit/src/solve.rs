@@ -7,7 +7,9 @@
 //! Parameters: the control points (3 per point, world mm), then the radius (mm). Residuals:
 //! pixels. A weak prior holds each control point near where it started along the tube (the
 //! outline hardly sees a control point slide along it), a firm one an open end (nothing in the
-//! images ends it), and a tiny ridge keeps spans no camera sees in place.
+//! images ends it), a capped end's last span and any span the cameras see from too few sides
+//! are held from changing curvature where the images leave them free, and a tiny ridge keeps
+//! spans no camera sees in place.
 
 use flexshape_camera::Camera;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
