@@ -12,6 +12,7 @@
 //! spans no camera sees in place.
 
 use flexshape_camera::Camera;
+use flexshape_curve::Basis;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
 
 use crate::edges::EdgeImage;
@@ -269,15 +270,10 @@ fn priors(
         }
         let b = tube.centerline.basis(e as f64);
         let d = tube.centerline.eval_basis(&b);
-        // d³x/ds³·h³/6 over a span h = L/spans, with s = u·L (the parameter is proportional
-        // to arc length).
-        let scale = settings.tip_curl_prior / (6.0 * spans.powi(3));
+        let scale = per_span(settings.tip_curl_prior, spans);
         for c in 0..3 {
-            entries.clear();
-            for j in 0..4 {
-                entries.push((3 * (b.first + j) + c, scale * b.weights[3][j]));
-            }
-            add_row(h, g, &entries, scale * d.d3[c], 1.0);
+            let along = Vector3::ith(c, 1.0);
+            hold_third_derivative(&b, &d.d3, &along, scale, &mut entries, h, g);
         }
     }
     hold_weakly_seen_spans(tube, seen, settings, &mut entries, h, g);
@@ -320,9 +316,7 @@ fn hold_weakly_seen_spans(
     // Two directions φ apart, seen equally, give the across-tube information eigenvalues
     // 1 ± cos φ: a ratio of tan²(φ/2).
     let open = (SEEN_APART_DEG.to_radians() / 2.0).tan().powi(2);
-    // Per mm of the displacement the third derivative makes over a span, as the tip-curl
-    // prior's.
-    let scale = settings.weak_span_prior / (6.0 * spans.powi(3));
+    let scale = per_span(settings.weak_span_prior, spans);
     let few = seen
         .iter()
         .fold(0, |all, span| all | span.cameras)
@@ -371,15 +365,35 @@ fn hold_weakly_seen_spans(
         } else {
             n1
         };
-        let s = scale * fade;
-        entries.clear();
-        for j in 0..4 {
-            for c in 0..3 {
-                entries.push((3 * (b.first + j) + c, s * b.weights[3][j] * w[c]));
-            }
-        }
-        add_row(h, g, entries, s * w.dot(&Vector3::from(d.d3)), 1.0);
+        hold_third_derivative(&b, &d.d3, &w, scale * fade, entries, h, g);
     }
+}
+
+/// The scale [`hold_third_derivative`] takes for a prior of `weight` px per mm: the
+/// displacement the third derivative makes over a span, d³x/ds³·h³/6 with h = L/`spans`, from
+/// the derivative by the parameter u = s/L (proportional to arc length).
+fn per_span(weight: f64, spans: f64) -> f64 {
+    weight / (6.0 * spans.powi(3))
+}
+
+/// Adds a row holding the centerline's third derivative by its parameter at basis `b` (where
+/// it is `d3`) near zero along the unit vector `along`, weighted `scale` (see [`per_span`]).
+fn hold_third_derivative(
+    b: &Basis,
+    d3: &[f64; 3],
+    along: &Vector3<f64>,
+    scale: f64,
+    entries: &mut Vec<(usize, f64)>,
+    h: &mut DMatrix<f64>,
+    g: &mut DVector<f64>,
+) {
+    entries.clear();
+    for j in 0..4 {
+        for c in (0..3).filter(|&c| along[c] != 0.0) {
+            entries.push((3 * (b.first + j) + c, scale * b.weights[3][j] * along[c]));
+        }
+    }
+    add_row(h, g, entries, scale * along.dot(&Vector3::from(*d3)), 1.0);
 }
 
 /// How the cameras see one span of the centerline.
