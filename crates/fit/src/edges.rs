@@ -3,11 +3,18 @@
 //! tube's.
 //!
 //! A pixel that the boundary crosses mixes the two colours, `I = c·S + (1 − c)·E` (`E` the
-//! background, `S` the surface, `c` the covered share), so `c = (I − E)·(S − E) / ‖S − E‖²`
-//! is linear in the coverage whatever the colours are; the boundary is where `c` crosses ½
-//! (the truth masks' convention: the pixel centre's ray grazes the tube). Colours are sampled
-//! bilinearly, which turns the pixels' box-filtered step into a ramp whose ½ crossing is
-//! unbiased on average over the boundary's sub-pixel phase.
+//! background, `S` the surface, `c` the covered share), and the boundary is where `c` crosses
+//! ½ (the truth masks' convention: the pixel centre's ray grazes the tube). The surface's
+//! colour at the boundary is not the one read inside the outline, though: a round tube's
+//! shading darkens toward its limbs, and on a dark backdrop the limb fades into it, so
+//! projecting onto the colour read inside, `c = (I − E)·(S − E) / ‖S − E‖²`, puts the boundary
+//! about a pixel inside the tube. Shading changes the surface's brightness, not its hue: with
+//! `Ŝ` the colour read inside, `I − E = a·Ŝ − c·E` for some brightness `a`, and least squares
+//! over the three channels give `c` whatever `a` is. That needs the surface's and the
+//! background's colours to differ in hue; where they hardly do (a grey tube on a grey
+//! backdrop), the projection is used. Colours are sampled bilinearly, which turns the pixels'
+//! box-filtered step into a ramp whose ½ crossing is unbiased on average over the boundary's
+//! sub-pixel phase.
 
 use image::RgbImage;
 use nalgebra::Vector2;
@@ -47,8 +54,9 @@ impl<'a> EdgeImage<'a> {
         }
     }
 
-    /// `I − E` at a sub-pixel position (bilinear), or `None` outside the image.
-    fn difference(&self, p: Vector2<f64>) -> Option<[f32; 3]> {
+    /// The four pixels around a sub-pixel position and their bilinear weights, or `None`
+    /// outside the image.
+    fn corners(&self, p: Vector2<f64>) -> Option<[(usize, f32); 4]> {
         // Truncation is the floor here (negative positions are refused first), and much
         // cheaper than `floor`, which is a library call without SSE4.1.
         if !(p.x >= 0.0 && p.y >= 0.0) {
@@ -60,20 +68,37 @@ impl<'a> EdgeImage<'a> {
         }
         let (fx, fy) = ((p.x - x0 as f64) as f32, (p.y - y0 as f64) as f32);
         let i = y0 * self.width + x0;
-        let corners = [
+        Some([
             (i, (1.0 - fx) * (1.0 - fy)),
             (i + 1, fx * (1.0 - fy)),
             (i + self.width, (1.0 - fx) * fy),
             (i + self.width + 1, fx * fy),
-        ];
+        ])
+    }
+
+    /// `I − E` at a sub-pixel position (bilinear), or `None` outside the image.
+    fn difference(&self, p: Vector2<f64>) -> Option<[f32; 3]> {
         let mut d = [0f32; 3];
-        for (k, w) in corners {
+        for (k, w) in self.corners(p)? {
             let bg = self.background[k];
             for c in 0..3 {
                 d[c] += w * (self.pixels[3 * k + c] as f32 - bg[c]);
             }
         }
         Some(d)
+    }
+
+    /// `E` at a sub-pixel position (bilinear), black outside the image. Only the unmixing needs
+    /// it, and only at the few samples it reads: computed on demand.
+    fn background_at(&self, p: Vector2<f64>) -> [f32; 3] {
+        let mut e = [0f32; 3];
+        for (k, w) in self.corners(p).into_iter().flatten() {
+            let bg = self.background[k];
+            for c in 0..3 {
+                e[c] += w * bg[c];
+            }
+        }
+        e
     }
 
     /// The boundary along the line `origin + t·direction` (`direction` a unit vector pointing
@@ -100,29 +125,33 @@ impl<'a> EdgeImage<'a> {
             return None;
         }
         // diffs[k] is at t = (outer − k)·STEP: from outside inward.
+        let at = |k: usize| origin + direction * ((outer - k as i32) as f64 * STEP);
         for (k, d) in diffs[..count].iter_mut().enumerate() {
-            let t = (outer - k as i32) as f64 * STEP;
-            *d = self.difference(origin + direction * t)?;
+            *d = self.difference(at(k))?;
         }
-        let norm2 = |d: &[f32; 3]| d.iter().map(|v| v * v).sum::<f32>();
         let diffs = &diffs[..count];
         // The surface colour: first the strongest difference at or inside the predicted
         // outline; then the colour just inside the boundary found with it (a band's edge or
         // shading can change the tube's colour along the line).
-        let strongest = diffs[outer as usize..]
-            .iter()
-            .max_by(|a, b| norm2(a).total_cmp(&norm2(b)))?;
-        let (k, _) = crossing(diffs, strongest, min_contrast)?;
-        let local = &diffs[(k + INSIDE).min(count - 1)];
-        let surface = if norm2(local) >= min_contrast.powi(2) as f32 {
+        let strongest = (outer as usize..count)
+            .max_by(|&a, &b| norm2(&diffs[a]).total_cmp(&norm2(&diffs[b])))?;
+        let (k, _) = crossing(count, projection(diffs, &diffs[strongest], min_contrast)?)?;
+        let local = (k + INSIDE).min(count - 1);
+        let surface = if norm2(&diffs[local]) >= min_contrast.powi(2) as f32 {
             local
         } else {
             strongest
         };
-        let (k, frac) = crossing(diffs, surface, min_contrast)?;
+        let projected = projection(diffs, &diffs[surface], min_contrast)?;
+        let inside_colour = self.background_at(at(surface));
+        let raw = std::array::from_fn(|c| diffs[surface][c] + inside_colour[c]);
+        let (k, frac) = match unmixing(raw, &self.background_at(at(0)), min_contrast) {
+            Some(unmix) => crossing(count, |k| unmix(&diffs[k], &self.background_at(at(k)))),
+            None => crossing(count, projected),
+        }?;
         Some(Edge {
             offset: (outer - k as i32 + 1) as f64 * STEP - frac * STEP,
-            contrast: (norm2(surface) as f64).sqrt(),
+            contrast: (norm2(&diffs[surface]) as f64).sqrt(),
         })
     }
 }
@@ -130,21 +159,68 @@ impl<'a> EdgeImage<'a> {
 /// Samples from a boundary to where the surface colour is read: 1.5 px, past the mixed pixels.
 const INSIDE: usize = 3;
 
-/// The first ½ crossing of the coverage against `surface`, coming in from outside: the sample
-/// index reached and the fraction of a step back from it. `None` when the contrast is too weak,
-/// the line's outer end is not background, or the coverage never reaches ½.
-fn crossing(diffs: &[[f32; 3]], surface: &[f32; 3], min_contrast: f64) -> Option<(usize, f64)> {
-    let s2: f32 = surface.iter().map(|v| v * v).sum();
-    if (s2 as f64) < min_contrast * min_contrast {
+fn dot(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn norm2(a: &[f32; 3]) -> f32 {
+    dot(a, a)
+}
+
+/// Least hue difference, as the squared sine of the angle between the surface's and the
+/// background's colours, at which coverage is unmixed from the hue (13°): below it the
+/// brightness and the coverage can hardly be told apart, and the noise would swamp the
+/// boundary.
+const MIN_HUE_SIN2: f32 = 0.05;
+
+/// The coverage of sample `k` of `diffs` (`I − E`), projected onto the surface's difference
+/// from the background `surface` (`I − E` inside the outline); `None` below `min_contrast`
+/// grey levels.
+fn projection<'a>(
+    diffs: &'a [[f32; 3]],
+    surface: &'a [f32; 3],
+    min_contrast: f64,
+) -> Option<impl Fn(usize) -> f32 + 'a> {
+    let s2 = norm2(surface);
+    ((s2 as f64) >= min_contrast * min_contrast)
+        .then_some(move |k: usize| dot(&diffs[k], surface) / s2)
+}
+
+/// The coverage of a sample, `(I − E, E)`, unmixed by hue (the module's doc): the share of the
+/// background's colour that a surface of the hue of `raw` (its colour `I` inside the outline),
+/// at any brightness, replaces. `None` when the hues of the surface and of the background
+/// `outside` (at the line's outer end) differ too little, or the background's colour across
+/// the surface's hue is below a quarter of `min_contrast` grey levels (a near-black backdrop:
+/// its loss is too faint to measure).
+fn unmixing(
+    raw: [f32; 3],
+    outside: &[f32; 3],
+    min_contrast: f64,
+) -> Option<impl Fn(&[f32; 3], &[f32; 3]) -> f32> {
+    let (a11, a12, a22) = (norm2(&raw), dot(&raw, outside), norm2(outside));
+    let det = a11 * a22 - a12 * a12;
+    let across = (det / a11.max(1e-6)) as f64;
+    if det < MIN_HUE_SIN2 * a11 * a22 || across < (min_contrast / 4.0).powi(2) {
         return None;
     }
-    let coverage = |d: &[f32; 3]| (d[0] * surface[0] + d[1] * surface[1] + d[2] * surface[2]) / s2;
-    let mut prev = coverage(&diffs[0]);
+    // Least squares of `d = a·raw − c·e` in (a, c).
+    Some(move |d: &[f32; 3], e: &[f32; 3]| {
+        let (b12, b22) = (dot(&raw, e), norm2(e));
+        let det = (a11 * b22 - b12 * b12).max(1e-6);
+        (b12 * dot(&raw, d) - a11 * dot(e, d)) / det
+    })
+}
+
+/// The first ½ crossing of `coverage` over samples `0..count`, coming in from outside: the
+/// sample index reached and the fraction of a step back from it. `None` when the line's outer
+/// end is not background, or the coverage never reaches ½.
+fn crossing(count: usize, coverage: impl Fn(usize) -> f32) -> Option<(usize, f64)> {
+    let mut prev = coverage(0);
     if prev > 0.3 {
         return None;
     }
-    for (k, d) in diffs.iter().enumerate().skip(1) {
-        let c = coverage(d);
+    for k in 1..count {
+        let c = coverage(k);
         if c >= 0.5 {
             return Some((k, ((0.5 - prev) / (c - prev).max(1e-6)) as f64));
         }
@@ -158,54 +234,97 @@ mod tests {
     use super::*;
     use image::Rgb;
 
-    /// A dark disc of radius `r` centred at `c` on a bright backdrop, each pixel its covered
-    /// share (16×16 supersampled).
-    fn disc(c: Vector2<f64>, r: f64) -> (RgbImage, Vec<[f32; 3]>) {
-        let (bg, fg) = ([200.0f32, 190.0, 170.0], [30.0f32, 40.0, 90.0]);
+    /// A disc of radius `r` centred at `c` in colour `fg` on a backdrop `bg`, each pixel its
+    /// covered share (16×16 supersampled); `shaded`, the disc is a sphere lit from the camera,
+    /// `0.3 + 0.7·cos` of its surface's slant, darkest at its rim.
+    fn disc(
+        c: Vector2<f64>,
+        r: f64,
+        fg: [f32; 3],
+        bg: [f32; 3],
+        shaded: bool,
+    ) -> (RgbImage, Vec<[f32; 3]>) {
         let img = RgbImage::from_fn(64, 64, |x, y| {
-            let mut inside = 0;
+            let mut colour = [0f32; 3];
             for i in 0..16 {
                 for j in 0..16 {
                     let p = Vector2::new(
                         x as f64 - 0.5 + (i as f64 + 0.5) / 16.0,
                         y as f64 - 0.5 + (j as f64 + 0.5) / 16.0,
                     );
-                    inside += ((p - c).norm() <= r) as u32;
+                    let u = (p - c).norm() / r;
+                    let k = if shaded {
+                        0.3 + 0.7 * (1.0 - u * u).max(0.0).sqrt()
+                    } else {
+                        1.0
+                    };
+                    for ch in 0..3 {
+                        colour[ch] += if u <= 1.0 { fg[ch] * k as f32 } else { bg[ch] } / 256.0;
+                    }
                 }
             }
-            let a = inside as f32 / 256.0;
-            Rgb(std::array::from_fn(|k| {
-                (a * fg[k] + (1.0 - a) * bg[k]).round() as u8
-            }))
+            Rgb(colour.map(|v| v.round() as u8))
         });
         (img, vec![bg; 64 * 64])
     }
 
-    #[test]
-    fn finds_a_round_boundary_to_a_few_hundredths_of_a_pixel() {
-        let c = Vector2::new(31.3, 32.6);
-        let r = 12.0;
-        let (img, bg) = disc(c, r);
-        let e = EdgeImage::new(&img, &bg);
+    /// Worst and mean error of the boundaries found around `disc`'s image, each searched from
+    /// 0.7 px inside the true one, pixels.
+    fn errors((img, bg): &(RgbImage, Vec<[f32; 3]>), c: Vector2<f64>, r: f64) -> (f64, f64) {
+        let e = EdgeImage::new(img, bg);
         let mut worst = 0.0f64;
         let mut sum = 0.0;
         let n = 72;
         for i in 0..n {
             let a = i as f64 / n as f64 * std::f64::consts::TAU;
             let dir = Vector2::new(a.cos(), a.sin());
-            // Predicted 0.7 px inside the true boundary.
             let edge = e.find(c + dir * (r - 0.7), dir, 3.0, 3.0, 10.0).unwrap();
             let err = edge.offset - 0.7;
             worst = worst.max(err.abs());
             sum += err;
         }
+        (worst, sum / n as f64)
+    }
+
+    #[test]
+    fn finds_a_round_boundary_to_a_few_hundredths_of_a_pixel() {
+        let (c, r) = (Vector2::new(31.3, 32.6), 12.0);
+        let image = disc(c, r, [30.0, 40.0, 90.0], [200.0, 190.0, 170.0], false);
+        let (worst, mean) = errors(&image, c, r);
         assert!(worst < 0.12, "worst {worst}");
-        assert!((sum / n as f64).abs() < 0.03, "mean {}", sum / n as f64);
+        assert!(mean.abs() < 0.03, "mean {mean}");
+    }
+
+    #[test]
+    fn finds_a_limb_that_darkens_into_a_dark_backdrop() {
+        // A blue tube's limb fades into a near-black backdrop: read against the colour inside,
+        // the boundary lands up to 0.7 px inside the true one.
+        let (c, r) = (Vector2::new(31.3, 32.6), 6.0);
+        let image = disc(c, r, [36.0, 51.0, 102.0], [25.0, 25.0, 25.0], true);
+        let (worst, mean) = errors(&image, c, r);
+        assert!(worst < 0.15, "worst {worst}");
+        assert!(mean.abs() < 0.05, "mean {mean}");
+    }
+
+    #[test]
+    fn a_grey_tube_on_a_grey_backdrop_is_read_by_contrast_alone() {
+        // No hue tells the surface from the backdrop: the coverage is the projection.
+        let (c, r) = (Vector2::new(31.3, 32.6), 12.0);
+        let image = disc(c, r, [60.0, 60.0, 60.0], [180.0, 180.0, 180.0], false);
+        let (worst, mean) = errors(&image, c, r);
+        assert!(worst < 0.12, "worst {worst}");
+        assert!(mean.abs() < 0.03, "mean {mean}");
     }
 
     #[test]
     fn refuses_lines_without_a_clean_background_or_contrast() {
-        let (img, bg) = disc(Vector2::new(32.0, 32.0), 12.0);
+        let (img, bg) = disc(
+            Vector2::new(32.0, 32.0),
+            12.0,
+            [30.0, 40.0, 90.0],
+            [200.0, 190.0, 170.0],
+            false,
+        );
         let e = EdgeImage::new(&img, &bg);
         // Pointing inward: the far end is the disc.
         let inward = e.find(

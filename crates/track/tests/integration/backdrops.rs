@@ -135,11 +135,13 @@ fn folds_that_moved_since_the_background_was_captured_are_followed() {
         ok == 3 && updated.is_empty(),
         "{ok}, updated at {updated:?}"
     );
-    // Folds slid 10 mm; poses far apart (every frame through the whole chain).
-    let (sim, pipeline) = common::chain_of(folds_moved(10.0));
+    // Folds slid 20 mm; poses far apart (every frame through the whole chain). Measured: as
+    // captured, no frame is ok (the old valleys break the hull); followed, all six within
+    // 0.042 mm. (At 10 mm the boundaries, read by hue, already explain every frame as captured.)
+    let (sim, pipeline) = common::chain_of(folds_moved(20.0));
     let (ok, updated) = run(&sim, &pipeline, &sim.sweep(6));
     let (ok_fixed, _) = run(&sim, &without_adapting(&sim), &sim.sweep(6));
-    println!("10 mm: {ok} of 6 ok, updated at {updated:?} ({ok_fixed} as captured)");
+    println!("20 mm: {ok} of 6 ok, updated at {updated:?} ({ok_fixed} as captured)");
     assert!(
         ok == 6 && !updated.is_empty() && ok_fixed <= 3,
         "{ok} / {ok_fixed}"
