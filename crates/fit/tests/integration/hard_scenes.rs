@@ -82,3 +82,44 @@ fn a_part_just_beside_another_outline_does_not_move_it() {
     }
     assert!(rms < 0.06, "rms {rms:.3} mm");
 }
+
+/// A lit tube darkens toward its outline, and against a near-black backdrop its limbs fade
+/// into it: read against the colour inside the outline, every boundary of the blue tube was
+/// found 0.6–0.9 px inside the true one, the fitted radius shrank to 2.1 mm for 3 and the
+/// centerline was 0.40 mm RMS off (every frame `inconsistent`). Read by hue, the shape is
+/// right; the outline stays noisier than on a light backdrop, and every `ok` frame is right.
+#[test]
+fn a_tube_whose_limbs_fade_into_a_dark_backdrop_is_placed_by_its_hue() {
+    let chain = Chain::new(SimConfig {
+        render: RenderSettings {
+            backdrop_albedo: [0.1, 0.1, 0.1],
+            ..RenderSettings::default()
+        },
+        ..SimConfig::default()
+    });
+    let sim = &chain.sim;
+    let mut errors = Vec::new();
+    for (n, pose) in sim.sweep(6).iter().enumerate() {
+        let b = chain.run(sim.render(n as u64, pose).unwrap());
+        let truth = &b.frame.truth;
+        let rms = centerline_rms(truth, sim, &b.fitted.points);
+        let tip = tip_error(truth, &b.fitted);
+        println!(
+            "frame {n}: {:?}, rms {rms:.3} mm, tip {tip:.2} mm",
+            b.fitted.status
+        );
+        if b.fitted.status == Status::Ok {
+            assert!(
+                rms <= 0.12 && tip <= 0.3,
+                "frame {n}: ok with rms {rms:.3}, tip {tip:.2}"
+            );
+        }
+        errors.push(rms);
+    }
+    // Measured: median 0.045 mm, worst 0.049; 3 of 6 ok, the rest a p90 of 0.26–0.28 px.
+    let (median, worst) = (median(&errors), errors.iter().copied().fold(0.0, f64::max));
+    assert!(
+        median <= 0.06 && worst <= 0.1,
+        "median {median:.3} mm, worst {worst:.3}"
+    );
+}
