@@ -56,6 +56,7 @@ impl<'a> EdgeImage<'a> {
 
     /// The four pixels around a sub-pixel position and their bilinear weights, or `None`
     /// outside the image.
+    #[inline]
     fn corners(&self, p: Vector2<f64>) -> Option<[(usize, f32); 4]> {
         // Truncation is the floor here (negative positions are refused first), and much
         // cheaper than `floor`, which is a library call without SSE4.1.
@@ -90,9 +91,13 @@ impl<'a> EdgeImage<'a> {
 
     /// `E` at a sub-pixel position (bilinear), black outside the image. Only the unmixing needs
     /// it, and only at the few samples it reads: computed on demand.
+    #[inline]
     fn background_at(&self, p: Vector2<f64>) -> [f32; 3] {
         let mut e = [0f32; 3];
-        for (k, w) in self.corners(p).into_iter().flatten() {
+        let Some(corners) = self.corners(p) else {
+            return e;
+        };
+        for (k, w) in corners {
             let bg = self.background[k];
             for c in 0..3 {
                 e[c] += w * bg[c];
@@ -146,7 +151,14 @@ impl<'a> EdgeImage<'a> {
         let inside_colour = self.background_at(at(surface));
         let raw = std::array::from_fn(|c| diffs[surface][c] + inside_colour[c]);
         let (k, frac) = match unmixing(raw, &self.background_at(at(0)), min_contrast) {
-            Some(unmix) => crossing(count, |k| unmix(&diffs[k], &self.background_at(at(k)))),
+            Some(unmix) => {
+                // The unmixed crossing lies near the projected one (shading moves it by a
+                // pixel or so): searched from there, it reads a few samples, not the line.
+                let (near, _) = crossing(count, &projected)?;
+                crossing_near(near, count, |k| {
+                    unmix(&diffs[k], &self.background_at(at(k)))
+                })
+            }
             None => crossing(count, projected),
         }?;
         Some(Edge {
@@ -209,6 +221,33 @@ fn unmixing(
         let det = (a11 * b22 - b12 * b12).max(1e-6);
         (b12 * dot(&raw, d) - a11 * dot(e, d)) / det
     })
+}
+
+/// As [`crossing`], reading `coverage` only from a sample a pixel outside `near` (where a
+/// close estimate crosses, the line's outer end checked by it) on, or farther out while that
+/// one is covered already.
+fn crossing_near(
+    near: usize,
+    count: usize,
+    coverage: impl Fn(usize) -> f32,
+) -> Option<(usize, f64)> {
+    let mut k = near.saturating_sub(2).max(1);
+    let mut prev = coverage(k - 1);
+    while prev >= 0.5 && k > 1 {
+        k -= 1;
+        prev = coverage(k - 1);
+    }
+    if prev >= 0.5 {
+        return None;
+    }
+    for k in k..count {
+        let c = coverage(k);
+        if c >= 0.5 {
+            return Some((k, ((0.5 - prev) / (c - prev).max(1e-6)) as f64));
+        }
+        prev = c;
+    }
+    None
 }
 
 /// The first ½ crossing of `coverage` over samples `0..count`, coming in from outside: the
