@@ -1,10 +1,8 @@
-//! Each camera's background model and the silhouetter prepared for it, kept as snapshots: a
-//! frame works on the snapshot it took while a frame that found the backdrop changed puts a
-//! new one in its place (see [`crate::Pipeline::process`]). Frames on other workers go on with
-//! the snapshot they hold.
+//! Each camera's background model and the silhouetter prepared for it: part of the run's state
+//! (`state`), which a frame that found the backdrop changed gives a new one (see
+//! [`crate::Pipeline::process`]).
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, OnceLock, RwLock};
+use std::sync::{Arc, OnceLock};
 
 use flexshape_camera::Camera;
 use flexshape_camera::nalgebra::Point3;
@@ -72,80 +70,7 @@ const MAX_BRIGHT: f32 = 100.0;
 /// Attempts to locate the tube with the bootstrap silhouettes that may fail in a row before
 /// they stop (until a frame comes out right or a background follows its backdrop): a frame
 /// that is wrong for another reason (no tube in view) would pay for a second chain each time.
-const BOOTSTRAP_ATTEMPTS: usize = 3;
-
-/// Whether the bootstrap silhouettes may be tried, counting failed attempts in a row.
-#[derive(Debug, Default)]
-pub(crate) struct BootstrapBudget {
-    failed: AtomicUsize,
-}
-
-impl Clone for BootstrapBudget {
-    fn clone(&self) -> Self {
-        BootstrapBudget {
-            failed: AtomicUsize::new(self.failed.load(Ordering::Relaxed)),
-        }
-    }
-}
-
-impl BootstrapBudget {
-    /// Whether an attempt may be made.
-    pub fn allows(&self) -> bool {
-        self.failed.load(Ordering::Relaxed) < BOOTSTRAP_ATTEMPTS
-    }
-
-    /// Counts an attempt that located nothing.
-    pub fn failed(&self) {
-        self.failed.fetch_add(1, Ordering::Relaxed);
-    }
-
-    /// A right frame or a followed backdrop: attempts may be made again.
-    pub fn reset(&self) {
-        self.failed.store(0, Ordering::Relaxed);
-    }
-}
-
-/// The cameras' current backdrops, in the rig's order.
-#[derive(Debug)]
-pub(crate) struct Backdrops {
-    cameras: Vec<RwLock<Arc<Backdrop>>>,
-}
-
-impl Clone for Backdrops {
-    /// The current snapshots; a later change to either copy leaves the other as it was.
-    fn clone(&self) -> Self {
-        Backdrops {
-            cameras: self.snapshot().into_iter().map(RwLock::new).collect(),
-        }
-    }
-}
-
-impl Backdrops {
-    pub fn new(backdrops: Vec<Backdrop>) -> Self {
-        Backdrops {
-            cameras: backdrops
-                .into_iter()
-                .map(|b| RwLock::new(Arc::new(b)))
-                .collect(),
-        }
-    }
-
-    /// Every camera's current backdrop.
-    pub fn snapshot(&self) -> Vec<Arc<Backdrop>> {
-        self.cameras
-            .iter()
-            // A worker that panicked while replacing left a whole snapshot behind.
-            .map(|c| Arc::clone(&c.read().unwrap_or_else(|e| e.into_inner())))
-            .collect()
-    }
-
-    /// Puts `backdrop` in camera `camera`'s place.
-    pub fn replace(&self, camera: usize, backdrop: Backdrop) {
-        if let Some(c) = self.cameras.get(camera) {
-            *c.write().unwrap_or_else(|e| e.into_inner()) = Arc::new(backdrop);
-        }
-    }
-}
+pub(crate) const BOOTSTRAP_ATTEMPTS: usize = 3;
 
 /// A camera whose background took a frame's colours: the backdrop had changed there since the
 /// background was captured.

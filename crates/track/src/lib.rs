@@ -34,6 +34,7 @@ mod refine;
 mod refine_report;
 mod runner;
 mod source;
+mod state;
 mod status;
 mod usual;
 

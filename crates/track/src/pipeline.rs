@@ -29,10 +29,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::TrackError;
-use crate::backdrop::{
-    Backdrop, Backdrops, BackgroundUpdate, BootstrapBudget, hull_pixels, models,
-};
-use crate::usual::{UsualShares, share};
+use crate::backdrop::{Backdrop, BackgroundUpdate, hull_pixels, models};
+use crate::state::{RunState, Shared, Turn};
+use crate::usual::share;
 
 /// Milliseconds per stage of one frame.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -192,14 +191,13 @@ impl Tracked {
 pub struct Pipeline {
     names: Vec<String>,
     cameras: Vec<Camera>,
-    backdrops: Backdrops,
-    bootstrap: BootstrapBudget,
     carver: HierarchicalCarver,
     band_rule: BandRule,
     shape: ShapeEstimator,
     fitter: TubeFitter,
-    /// The silhouette shares of the first right frames.
-    usual: UsualShares,
+    /// The backdrops, the silhouette shares of the first right frames and the bootstrap
+    /// budget, as the frames processed so far left them.
+    state: Shared,
 }
 
 impl Pipeline {
@@ -306,13 +304,11 @@ impl Pipeline {
         Ok(Pipeline {
             names,
             cameras,
-            backdrops: Backdrops::new(backdrops),
-            bootstrap: BootstrapBudget::default(),
             carver,
             band_rule: BandRule::default(),
             shape,
             fitter,
-            usual: UsualShares::default(),
+            state: Shared::new(RunState::new(backdrops)),
         })
     }
 
@@ -335,13 +331,11 @@ impl Pipeline {
         Ok(Pipeline {
             names: self.names.clone(),
             cameras,
-            backdrops: self.backdrops.clone(),
-            bootstrap: self.bootstrap.clone(),
             carver,
             band_rule: self.band_rule.clone(),
             shape: self.shape.clone(),
             fitter,
-            usual: self.usual.clone(),
+            state: self.state.clone(),
         })
     }
 
@@ -366,7 +360,7 @@ impl Pipeline {
         let warnings = loaded
             .iter()
             .zip(&self.names)
-            .zip(self.backdrops.snapshot())
+            .zip(self.state.get().backdrops)
             .filter(|(((_, grey), _), backdrop)| *grey && backdrop.colour)
             .map(|((_, name), _)| {
                 format!(
@@ -393,6 +387,17 @@ impl Pipeline {
         self.with_fit_settings(settings)
     }
 
+    /// The run's state as the frames processed so far left it.
+    pub(crate) fn run_state(&self) -> RunState {
+        self.state.get()
+    }
+
+    /// Replaces the run's state (a run that makes its frames' changes in input order keeps
+    /// the newest here, for [`Pipeline::backgrounds`] and what comes after the run).
+    pub(crate) fn set_run_state(&self, state: RunState) {
+        self.state.set(state);
+    }
+
     /// The image fit (to re-render a fitted tube or see its outline residuals).
     pub fn fitter(&self) -> &TubeFitter {
         &self.fitter
@@ -401,7 +406,7 @@ impl Pipeline {
     /// Every camera's current background model (rig order): the captured one, or what it
     /// became where the backdrop changed since (see [`Pipeline::process`]).
     pub fn backgrounds(&self) -> Vec<Arc<BackgroundModel>> {
-        models(&self.backdrops.snapshot())
+        models(&self.state.get().backdrops)
     }
 
     /// How the image fit sees a frame: each camera's image (rig order), background (e.g. from
@@ -484,13 +489,26 @@ impl Pipeline {
         images: &[&RgbImage],
         prior: Option<&Prior>,
     ) -> Result<Tracked, TrackError> {
+        let mut turn = Turn::new(self.state.get());
+        let tracked = self.process_after_in(images, prior, &mut turn)?;
+        self.state.apply(&turn.change);
+        Ok(tracked)
+    }
+
+    /// As [`Pipeline::process_after`], reading and changing the run's state in `turn` only.
+    pub(crate) fn process_after_in(
+        &self,
+        images: &[&RgbImage],
+        prior: Option<&Prior>,
+        turn: &mut Turn,
+    ) -> Result<Tracked, TrackError> {
         let Some(prior) = prior.filter(|_| self.tracks()) else {
-            return self.process(images);
+            return self.process_in(images, turn);
         };
         self.check_count(images)?;
         let t = Instant::now();
         let margin = self.fitter.settings().track_margin_px;
-        let backdrops = self.backdrops.snapshot();
+        let backdrops = turn.state.backdrops.clone();
         let regions = self.fitter.image_regions(&prior.tube, margin);
         let silhouettes = backdrops
             .par_iter()
@@ -509,9 +527,9 @@ impl Pipeline {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let silhouettes_ms = ms(t);
-        if self.grown(&silhouettes).is_some() {
+        if self.grown(&silhouettes, &turn.state).is_some() {
             // The whole chain says so, with the whole images' shares.
-            let mut full = self.process(images)?;
+            let mut full = self.process_in(images, turn)?;
             full.timings.silhouettes += silhouettes_ms;
             return Ok(full);
         }
@@ -531,11 +549,11 @@ impl Pipeline {
         // Anything but a right shape (one that does not explain the images, or that the
         // cameras do not pin down) is tried again from this frame's own hull.
         if fit.is_none() || !shape.status.is_right() {
-            let mut full = self.process(images)?;
+            let mut full = self.process_in(images, turn)?;
             full.timings.fit += fit_ms + silhouettes_ms;
             return Ok(full);
         }
-        self.usual.learn(&silhouettes);
+        turn.learn(&silhouettes);
         Ok(Tracked {
             silhouettes,
             occupancy: self.nothing_carved(),
@@ -554,11 +572,15 @@ impl Pipeline {
 
     /// Why a frame's silhouettes cannot be the tube's, if one camera's covers more of its
     /// image than its `max_foreground`.
-    fn implausible(&self, silhouettes: &[Silhouette]) -> Option<String> {
+    fn implausible(
+        &self,
+        silhouettes: &[Silhouette],
+        backdrops: &[Arc<Backdrop>],
+    ) -> Option<String> {
         silhouettes
             .iter()
             .zip(&self.names)
-            .zip(self.backdrops.snapshot())
+            .zip(backdrops)
             .find_map(|((s, name), b)| match s.status {
                 SilhouetteStatus::Implausible { fraction } => Some(format!(
                     "camera {name}: {:.0} % of the image is foreground (at most {:.0} %): the background model does not describe the scene (a dark or changed backdrop, changed light, a moved camera); capture the background again or choose another classifier in [processing.silhouette]",
@@ -571,15 +593,15 @@ impl Pipeline {
 
     /// Why a frame's silhouettes cannot be the tube's, if one camera's covers more than its
     /// `max_foreground_growth` times its usual share (and [`GROWTH_FLOOR`] of the image more).
-    fn grown(&self, silhouettes: &[Silhouette]) -> Option<String> {
+    fn grown(&self, silhouettes: &[Silhouette], state: &RunState) -> Option<String> {
         silhouettes
             .iter()
             .zip(&self.names)
-            .zip(self.backdrops.snapshot())
+            .zip(&state.backdrops)
             .enumerate()
             .find_map(|(i, ((s, name), b))| {
                 let growth = b.silhouetter.settings().max_foreground_growth;
-                let usual = self.usual.of(i)?;
+                let usual = state.usual_share(i)?;
                 let now = share(s);
                 (growth > 0.0 && now > growth * usual && now - usual > GROWTH_FLOOR).then(|| {
                     format!(
@@ -632,18 +654,19 @@ impl Pipeline {
     /// objects that are not tubes (`flexshape carve`). Nothing is carved when a silhouette is
     /// implausible ([`Hull::implausible`] says why).
     pub fn hull(&self, images: &[&RgbImage]) -> Result<Hull, TrackError> {
-        self.hull_with(images, &self.backdrops.snapshot(), Pass::Usual)
+        self.hull_with(images, &self.state.get(), Pass::Usual)
     }
 
     fn hull_with(
         &self,
         images: &[&RgbImage],
-        backdrops: &[Arc<Backdrop>],
+        state: &RunState,
         pass: Pass,
     ) -> Result<Hull, TrackError> {
         self.check_count(images)?;
         let t = Instant::now();
-        let silhouettes = backdrops
+        let silhouettes = state
+            .backdrops
             .par_iter()
             .zip(images)
             .zip(&self.names)
@@ -662,8 +685,8 @@ impl Pipeline {
             .collect::<Result<Vec<_>, _>>()?;
         let silhouettes_ms = ms(t);
         if let Some(reason) = self
-            .implausible(&silhouettes)
-            .or_else(|| self.grown(&silhouettes))
+            .implausible(&silhouettes, &state.backdrops)
+            .or_else(|| self.grown(&silhouettes, state))
         {
             return Ok(Hull {
                 silhouettes,
@@ -705,21 +728,27 @@ impl Pipeline {
     /// attempts in a row at most), and the backgrounds follow if that finds it; that attempt
     /// is never the frame's record.
     pub fn process(&self, images: &[&RgbImage]) -> Result<Tracked, TrackError> {
-        let backdrops = self.backdrops.snapshot();
-        let first = self.process_with(images, &backdrops, Pass::Usual)?;
+        let mut turn = Turn::new(self.state.get());
+        let tracked = self.process_in(images, &mut turn)?;
+        self.state.apply(&turn.change);
+        Ok(tracked)
+    }
+
+    /// As [`Pipeline::process`], reading and changing the run's state in `turn` only.
+    fn process_in(&self, images: &[&RgbImage], turn: &mut Turn) -> Result<Tracked, TrackError> {
+        let first = self.process_with(images, turn, Pass::Usual)?;
         if first.shape.status.is_right() {
-            self.bootstrap.reset();
+            turn.bootstrap_reset();
             return Ok(first);
         }
         let mut spent = first.timings;
-        let mut updated =
-            self.follow_backdrop(images, &first, &first.silhouettes, &backdrops, false)?;
-        if updated.is_empty() && self.bootstrap.allows() && self.adapts(&backdrops) {
-            let found = self.process_with(images, &backdrops, Pass::Bootstrap)?;
+        let mut updated = self.follow_backdrop(images, &first, &first.silhouettes, turn, false)?;
+        if updated.is_empty() && turn.state.bootstrap_allows() && self.adapts(&turn.state) {
+            let found = self.process_with(images, turn, Pass::Bootstrap)?;
             spent += found.timings;
-            updated = self.follow_backdrop(images, &found, &first.silhouettes, &backdrops, true)?;
+            updated = self.follow_backdrop(images, &found, &first.silhouettes, turn, true)?;
             if updated.is_empty() {
-                self.bootstrap.failed();
+                turn.bootstrap_failed();
             }
         }
         if updated.is_empty() {
@@ -728,16 +757,19 @@ impl Pipeline {
                 ..first
             });
         }
-        self.bootstrap.reset();
-        let mut again = self.process_with(images, &self.backdrops.snapshot(), Pass::Usual)?;
+        turn.bootstrap_reset();
+        let mut again = self.process_with(images, turn, Pass::Usual)?;
         again.timings += spent;
         again.background_updated = updated;
         Ok(again)
     }
 
     /// Whether some camera's background may follow its backdrop.
-    fn adapts(&self, backdrops: &[Arc<Backdrop>]) -> bool {
-        backdrops.iter().any(|b| b.silhouetter.settings().adapt)
+    fn adapts(&self, state: &RunState) -> bool {
+        state
+            .backdrops
+            .iter()
+            .any(|b| b.silhouetter.settings().adapt)
     }
 
     /// Where `located`'s fitted tube is where the images show it: each camera's background
@@ -749,7 +781,7 @@ impl Pipeline {
         images: &[&RgbImage],
         located: &Tracked,
         silhouettes: &[Silhouette],
-        backdrops: &[Arc<Backdrop>],
+        turn: &mut Turn,
         every_camera: bool,
     ) -> Result<Vec<BackgroundUpdate>, TrackError> {
         let Some(fit) = located
@@ -759,6 +791,7 @@ impl Pipeline {
         else {
             return Ok(Vec::new());
         };
+        let backdrops = turn.state.backdrops.clone();
         let mut updated = Vec::new();
         for (i, check) in fit.cameras.iter().enumerate() {
             let (b, name) = (&backdrops[i], &self.names[i]);
@@ -783,7 +816,7 @@ impl Pipeline {
                 continue;
             }
             let silhouetter = Silhouetter::new(&model, settings.clone()).map_err(err)?;
-            self.backdrops.replace(i, Backdrop::new(model, silhouetter));
+            turn.replace(i, Backdrop::new(model, silhouetter));
             updated.push(BackgroundUpdate {
                 camera: name.clone(),
                 changed_px,
@@ -795,7 +828,7 @@ impl Pipeline {
     fn process_with(
         &self,
         images: &[&RgbImage],
-        backdrops: &[Arc<Backdrop>],
+        turn: &mut Turn,
         pass: Pass,
     ) -> Result<Tracked, TrackError> {
         let Hull {
@@ -803,7 +836,7 @@ impl Pipeline {
             occupancy,
             implausible,
             timings,
-        } = self.hull_with(images, backdrops, pass)?;
+        } = self.hull_with(images, &turn.state, pass)?;
         let (silhouettes_ms, carve_ms) = (timings.silhouettes, timings.carve);
         if let Some(reason) = implausible.or_else(|| self.hull_too_large(&occupancy)) {
             return Ok(Tracked {
@@ -829,7 +862,7 @@ impl Pipeline {
         let (shape, fit) = match self.fitter.settings().method {
             Method::Hull => (hull, None),
             Method::Fit => {
-                let backgrounds = models(backdrops);
+                let backgrounds = models(&turn.state.backdrops);
                 let views = self.views(images, &silhouettes, &backgrounds);
                 let radius = self.shape.settings().radius_mm;
                 let (shape, fit) = self.fitter.refine(
@@ -859,7 +892,7 @@ impl Pipeline {
         };
         let fit_ms = ms(t);
         if shape.status.is_right() && pass == Pass::Usual {
-            self.usual.learn(&silhouettes);
+            turn.learn(&silhouettes);
         }
         Ok(Tracked {
             silhouettes,

@@ -7,9 +7,12 @@
 //! Tracking: a frame starts from the newest earlier frame whose shape was right (at most
 //! [`MAX_PRIOR_AGE`] frames back), see [`Pipeline::process_after`]. Offline, with `n`
 //! workers, frame `k` starts from what frames `0..=k − n` left, in input order (it waits for
-//! them if it must), so a recording gives the same records on every run with the same number
-//! of workers. Live, frame `k` starts from whichever earlier frame finished last: waiting
-//! would add latency, and live frames are not repeatable anyway.
+//! them if it must): their shapes, and the run's state their changes made in input order
+//! (backgrounds that followed the backdrop, the usual silhouette shares, the bootstrap
+//! budget). So a recording gives the same records on every run with the same number of
+//! workers, tracked or not. Live, frame `k` starts from whichever earlier frame finished
+//! last, and its changes are made when it ends: waiting would add latency, and live frames
+//! are not repeatable anyway.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::ops::ControlFlow;
@@ -22,6 +25,7 @@ use flexshape_input::{CaptureTime, FrameSet, FrameSource, InputError, unix_secon
 use flexshape_recording::{Command, Truth};
 use image::RgbImage;
 
+use crate::state::{RunState, StateChange, Turn};
 use crate::{Pipeline, Prior, Tracked};
 
 /// One frame set after the chain, in input order.
@@ -57,7 +61,7 @@ impl Processed {
     /// One frame set (e.g. the one a replay seeks to) through `pipeline`, from `prior` when
     /// there is one, as [`run`] processes each.
     pub fn of(pipeline: &Pipeline, set: FrameSet, prior: Option<&Prior>) -> Self {
-        process(pipeline, set, 0, prior)
+        process(pipeline, set, 0, prior, None).0
     }
 
     /// A frame the source could not read (numbered by its place in the input), and why.
@@ -97,11 +101,11 @@ struct Window {
     taken: u64,
     handed: u64,
     closed: bool,
-    /// Offline tracking: frames whose outcome is in [`Window::after`], in input order.
+    /// Offline: frames whose outcome is in [`Window::after`], in input order.
     ordered: u64,
-    /// Offline tracking: what later frames may start from once frame `k`'s outcome is in
-    /// (the frames before it included), for the frames still to start.
-    after: BTreeMap<u64, Recent>,
+    /// Offline: what later frames start from once frame `k`'s outcome is in (the frames
+    /// before it included), for the frames still to start: the shapes and the run's state.
+    after: BTreeMap<u64, (Recent, RunState)>,
 }
 
 /// How many frames back a prior may be to start a frame from: beyond, the tube may have moved
@@ -204,7 +208,8 @@ pub fn run<S: FrameSource + ?Sized>(
     let workers = workers.max(1);
     let window_len = (2 * workers) as u64;
     // Offline, frames start from earlier ones in a fixed order (see the module's comment).
-    let ordered = pipeline.tracks() && !source.is_live();
+    let ordered = !source.is_live();
+    let initial = pipeline.run_state();
     let window = Mutex::new(Window {
         taken: 0,
         handed: 0,
@@ -218,33 +223,36 @@ pub fn run<S: FrameSource + ?Sized>(
         ended: false,
         error: None,
     });
-    let (tx, rx) = mpsc::channel::<(u64, Processed)>();
+    let (tx, rx) = mpsc::channel::<(u64, Processed, Option<StateChange>)>();
     let latest = Mutex::new(Recent::new(pipeline));
     let mut end = RunEnd::default();
     std::thread::scope(|scope| {
         for _ in 0..workers {
             let tx = tx.clone();
-            let (window, moved, puller, latest) = (&window, &moved, &puller, &latest);
+            let (window, moved, puller, latest, initial) =
+                (&window, &moved, &puller, &latest, &initial);
             scope.spawn(move || {
                 let _closes = ClosesOnPanic { window, moved };
                 while let Some((seq, set, dropped)) = take(window, moved, puller, stop, window_len)
                 {
-                    let prior = if ordered {
-                        let Some(prior) = prior_in_order(window, moved, seq, workers as u64) else {
+                    let (prior, state) = if ordered {
+                        let Some(start) =
+                            start_in_order(window, moved, seq, workers as u64, initial)
+                        else {
                             return;
                         };
-                        prior
+                        (start.0, Some(start.1))
                     } else {
-                        latest.lock().ok().and_then(|l| l.for_frame(seq))
+                        (latest.lock().ok().and_then(|l| l.for_frame(seq)), None)
                     };
-                    let processed = match set {
-                        Ok(set) => process(pipeline, set, dropped, prior.as_deref()),
-                        Err(reason) => Processed::unreadable(seq, reason, dropped),
+                    let (processed, change) = match set {
+                        Ok(set) => process(pipeline, set, dropped, prior.as_deref(), state),
+                        Err(reason) => (Processed::unreadable(seq, reason, dropped), None),
                     };
                     if !ordered && let Ok(mut l) = latest.lock() {
                         l.update(seq, processed.result.as_ref().ok().and_then(Tracked::prior));
                     }
-                    if tx.send((seq, processed)).is_err() {
+                    if tx.send((seq, processed, change)).is_err() {
                         return;
                     }
                 }
@@ -259,16 +267,21 @@ pub fn run<S: FrameSource + ?Sized>(
         let mut pending = BTreeMap::new();
         let mut next = 0u64;
         let mut in_order = Recent::new(pipeline);
+        let mut state = initial.clone();
         // A sink that said stop sees nothing more: leaving the loop drops the receiver, and
         // the workers' next sends end them.
-        'handing: for (seq, processed) in rx {
-            pending.insert(seq, processed);
-            while let Some(p) = pending.remove(&next) {
+        'handing: for (seq, processed, change) in rx {
+            pending.insert(seq, (processed, change));
+            while let Some((p, change)) = pending.remove(&next) {
                 if ordered {
                     // Before the sink, so that a frame waiting for this one starts meanwhile.
                     in_order.update(next, p.result.as_ref().ok().and_then(Tracked::prior));
+                    if let Some(change) = &change {
+                        state.apply(change);
+                        pipeline.set_run_state(state.clone());
+                    }
                     let Ok(mut w) = window.lock() else { return };
-                    w.after.insert(next, in_order.clone());
+                    w.after.insert(next, (in_order.clone(), state.clone()));
                     w.ordered = next + 1;
                     // Frames still to start come after this one and need frame
                     // `their number − workers` at the earliest.
@@ -361,16 +374,21 @@ fn take<S: FrameSource + ?Sized>(
     }
 }
 
-/// Offline tracking: what frame `seq` starts from, once the outcome of frame `seq − workers`
-/// (and of every frame before it) is in; `None` when the sink stopped the run first.
-fn prior_in_order(
+/// What frames start from offline: a prior shape, if any, and the run's state.
+type Start = (Option<Arc<Prior>>, RunState);
+
+/// Offline: what frame `seq` starts from, once the outcome of frame `seq − workers` (and of
+/// every frame before it) is in (the first frames: the run's `initial` state); `None` when
+/// the sink stopped the run first.
+fn start_in_order(
     window: &Mutex<Window>,
     moved: &Condvar,
     seq: u64,
     workers: u64,
-) -> Option<Option<Arc<Prior>>> {
+    initial: &RunState,
+) -> Option<Start> {
     let Some(before) = seq.checked_sub(workers) else {
-        return Some(None);
+        return Some((None, initial.clone()));
     };
     let mut w = window.lock().ok()?;
     // Frames up to `before` were taken earlier and are being processed, so this ends; a stop
@@ -381,25 +399,42 @@ fn prior_in_order(
     if w.closed {
         return None;
     }
-    Some(w.after.get(&before).and_then(|r| r.for_frame(seq)))
+    let (recent, state) = w.after.get(&before)?;
+    Some((recent.for_frame(seq), state.clone()))
 }
 
-/// Decodes one frame set and runs the chain on it, from `prior` if there is one.
-fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64, prior: Option<&Prior>) -> Processed {
+/// Decodes one frame set and runs the chain on it, from `prior` if there is one, and its
+/// change of the run's state: read from `state` and returned when there is one, else made
+/// in the pipeline's own as the frame ends.
+fn process(
+    pipeline: &Pipeline,
+    set: FrameSet,
+    dropped: u64,
+    prior: Option<&Prior>,
+    state: Option<RunState>,
+) -> (Processed, Option<StateChange>) {
+    let mut change = None;
     let mut warnings = set.warnings;
     let images = pipeline.load(set.images);
     let (images, result) = match images {
         Ok((images, notes)) => {
             warnings.extend(notes);
             let refs: Vec<&RgbImage> = images.iter().collect();
-            let result = pipeline
-                .process_after(&refs, prior)
-                .map_err(|e| e.to_string());
+            let result = match state {
+                Some(state) => {
+                    let mut turn = Turn::new(state);
+                    let result = pipeline.process_after_in(&refs, prior, &mut turn);
+                    change = result.is_ok().then_some(turn.change);
+                    result
+                }
+                None => pipeline.process_after(&refs, prior),
+            }
+            .map_err(|e| e.to_string());
             (images, result)
         }
         Err(e) => (Vec::new(), Err(e)),
     };
-    Processed {
+    let processed = Processed {
         frame: set.frame,
         name: set.name,
         command: set.command,
@@ -412,5 +447,6 @@ fn process(pipeline: &Pipeline, set: FrameSet, dropped: u64, prior: Option<&Prio
         dropped,
         capture_time: set.capture_time,
         processed_s: unix_seconds(SystemTime::now()),
-    }
+    };
+    (processed, change)
 }

@@ -62,21 +62,6 @@ fn a_silvery_tube_on_white_paper_is_right_or_says_so() {
     assert!(ok >= 4, "{ok}");
 }
 
-/// Cloth whose folds (valleys losing 30 % of the light, 70 mm apart) slid `shift` mm between
-/// the background capture and the run: where the old valleys were, the backdrop is brighter
-/// than the background, which the classifier takes for foreground along the old folds.
-fn folds_moved(shift: f64) -> SimConfig {
-    let defaults = SimConfig::default();
-    SimConfig {
-        render: RenderSettings {
-            fold_depth: 0.3,
-            fold_shift_mm: shift,
-            ..defaults.render
-        },
-        ..defaults
-    }
-}
-
 /// The chain for `sim` with `[processing.silhouette]` replaced by `table`.
 fn with_silhouette(sim: &Simulator, table: toml::Table) -> Pipeline {
     let mut rig = sim.rig().clone();
@@ -129,7 +114,7 @@ fn run(sim: &Simulator, pipeline: &Pipeline, poses: &[CatheterPose]) -> (usize, 
 #[test]
 fn folds_that_moved_since_the_background_was_captured_are_followed() {
     // Folds where they were at the capture: nothing to follow, no background changes.
-    let (sim, pipeline) = common::chain_of(folds_moved(0.0));
+    let (sim, pipeline) = common::chain_of(common::folds_moved(0.0));
     let (ok, updated) = run(&sim, &pipeline, &sim.sweep(3));
     assert!(
         ok == 3 && updated.is_empty(),
@@ -138,7 +123,7 @@ fn folds_that_moved_since_the_background_was_captured_are_followed() {
     // Folds slid 20 mm; poses far apart (every frame through the whole chain). Measured: as
     // captured, no frame is ok (the old valleys break the hull); followed, all six within
     // 0.042 mm. (At 10 mm the boundaries, read by hue, already explain every frame as captured.)
-    let (sim, pipeline) = common::chain_of(folds_moved(20.0));
+    let (sim, pipeline) = common::chain_of(common::folds_moved(20.0));
     let (ok, updated) = run(&sim, &pipeline, &sim.sweep(6));
     let (ok_fixed, _) = run(&sim, &without_adapting(&sim), &sim.sweep(6));
     println!("20 mm: {ok} of 6 ok, updated at {updated:?} ({ok_fixed} as captured)");
@@ -148,7 +133,7 @@ fn folds_that_moved_since_the_background_was_captured_are_followed() {
     );
     // Slid half their spacing (the old valleys bright stripes over a third of every image),
     // filmed at 120 Hz: the first frame's fit finds the tube, the backgrounds follow.
-    let (sim, pipeline) = common::chain_of(folds_moved(35.0));
+    let (sim, pipeline) = common::chain_of(common::folds_moved(35.0));
     let (ok, updated) = run(&sim, &pipeline, &sim.motion(8, 120.0));
     let (ok_fixed, _) = run(&sim, &without_adapting(&sim), &sim.motion(3, 120.0));
     println!("35 mm: {ok} of 8 ok, updated at {updated:?} ({ok_fixed} of 3 as captured)");

@@ -5,7 +5,7 @@ use flexshape_curve::Polyline;
 use flexshape_recording::Truth;
 use flexshape_shape::ShapeRecord;
 use flexshape_silhouette::BackgroundModel;
-use flexshape_sim::{SimConfig, Simulator};
+use flexshape_sim::{RenderSettings, SimConfig, Simulator};
 use flexshape_track::Pipeline;
 use nalgebra::Point3;
 
@@ -39,4 +39,19 @@ pub fn rms(truth: &Truth, sim: &Simulator, r: &ShapeRecord) -> f64 {
 /// Distance between the record's tip and the true one, mm.
 pub fn tip_error(truth: &Truth, r: &ShapeRecord) -> f64 {
     (Point3::from(r.tip) - Point3::from(truth.tip)).norm()
+}
+
+/// Cloth whose folds (valleys losing 30 % of the light, 70 mm apart) slid `shift` mm between
+/// the background capture and the run: where the old valleys were, the backdrop is brighter
+/// than the background, which the classifier takes for foreground along the old folds.
+pub fn folds_moved(shift: f64) -> SimConfig {
+    let defaults = SimConfig::default();
+    SimConfig {
+        render: RenderSettings {
+            fold_depth: 0.3,
+            fold_shift_mm: shift,
+            ..defaults.render
+        },
+        ..defaults
+    }
 }

@@ -7,20 +7,28 @@ use flexshape_fit::FitSettings;
 
 use std::ops::ControlFlow;
 use std::sync::atomic::AtomicBool;
+use std::time::Duration;
 
 use flexshape_input::{FrameImage, FrameSet, FrameSource, InputError};
 use flexshape_track::{Pipeline, Processed, Recent, Tally, TrackRecord, Tracked, run};
 
 /// Pre-rendered frames; `bad` frames have an image of the wrong size, and the source breaks
-/// (as a video whose camera ends early) after `breaks_after` frames.
+/// (as a video whose camera ends early) after `breaks_after` frames; `slow` frames take a
+/// while to read.
 struct Frames {
     sets: Vec<FrameSet>,
     next: usize,
     breaks_after: Option<usize>,
+    slow: Option<(usize, Duration)>,
 }
 
 impl FrameSource for Frames {
     fn next_frame(&mut self) -> Option<Result<FrameSet, InputError>> {
+        if let Some((frame, delay)) = self.slow
+            && frame == self.next
+        {
+            std::thread::sleep(delay);
+        }
         if self.breaks_after == Some(self.next) {
             return Some(Err(InputError::Ended {
                 camera: "cam1".into(),
@@ -70,11 +78,25 @@ fn records(
     breaks_after: Option<usize>,
     stop_after: Option<usize>,
 ) -> (Vec<TrackRecord>, flexshape_track::RunEnd) {
-    let mut source = Frames {
-        sets: sets.to_vec(),
-        next: 0,
-        breaks_after,
-    };
+    records_from(
+        Frames {
+            sets: sets.to_vec(),
+            next: 0,
+            breaks_after,
+            slow: None,
+        },
+        pipeline,
+        workers,
+        stop_after,
+    )
+}
+
+fn records_from(
+    mut source: Frames,
+    pipeline: &Pipeline,
+    workers: usize,
+    stop_after: Option<usize>,
+) -> (Vec<TrackRecord>, flexshape_track::RunEnd) {
     let mut out = Vec::new();
     let end = run(
         &mut source,
@@ -188,6 +210,53 @@ fn a_followed_recording_starts_each_frame_from_a_fixed_earlier_one() {
     }
 }
 
+/// Backgrounds that follow a changed backdrop are part of what frames start from: with `n`
+/// workers frame `k` reads them as frames `0..=k − n` left them, in input order, tracked or
+/// not. Before, a frame read whatever the workers had done when it started: a frame read late
+/// (a slow source) saw an earlier frame's new backgrounds, read early it did not, and two runs
+/// of a recording whose backdrop had changed differed.
+#[test]
+fn backgrounds_that_follow_the_backdrop_are_read_in_input_order() {
+    // Folds slid 20 mm since the capture: the first frame's backgrounds follow them.
+    let (sim, pipeline) = common::chain_of(common::folds_moved(20.0));
+    let sets = render(&sim, &sim.sweep(4), 0);
+    let run_with = |workers, slow| {
+        let source = Frames {
+            sets: sets.clone(),
+            next: 0,
+            breaks_after: None,
+            slow,
+        };
+        // Each run from the backgrounds as captured.
+        records_from(source, &pipeline.clone(), workers, None).0
+    };
+    let updated = |r: &[TrackRecord]| -> Vec<bool> {
+        r.iter().map(|r| !r.background_updated.is_empty()).collect()
+    };
+    // One worker: frame 1 starts from frame 0's backgrounds.
+    let one = run_with(1, None);
+    assert_eq!(updated(&one), [true, false, false, false]);
+    // Two: frame 1 starts from the backgrounds as captured, and follows the backdrop itself,
+    // even when it is read after frame 0 has ended.
+    let fast = run_with(2, None);
+    let late = run_with(2, Some((1, Duration::from_millis(1500))));
+    assert_eq!(updated(&fast)[..2], [true, true]);
+    for (a, b) in fast.iter().zip(&late) {
+        assert!(a.status == "ok", "frame {}: {:?}", a.frame, a.reason);
+        assert_eq!(
+            (&a.status, &a.background_updated),
+            (&b.status, &b.background_updated),
+            "frame {}",
+            a.frame
+        );
+        assert!(
+            a.centerline == b.centerline,
+            "frame {}: shapes differ",
+            a.frame
+        );
+    }
+}
+
 /// A sink that panics ends the run with its panic instead of leaving the workers waiting for
 /// frames to be handed (a followed recording's frames wait for earlier frames' outcomes).
 #[test]
@@ -201,6 +270,7 @@ fn a_sink_that_panics_ends_the_run() {
                 sets,
                 next: 0,
                 breaks_after: None,
+                slow: None,
             };
             let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 run(
