@@ -150,6 +150,17 @@ impl Chain {
     }
 }
 
+impl Both {
+    /// The fitted shape's centerline RMS and tip error against the frame's truth, mm.
+    pub fn fitted_errors(&self, sim: &Simulator) -> (f64, f64) {
+        let truth = &self.frame.truth;
+        (
+            centerline_rms(truth, sim, &self.fitted.points),
+            tip_error(truth, &self.fitted),
+        )
+    }
+}
+
 /// RMS distance from the truth centerline samples inside the volume to a curve, mm.
 pub fn centerline_rms(truth: &Truth, sim: &Simulator, curve: &[[f64; 3]]) -> f64 {
     let Ok(poly) = Polyline::new(curve.iter().map(|&p| Point3::from(p)).collect()) else {

@@ -28,13 +28,11 @@ fn shadows_occluders_and_strong_distortion_never_give_a_wrong_ok() {
     let mut ok = 0;
     for (n, pose) in sim.sweep(12).iter().enumerate() {
         let b = chain.run(sim.render(n as u64, pose).unwrap());
-        let truth = &b.frame.truth;
-        let rms = centerline_rms(truth, sim, &b.fitted.points);
-        let tip = tip_error(truth, &b.fitted);
+        let (rms, tip) = b.fitted_errors(sim);
         println!(
             "frame {n:2}: {:?}, rms {rms:.3} mm (hull {:.3}), tip {tip:.2} mm",
             b.fitted.status,
-            centerline_rms(truth, sim, &b.hull.points)
+            centerline_rms(&b.frame.truth, sim, &b.hull.points)
         );
         if b.fitted.status == Status::Ok {
             ok += 1;
@@ -101,9 +99,7 @@ fn a_tube_whose_limbs_fade_into_a_dark_backdrop_is_placed_by_its_hue() {
     let mut errors = Vec::new();
     for (n, pose) in sim.sweep(6).iter().enumerate() {
         let b = chain.run(sim.render(n as u64, pose).unwrap());
-        let truth = &b.frame.truth;
-        let rms = centerline_rms(truth, sim, &b.fitted.points);
-        let tip = tip_error(truth, &b.fitted);
+        let (rms, tip) = b.fitted_errors(sim);
         println!(
             "frame {n}: {:?}, rms {rms:.3} mm, tip {tip:.2} mm",
             b.fitted.status
