@@ -59,6 +59,11 @@ pub struct CameraCheck {
     /// folded over the shaft, or seen end-on) has none or few.
     #[serde(default)]
     pub cap_found: [usize; 2],
+    /// Share of the outline, among its samples where a boundary was found, along which the
+    /// tube is lighter than the background. A lit tube darkens toward its outline, so against
+    /// a darker backdrop its edges fade into it and its outline is faint.
+    #[serde(default)]
+    pub lighter_share: f64,
 }
 
 /// The samples of each end's cap outline (proximal end, tip) in `measured` where a boundary
@@ -94,6 +99,12 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
             acc >= 0.9 * w
         })
         .map_or(0.0, |(r, _)| r.abs());
+    // A fold from +0 (a float sum of nothing is −0).
+    let lighter = measured
+        .iter()
+        .filter(|m| m.residual.is_some() && m.lighter)
+        .fold(0.0, |acc, m| acc + m.point.weight)
+        / w;
     Residuals {
         samples: measured.len(),
         found: found.len(),
@@ -101,6 +112,7 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
         mean,
         p90,
         shift,
+        lighter,
     }
 }
 
@@ -148,6 +160,8 @@ pub(crate) struct Residuals {
     pub p90: f64,
     /// [`CameraCheck::shift_px`].
     pub shift: [f64; 2],
+    /// [`CameraCheck::lighter_share`].
+    pub lighter: f64,
 }
 
 /// The tube drawn into masks of `camera`'s image size from its `spheres` (every half radius

@@ -39,6 +39,9 @@ pub(crate) struct Edge {
     pub offset: f64,
     /// Colour contrast between the tube's surface and the background there, grey levels.
     pub contrast: f64,
+    /// Whether the surface there is lighter than the background (their difference summed
+    /// over the channels is positive).
+    pub lighter: bool,
 }
 
 impl<'a> EdgeImage<'a> {
@@ -164,6 +167,7 @@ impl<'a> EdgeImage<'a> {
         Some(Edge {
             offset: (outer - k as i32 + 1) as f64 * STEP - frac * STEP,
             contrast: (norm2(&diffs[surface]) as f64).sqrt(),
+            lighter: diffs[surface].iter().sum::<f32>() > 0.0,
         })
     }
 }

@@ -417,6 +417,7 @@ impl TubeFitter {
                     end_found: ends.found,
                     end_residual_px: ends.rms,
                     cap_found: check::cap_found(m),
+                    lighter_share: res.lighter,
                 }
             })
             .collect();

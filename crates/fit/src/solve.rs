@@ -30,6 +30,8 @@ pub(crate) struct Measured {
     pub residual: Option<f64>,
     /// The boundary found: its pixel and the outline normal it was searched along.
     pub edge: Option<(Vector2<f64>, Vector2<f64>)>,
+    /// Whether the tube is lighter than the background at the boundary found.
+    pub lighter: bool,
 }
 
 /// Every camera's outline of `tube`, measured.
@@ -65,6 +67,7 @@ pub(crate) fn measure(
                     point: p,
                     residual: edge.map(|e| -e.offset),
                     edge: edge.map(|e| (p.pixel + p.normal * e.offset, p.normal)),
+                    lighter: edge.is_some_and(|e| e.lighter),
                 }
             })
             .collect()
@@ -98,6 +101,7 @@ pub(crate) fn against(
                         point: p,
                         residual: Some(normal.dot(&(p.pixel - pixel))),
                         edge: m.edge,
+                        lighter: m.lighter,
                     })
                 })
                 .collect()

@@ -144,6 +144,7 @@ impl TubeFitter {
                 ))
             })
             .or_else(|| self.end_placed(c))
+            .map(|why| why + &lighter_than_backdrop(c))
             .or_else(|| {
                 (c.iou < s.min_iou).then(|| format!(
                     "camera {i}: the fitted tube overlaps the silhouette by IoU {:.2} (at least {:.2} expected)",
@@ -200,6 +201,25 @@ impl TubeFitter {
             s.max_residual_px
         ))
     }
+}
+
+/// Share of a camera's outline along which a tube lighter than its backdrop is worth a word
+/// when the outline is not where the image shows it.
+const LIGHTER_SHARE: f64 = 0.5;
+
+/// What a camera whose outline is off should know when the tube is lighter than the backdrop
+/// along most of it (empty otherwise): a lit tube darkens toward its outline, and its edges
+/// then fade into a darker backdrop (measured on the simulator: a backdrop of albedo 0.1, the
+/// outline's 90th percentile 0.25–0.30 px with the shape within 0.05 mm, or a grey tube found
+/// a pixel inside its outline).
+fn lighter_than_backdrop(c: &CameraCheck) -> String {
+    if c.lighter_share < LIGHTER_SHARE {
+        return String::new();
+    }
+    format!(
+        " (the tube is lighter than the backdrop along {:.0} % of this outline: a lit tube's edges darken into a darker backdrop and blur its outline; a backdrop lighter than the tube gives a sharp one)",
+        c.lighter_share * 100.0
+    )
 }
 
 /// Why `tube` is no shape a tube can take, if it is not (within `volume`: outside it nothing

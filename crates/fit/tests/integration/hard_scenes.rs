@@ -34,6 +34,10 @@ fn shadows_occluders_and_strong_distortion_never_give_a_wrong_ok() {
             b.fitted.status,
             centerline_rms(&b.frame.truth, sim, &b.hull.points)
         );
+        if let Status::Inconsistent { reason } = &b.fitted.status {
+            // The tube is darker than this backdrop: no word of a lighter one.
+            assert!(!reason.contains("lighter than the backdrop"), "{reason}");
+        }
         if b.fitted.status == Status::Ok {
             ok += 1;
             assert!(rms <= 0.12, "frame {n}: ok with rms {rms:.3} mm");
@@ -104,6 +108,13 @@ fn a_tube_whose_limbs_fade_into_a_dark_backdrop_is_placed_by_its_hue() {
             "frame {n}: {:?}, rms {rms:.3} mm, tip {tip:.2} mm",
             b.fitted.status
         );
+        // A frame that is not `ok` says why its outline is faint.
+        if let Status::Inconsistent { reason } = &b.fitted.status {
+            assert!(
+                reason.contains("lighter than the backdrop along"),
+                "{reason}"
+            );
+        }
         if b.fitted.status == Status::Ok {
             assert!(
                 rms <= 0.12 && tip <= 0.3,
