@@ -399,8 +399,11 @@ fn start_in_order(
     if w.closed {
         return None;
     }
-    let (recent, state) = w.after.get(&before)?;
-    Some((recent.for_frame(seq), state.clone()))
+    // Kept for every frame still to start (see the pruning in `run`).
+    Some(w.after.get(&before).map_or_else(
+        || (None, initial.clone()),
+        |(recent, state)| (recent.for_frame(seq), state.clone()),
+    ))
 }
 
 /// Decodes one frame set and runs the chain on it, from `prior` if there is one, and its
