@@ -244,25 +244,29 @@ fn crossing_near(
     if prev >= 0.5 {
         return None;
     }
-    for k in k..count {
-        let c = coverage(k);
-        if c >= 0.5 {
-            return Some((k, ((0.5 - prev) / (c - prev).max(1e-6)) as f64));
-        }
-        prev = c;
-    }
-    None
+    half_from(k, prev, count, coverage)
 }
 
 /// The first ½ crossing of `coverage` over samples `0..count`, coming in from outside: the
 /// sample index reached and the fraction of a step back from it. `None` when the line's outer
 /// end is not background, or the coverage never reaches ½.
 fn crossing(count: usize, coverage: impl Fn(usize) -> f32) -> Option<(usize, f64)> {
-    let mut prev = coverage(0);
-    if prev > 0.3 {
+    let outside = coverage(0);
+    if outside > 0.3 {
         return None;
     }
-    for k in 1..count {
+    half_from(1, outside, count, coverage)
+}
+
+/// The first sample from `first` on where `coverage` reaches ½, the sample before it covered
+/// `prev`: its index and the fraction of a step back from it where the coverage crosses ½.
+fn half_from(
+    first: usize,
+    mut prev: f32,
+    count: usize,
+    coverage: impl Fn(usize) -> f32,
+) -> Option<(usize, f64)> {
+    for k in first..count {
         let c = coverage(k);
         if c >= 0.5 {
             return Some((k, ((0.5 - prev) / (c - prev).max(1e-6)) as f64));

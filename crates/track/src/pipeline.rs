@@ -728,10 +728,7 @@ impl Pipeline {
     /// attempts in a row at most), and the backgrounds follow if that finds it; that attempt
     /// is never the frame's record.
     pub fn process(&self, images: &[&RgbImage]) -> Result<Tracked, TrackError> {
-        let mut turn = Turn::new(self.state.get());
-        let tracked = self.process_in(images, &mut turn)?;
-        self.state.apply(&turn.change);
-        Ok(tracked)
+        self.process_after(images, None)
     }
 
     /// As [`Pipeline::process`], reading and changing the run's state in `turn` only.
