@@ -13,9 +13,10 @@ use crate::{Fit, Tube, TubeFitter};
 /// Samples around a free end needed in a camera before its end is checked apart.
 const END_SAMPLES: usize = 4;
 
-/// Pixels beyond the re-rendered tube's image that still count as the tube's (its blurred
-/// edge, where the outline is measured) when the background takes a frame's colours.
-const KEEP_PX: usize = 1;
+/// Pixels beyond the re-rendered tube's image and the silhouette near it that still count as
+/// the tube's (its blurred edge, where the outline is measured; a classifier may leave a
+/// shaded edge's last pixel out) when the background takes a frame's colours.
+const KEEP_PX: usize = 2;
 
 /// Pixels around a capped end's image, beyond its radius and the check's distance, where a
 /// silhouette part the tube does not explain is taken for more of the tube (a missed distal
@@ -111,9 +112,12 @@ impl TubeFitter {
     }
 
     /// The pixels of camera `camera`'s image that are the tube's as far as its background is
-    /// concerned: the re-rendered `tube` (and its open ends' continuations) with a margin, and
-    /// the parts of `silhouette` beyond it that meet a capped end (a missed distal part looks
-    /// like that). `None` for a camera outside the rig.
+    /// concerned: the re-rendered `tube` (and its open ends' continuations) with a margin,
+    /// `silhouette` within [`END_ZONE_PX`] of the check's distance of it (a camera the fit does
+    /// not explain may see its tube a few pixels off the rendered one: seen along its length,
+    /// the tube's far part was taken for backdrop and came back as a ghost), and the parts of
+    /// `silhouette` beyond it that meet a capped end (a missed distal part looks like that).
+    /// `None` for a camera outside the rig.
     pub fn tube_pixels(&self, camera: usize, tube: &Tube, silhouette: &BitMask) -> Option<BitMask> {
         let cam = self.cameras.get(camera)?;
         let (body, beyond) = self.render(camera, tube)?;
@@ -129,7 +133,13 @@ impl TubeFitter {
             let reach = rp + self.settings.explain_px as f64 + END_ZONE_PX;
             check::disc(&mut zones, (c, px, reach));
         }
-        Some(drawn.dilate(KEEP_PX).or(&touching(&unexplained, &zones)))
+        let near = silhouette.and(&drawn.dilate(self.settings.explain_px + END_ZONE_PX as usize));
+        Some(
+            drawn
+                .or(&near)
+                .dilate(KEEP_PX)
+                .or(&touching(&unexplained, &zones)),
+        )
     }
 
     /// Why camera `c`'s image is not explained, if it is not (the first failing check).

@@ -948,6 +948,18 @@ pub struct BenchArgs {
     /// Print the figures as JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Instead of the figures above: the demo left running for N frames, each through the
+    /// whole chain, reported per window (ok share, ok but wrong, right but refused, what the
+    /// backgrounds learned, memory); Ctrl-C ends it with the windows so far.
+    #[arg(long, value_name = "N")]
+    pub soak: Option<u64>,
+    /// Frames per window of --soak.
+    #[arg(long, value_name = "FRAMES", default_value_t = 1000, requires = "soak")]
+    pub window: u64,
+    /// The simulated cameras' frame rate in --soak, frames per second (the demo's 12; lower
+    /// plays the sweep faster).
+    #[arg(long, value_name = "HZ", default_value_t = 12.0, requires = "soak")]
+    pub soak_fps: f64,
     #[command(flatten)]
     pub sim: SimArgs,
 }

@@ -7,6 +7,8 @@
 //!   bench`).
 //! - [`demo`]: the model-driven catheter on the simulated rig, tracked and measured against
 //!   the simulator's truth (`flexshape demo`).
+//! - [`soak`]: the demo left running for many thousand frames, reported per window of frames
+//!   (`flexshape bench --soak N`): whether a long run keeps saying `ok` to right shapes.
 //! - [`simulate`]: simulated recordings (sweep, motion, a model experiment) and calibration
 //!   sessions with their ground truth (`flexshape simulate`).
 //!
@@ -26,6 +28,7 @@ pub mod bench;
 pub mod demo;
 pub mod identify;
 pub mod simulate;
+pub mod soak;
 
 use std::path::PathBuf;
 

@@ -104,6 +104,10 @@ pub struct Tracked {
     /// Cameras whose background took this frame's colours before the frame was processed
     /// again (see [`Pipeline::process`]).
     pub background_updated: Vec<BackgroundUpdate>,
+    /// Cameras whose background, which had followed the backdrop, took the captured one back
+    /// where this frame shows the backdrop as it was captured, before the frame was processed
+    /// again (`changed_px`: the pixels taken back; see [`Pipeline::process`]).
+    pub background_restored: Vec<BackgroundUpdate>,
 }
 
 /// One frame's visual hull ([`Pipeline::hull`]).
@@ -114,8 +118,12 @@ pub struct Hull {
     /// The carved voxels (none when a silhouette is implausible).
     pub occupancy: Occupancy,
     /// Why nothing was carved: a camera's silhouette covers more of its image than its
-    /// `max_foreground`.
+    /// `max_foreground`, or (for [`Pipeline::hull`]) many times its usual share.
     pub implausible: Option<String>,
+    /// Why the frame is suspect though carved: a camera's silhouette covers more than
+    /// `max_foreground_growth` times its usual share. The whole chain refuses the frame for it
+    /// only when the tube fitted to it does not explain every camera.
+    pub grown: Option<String>,
     /// Milliseconds of the silhouettes and the carving.
     pub timings: StageTimings,
 }
@@ -184,7 +192,7 @@ impl Tracked {
 }
 
 /// The sensing chain, set up once per rig. Its state: each camera's usual silhouette share,
-/// learned from the first right frames it processes (see `max_foreground_growth`), and each
+/// learned from the right frames it processes (see `max_foreground_growth`), and each
 /// camera's background, which follows a changed backdrop (see [`Pipeline::process`]); a
 /// clone keeps what was learned.
 #[derive(Debug, Clone)]
@@ -195,7 +203,7 @@ pub struct Pipeline {
     band_rule: BandRule,
     shape: ShapeEstimator,
     fitter: TubeFitter,
-    /// The backdrops, the silhouette shares of the first right frames and the bootstrap
+    /// The backdrops, the silhouette shares of recent right frames and the bootstrap
     /// budget, as the frames processed so far left them.
     state: Shared,
 }
@@ -567,6 +575,7 @@ impl Pipeline {
             },
             start: Start::Previous,
             background_updated: Vec::new(),
+            background_restored: Vec::new(),
         })
     }
 
@@ -605,7 +614,7 @@ impl Pipeline {
                 let now = share(s);
                 (growth > 0.0 && now > growth * usual && now - usual > GROWTH_FLOOR).then(|| {
                     format!(
-                        "camera {name}: {:.1} % of the image is foreground, {:.0}× its usual {:.2} % (the run's first right frames; at most {growth}×): the light changed or something entered the view; capture the background again if the scene changed ([processing.silhouette] max_foreground_growth sets the limit, 0 turns it off)",
+                        "camera {name}: {:.1} % of the image is foreground, {:.0}× its usual {:.2} % (the most of recent right frames; at most {growth}×) and the fitted tube does not explain every camera: the light changed or something entered the view; capture the background again if the scene changed ([processing.silhouette] max_foreground_growth sets the limit, 0 turns it off)",
                         now * 100.0,
                         now / usual.max(1e-12),
                         usual * 100.0
@@ -654,14 +663,17 @@ impl Pipeline {
     /// objects that are not tubes (`flexshape carve`). Nothing is carved when a silhouette is
     /// implausible ([`Hull::implausible`] says why).
     pub fn hull(&self, images: &[&RgbImage]) -> Result<Hull, TrackError> {
-        self.hull_with(images, &self.state.get(), Pass::Usual)
+        self.hull_with(images, &self.state.get(), Pass::Usual, false)
     }
 
+    /// One frame's hull; a silhouette grown past its usual share is carved when `carve_grown`
+    /// (a tube fitted to it may still explain every camera), else nothing is.
     fn hull_with(
         &self,
         images: &[&RgbImage],
         state: &RunState,
         pass: Pass,
+        carve_grown: bool,
     ) -> Result<Hull, TrackError> {
         self.check_count(images)?;
         let t = Instant::now();
@@ -684,14 +696,17 @@ impl Pipeline {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let silhouettes_ms = ms(t);
-        if let Some(reason) = self
-            .implausible(&silhouettes, &state.backdrops)
-            .or_else(|| self.grown(&silhouettes, state))
-        {
+        let implausible = self.implausible(&silhouettes, &state.backdrops);
+        let grown = implausible
+            .is_none()
+            .then(|| self.grown(&silhouettes, state))
+            .flatten();
+        if implausible.is_some() || (grown.is_some() && !carve_grown) {
             return Ok(Hull {
                 silhouettes,
                 occupancy: self.nothing_carved(),
-                implausible: Some(reason),
+                implausible: implausible.or(grown),
+                grown: None,
                 timings: StageTimings {
                     silhouettes: silhouettes_ms,
                     ..StageTimings::default()
@@ -705,6 +720,7 @@ impl Pipeline {
             silhouettes,
             occupancy,
             implausible: None,
+            grown,
             timings: StageTimings {
                 silhouettes: silhouettes_ms,
                 carve: ms(t),
@@ -727,18 +743,37 @@ impl Pipeline {
     /// once more with silhouettes that leave brightening out (colour classifier only, a few
     /// attempts in a row at most), and the backgrounds follow if that finds it; that attempt
     /// is never the frame's record.
+    ///
+    /// A background that followed its backdrop is taken back to the captured one, before any
+    /// of that, where a frame that is not right shows the backdrop as captured and the
+    /// followed background does not (a ghost; the record lists the cameras in
+    /// `background_restored`): what the run learned never holds it away from what the images
+    /// show. A silhouette grown past its usual share is carved and fitted all the same, and
+    /// refused (`bad_silhouette`) only when the fitted tube does not explain every camera.
     pub fn process(&self, images: &[&RgbImage]) -> Result<Tracked, TrackError> {
         self.process_after(images, None)
     }
 
     /// As [`Pipeline::process`], reading and changing the run's state in `turn` only.
     fn process_in(&self, images: &[&RgbImage], turn: &mut Turn) -> Result<Tracked, TrackError> {
-        let first = self.process_with(images, turn, Pass::Usual)?;
+        let mut first = self.process_with(images, turn, Pass::Usual)?;
+        let mut spent = StageTimings::default();
+        let restored = if first.shape.status.is_right() {
+            Vec::new()
+        } else {
+            self.restore_captured(images, &first.silhouettes, turn)?
+        };
+        if !restored.is_empty() {
+            spent += first.timings;
+            first = self.process_with(images, turn, Pass::Usual)?;
+        }
+        first.background_restored = restored;
         if first.shape.status.is_right() {
             turn.bootstrap_reset();
+            first.timings += spent;
             return Ok(first);
         }
-        let mut spent = first.timings;
+        spent += first.timings;
         let mut updated = self.follow_backdrop(images, &first, &first.silhouettes, turn, false)?;
         if updated.is_empty() && turn.state.bootstrap_allows() && self.adapts(&turn.state) {
             let found = self.process_with(images, turn, Pass::Bootstrap)?;
@@ -758,7 +793,59 @@ impl Pipeline {
         let mut again = self.process_with(images, turn, Pass::Usual)?;
         again.timings += spent;
         again.background_updated = updated;
+        again.background_restored = first.background_restored;
         Ok(again)
+    }
+
+    /// Where a camera's background followed its backdrop but this frame shows the backdrop as
+    /// it was captured, the captured background is taken back: the pixels the followed
+    /// background takes for foreground (in `silhouettes`, the frame's own) and the captured
+    /// one for backdrop, with a margin of [`GHOST_MARGIN_PX`]. That is a ghost — something a
+    /// background took in that has left (a tube it took for backdrop, a hand) — or a backdrop
+    /// changed back; the frame's own objects are foreground by both and stay. A ghost is
+    /// foreground where no tube is, so the frames it spoils are the ones that take it back:
+    /// what a run learned of its backdrops never strays from what the images show for good.
+    /// Returns the cameras whose background changed.
+    fn restore_captured(
+        &self,
+        images: &[&RgbImage],
+        silhouettes: &[Silhouette],
+        turn: &mut Turn,
+    ) -> Result<Vec<BackgroundUpdate>, TrackError> {
+        let (now, captured) = (turn.state.backdrops.clone(), turn.state.captured.clone());
+        let mut restored = Vec::new();
+        for (i, ((now, captured), silhouette)) in
+            now.iter().zip(&captured).zip(silhouettes).enumerate()
+        {
+            if Arc::ptr_eq(now, captured) {
+                continue;
+            }
+            let name = &self.names[i];
+            let err = |source| TrackError::Silhouette {
+                camera: name.clone(),
+                source,
+            };
+            let as_captured = captured.silhouetter.process(images[i]).map_err(err)?;
+            let ghost = silhouette.object.and_not(&as_captured.object);
+            if ghost.count() == 0 {
+                continue;
+            }
+            let mut model = (*now.model).clone();
+            let taken_back = model
+                .restore(&captured.model, &ghost.dilate(GHOST_MARGIN_PX))
+                .map_err(err)?;
+            if taken_back == 0 {
+                continue;
+            }
+            let silhouetter =
+                Silhouetter::new(&model, now.silhouetter.settings().clone()).map_err(err)?;
+            turn.replace(i, Backdrop::new(model, silhouetter));
+            restored.push(BackgroundUpdate {
+                camera: name.clone(),
+                changed_px: taken_back,
+            });
+        }
+        Ok(restored)
     }
 
     /// Whether some camera's background may follow its backdrop.
@@ -832,8 +919,9 @@ impl Pipeline {
             silhouettes,
             occupancy,
             implausible,
+            grown,
             timings,
-        } = self.hull_with(images, &turn.state, pass)?;
+        } = self.hull_with(images, &turn.state, pass, true)?;
         let (silhouettes_ms, carve_ms) = (timings.silhouettes, timings.carve);
         if let Some(reason) = implausible.or_else(|| self.hull_too_large(&occupancy)) {
             return Ok(Tracked {
@@ -845,6 +933,7 @@ impl Pipeline {
                 timings,
                 start: Start::Hull,
                 background_updated: Vec::new(),
+                background_restored: Vec::new(),
             });
         }
         let t = Instant::now();
@@ -888,6 +977,15 @@ impl Pipeline {
             }
         };
         let fit_ms = ms(t);
+        // A silhouette grown far past its usual share is the tube's own only when the tube
+        // fitted to it explains every camera; otherwise the growth is the frame's verdict
+        // (something entered the view), and its fit is no ground to follow a backdrop from.
+        let (shape, fit) = match grown {
+            Some(reason) if !shape.status.is_right() => {
+                (ShapeRecord::empty(Status::BadSilhouette { reason }), None)
+            }
+            _ => (shape, fit),
+        };
         if shape.status.is_right() && pass == Pass::Usual {
             turn.learn(&silhouettes);
         }
@@ -906,6 +1004,7 @@ impl Pipeline {
             },
             start,
             background_updated: Vec::new(),
+            background_restored: Vec::new(),
         })
     }
 }
@@ -919,6 +1018,10 @@ enum Pass {
     /// tube in front of a changed backdrop.
     Bootstrap,
 }
+
+/// Pixels around a ghost that take the captured background back with it: a ghost's edge was
+/// taken in smoothed over a few pixels (see [`BackgroundModel::absorb`]).
+const GHOST_MARGIN_PX: usize = 2;
 
 /// The self-check's 90th percentile of outline residuals for frames that are binary masks,
 /// pixels: their boundary lies on pixel edges, up to half a pixel from the true outline.

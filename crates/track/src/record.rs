@@ -232,6 +232,12 @@ pub struct TrackRecord {
     /// (absent: none).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub background_updated: Vec<BackgroundUpdate>,
+    /// Cameras whose background, having followed the backdrop, took the captured background
+    /// back where this frame shows the backdrop as captured (a ghost of something it had taken
+    /// in; `changed_px`: the pixels taken back); the frame was then processed again (absent:
+    /// none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub background_restored: Vec<BackgroundUpdate>,
 }
 
 /// A measured axial strain.
@@ -337,6 +343,7 @@ impl TrackRecord {
                 .into()
             }),
             background_updated: t.background_updated.clone(),
+            background_restored: t.background_restored.clone(),
         }
     }
 
@@ -406,6 +413,7 @@ impl TrackRecord {
             ghost_mm: None,
             start: None,
             background_updated: Vec::new(),
+            background_restored: Vec::new(),
         }
     }
 }
