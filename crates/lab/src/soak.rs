@@ -19,11 +19,6 @@ use serde::Serialize;
 use crate::LabError;
 use crate::demo::Demo;
 
-/// A frame whose centerline is at most this far from the truth (RMS, mm)…
-pub const RIGHT_RMS_MM: f64 = 0.15;
-/// …and whose tip is at most this far from the true tip (mm) is right by the truth.
-pub const RIGHT_TIP_MM: f64 = 0.3;
-
 /// How long to run and how to report it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SoakSettings {
@@ -36,6 +31,12 @@ pub struct SoakSettings {
     pub fps: f64,
     /// Frames tracked at once.
     pub threads: usize,
+    /// A frame whose centerline is at most this far from the truth (RMS, mm)…
+    pub right_rms_mm: f64,
+    /// …and whose tip is at most this far from the true tip (mm) is right by the truth (on
+    /// the default 640×480 rig a pixel spans about 0.6 mm at the volume's centre; scale both
+    /// with it).
+    pub right_tip_mm: f64,
 }
 
 impl Default for SoakSettings {
@@ -45,6 +46,8 @@ impl Default for SoakSettings {
             window: 1_000,
             fps: 12.0,
             threads: 1,
+            right_rms_mm: 0.15,
+            right_tip_mm: 0.3,
         }
     }
 }
@@ -58,8 +61,9 @@ pub struct SoakWindow {
     pub frames: u64,
     /// Frames whose status is `ok`.
     pub ok: u64,
-    /// `ok` frames off the truth (centerline RMS over [`RIGHT_RMS_MM`] or tip over
-    /// [`RIGHT_TIP_MM`]), or without a shape to hold against it.
+    /// `ok` frames off the truth (centerline RMS or tip beyond
+    /// [`SoakSettings::right_rms_mm`], [`SoakSettings::right_tip_mm`]), or without a shape to
+    /// hold against it.
     pub ok_wrong: u64,
     /// Frames not `ok` whose shape is right by the truth.
     pub right_refused: u64,
@@ -195,7 +199,11 @@ pub fn soak(
     stop: &AtomicBool,
     mut window: impl FnMut(&SoakWindow),
 ) -> Result<SoakReport, LabError> {
-    if settings.frames == 0 || settings.window == 0 || !settings.fps.is_finite() || settings.fps <= 0.0 {
+    if settings.frames == 0
+        || settings.window == 0
+        || !settings.fps.is_finite()
+        || settings.fps <= 0.0
+    {
         return Err(LabError::data(
             "soak",
             "needs at least one frame, a window of at least one frame and a positive frame rate",
@@ -217,9 +225,9 @@ pub fn soak(
         stop,
         |p: Processed| {
             let record = TrackRecord::from_processed(&p);
-            let right = demo
-                .errors(&p)
-                .map(|e| e.centerline_rms <= RIGHT_RMS_MM && e.tip <= RIGHT_TIP_MM);
+            let right = demo.errors(&p).map(|e| {
+                e.centerline_rms <= settings.right_rms_mm && e.tip <= settings.right_tip_mm
+            });
             current.add(&record, right);
             if current.frames == settings.window {
                 current.rss_mb = resident_mb();

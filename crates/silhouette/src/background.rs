@@ -291,6 +291,27 @@ impl BackgroundModel {
         mask
     }
 
+    /// The pixels where `frame` shows this background: every channel within what counts as
+    /// changed of the mean (see [`BackgroundModel::absorb`]).
+    pub fn shown_by(&self, frame: &RgbImage) -> Result<BitMask, SilhouetteError> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if frame.dimensions() != (self.width, self.height) {
+            return Err(self.size_mismatch(frame.width(), frame.height()));
+        }
+        let mut mask = BitMask::new(w, h);
+        for (i, p) in frame.pixels().enumerate() {
+            let limit = self.changed_limit(i);
+            if self.mean[i]
+                .iter()
+                .zip(p.0)
+                .all(|(m, v)| (m - f32::from(v)).abs() <= limit)
+            {
+                mask.set(i % w, i / w, true);
+            }
+        }
+        Ok(mask)
+    }
+
     /// Takes `captured`'s mean and spread back at the pixels `mask` marks (a background that
     /// followed its backdrop, where the frames show the backdrop as it was captured again).
     /// Returns how many of them had changed (see [`BackgroundModel::changed_from`]).
@@ -539,6 +560,17 @@ mod tests {
         assert!(restored >= 3, "{restored}");
         assert_eq!(followed.mean(8 + 3), [100.0; 3]);
         assert!(followed.mean(2 * 8 + 3)[0] < 90.0, "row 2 is not asked for");
+        let shown = captured
+            .shown_by(&RgbImage::from_fn(8, 4, |x, _| {
+                image::Rgb([if x == 5 { 89 } else { 110 }; 3])
+            }))
+            .unwrap();
+        assert_eq!(
+            shown.count(),
+            28,
+            "within 10 levels (4 spreads) but column 5"
+        );
+        assert!(!shown.get(5, 0));
         assert!(matches!(
             followed.restore(&captured, &BitMask::new(3, 2)),
             Err(SilhouetteError::SizeMismatch { .. })

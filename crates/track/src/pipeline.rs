@@ -799,13 +799,14 @@ impl Pipeline {
 
     /// Where a camera's background followed its backdrop but this frame shows the backdrop as
     /// it was captured, the captured background is taken back: the pixels the followed
-    /// background takes for foreground (in `silhouettes`, the frame's own) and the captured
-    /// one for backdrop, with a margin of [`GHOST_MARGIN_PX`]. That is a ghost — something a
-    /// background took in that has left (a tube it took for backdrop, a hand) — or a backdrop
-    /// changed back; the frame's own objects are foreground by both and stay. A ghost is
-    /// foreground where no tube is, so the frames it spoils are the ones that take it back:
-    /// what a run learned of its backdrops never strays from what the images show for good.
-    /// Returns the cameras whose background changed.
+    /// background takes for foreground (in `silhouettes`, the frame's own) whose colour is
+    /// the captured background's (within what counts as changed), with a margin of
+    /// [`GHOST_MARGIN_PX`]. That is a ghost — something a background took in that has left (a
+    /// tube it took for backdrop, a hand) — or a backdrop changed back; the frame's own
+    /// objects differ from both and stay. A ghost is foreground where no tube is, so the
+    /// frames it spoils are the ones that take it back: what a run learned of its backdrops
+    /// never holds it away from what the images show. Returns the cameras whose background
+    /// changed.
     fn restore_captured(
         &self,
         images: &[&RgbImage],
@@ -825,8 +826,9 @@ impl Pipeline {
                 camera: name.clone(),
                 source,
             };
-            let as_captured = captured.silhouetter.process(images[i]).map_err(err)?;
-            let ghost = silhouette.object.and_not(&as_captured.object);
+            let ghost = silhouette
+                .object
+                .and(&captured.model.shown_by(images[i]).map_err(err)?);
             if ghost.count() == 0 {
                 continue;
             }
