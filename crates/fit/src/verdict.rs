@@ -113,7 +113,7 @@ impl TubeFitter {
 
     /// The pixels of camera `camera`'s image that are the tube's as far as its background is
     /// concerned: the re-rendered `tube` (and its open ends' continuations) with a margin,
-    /// `silhouette` within [`END_ZONE_PX`] of the check's distance of it (a camera the fit does
+    /// `silhouette` within 4 px beyond the check's `explain_px` of it (a camera the fit does
     /// not explain may see its tube a few pixels off the rendered one: seen along its length,
     /// the tube's far part was taken for backdrop and came back as a ghost), and the parts of
     /// `silhouette` beyond it that meet a capped end (a missed distal part looks like that).
