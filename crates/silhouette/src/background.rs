@@ -266,6 +266,16 @@ impl BackgroundModel {
         (CHANGED_SPREADS * self.spread[i]).max(CHANGED_LEVELS)
     }
 
+    /// Whether `colour` lies farther from pixel `i`'s mean than counts as changed, in some
+    /// channel.
+    fn departs(&self, i: usize, colour: [f32; 3]) -> bool {
+        let limit = self.changed_limit(i);
+        self.mean[i]
+            .iter()
+            .zip(colour)
+            .any(|(m, c)| (m - c).abs() > limit)
+    }
+
     /// The pixels whose mean differs from `captured`'s by more than counts as changed (see
     /// [`BackgroundModel::absorb`]): where a background that followed its backdrop is no longer
     /// the one captured. Models of another size differ everywhere.
@@ -275,17 +285,9 @@ impl BackgroundModel {
         if (captured.width, captured.height) != (self.width, self.height) {
             return mask.not();
         }
-        for y in 0..h {
-            for x in 0..w {
-                let i = y * w + x;
-                let limit = self.changed_limit(i);
-                if self.mean[i]
-                    .iter()
-                    .zip(&captured.mean[i])
-                    .any(|(a, b)| (a - b).abs() > limit)
-                {
-                    mask.set(x, y, true);
-                }
+        for (i, &colour) in captured.mean.iter().enumerate() {
+            if self.departs(i, colour) {
+                mask.set(i % w, i / w, true);
             }
         }
         mask
@@ -300,12 +302,7 @@ impl BackgroundModel {
         }
         let mut mask = BitMask::new(w, h);
         for (i, p) in frame.pixels().enumerate() {
-            let limit = self.changed_limit(i);
-            if self.mean[i]
-                .iter()
-                .zip(p.0)
-                .all(|(m, v)| (m - f32::from(v)).abs() <= limit)
-            {
+            if !self.departs(i, p.0.map(f32::from)) {
                 mask.set(i % w, i / w, true);
             }
         }

@@ -1,8 +1,8 @@
 //! What a run learns as it goes and later frames read: each camera's backdrop (its background,
 //! which follows a backdrop that changed since its capture, beside the captured one it is
 //! taken back to where the frames show that again), each camera's usual silhouette share
-//! (recent right frames'), and how many attempts of the bootstrap silhouettes failed in a row. A frame reads
-//! one [`RunState`] and leaves a [`StateChange`]. Applied as frames end, the changes reach
+//! (recent right frames'), and how many attempts of the bootstrap silhouettes failed in a row.
+//! A frame reads one [`RunState`] and leaves a [`StateChange`]. Applied as frames end, the changes reach
 //! whichever frames start next (live input); applied in input order and read as frame
 //! `k − workers` left them, they give every frame of a recording the same state on every run
 //! (see `runner`).
