@@ -169,6 +169,20 @@ impl BSpline3 {
         BSpline3::new((0..n).map(|i| [x[(i, 0)], x[(i, 1)], x[(i, 2)]]).collect())
     }
 
+    /// The same curve run the other way: the point at `u` is this curve's at `1 − u`
+    /// (the knots are uniform and clamped, so reversing the control points is exact).
+    pub fn reversed(&self) -> BSpline3 {
+        let mut control = self.control.clone();
+        control.reverse();
+        let mut curve = BSpline3 {
+            control,
+            knots: self.knots.clone(),
+            pieces: Vec::new(),
+        };
+        curve.pieces = curve.power_basis();
+        curve
+    }
+
     /// The control points.
     pub fn control(&self) -> &[[f64; 3]] {
         &self.control
@@ -349,6 +363,26 @@ impl BSpline3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_reversed_curve_runs_through_the_same_points_the_other_way() {
+        let curve = BSpline3::new(
+            (0..9)
+                .map(|i| [i as f64, (i as f64).cos(), 0.1 * (i * i) as f64])
+                .collect(),
+        )
+        .unwrap();
+        let back = curve.reversed();
+        for i in 0..=200 {
+            let u = i as f64 / 200.0;
+            let (a, b) = (curve.eval(u), back.eval(1.0 - u));
+            for c in 0..3 {
+                assert!((a.value[c] - b.value[c]).abs() < 1e-12, "u {u}");
+                // The tangent turns round.
+                assert!((a.d1[c] + b.d1[c]).abs() < 1e-9, "u {u}");
+            }
+        }
+    }
 
     #[test]
     fn the_closed_form_away_from_the_ends_is_the_recurrence() {

@@ -41,6 +41,10 @@ pub struct CameraCheck {
     pub p90_px: f64,
     /// Overlap of the re-rendered tube with the silhouette (intersection over union).
     pub iou: f64,
+    /// The least overlap this view allows ([`iou_limit`]): the setting's `min_iou`, or less
+    /// for a tube imaged so thin that a pixel's disagreement at its edges costs more.
+    #[serde(default)]
+    pub iou_limit: f64,
     /// Silhouette pixels farther than the check's distance from the re-rendered tube.
     pub unexplained_px: usize,
     /// Outline samples around the tube's free ends (their caps and the last two radii of
@@ -203,6 +207,22 @@ pub(crate) fn disc(mask: &mut BitMask, (_, c, radius): (Point3<f64>, nalgebra::V
         }
         mask.set_span(y, x0, x1 as usize);
     }
+}
+
+/// The least IoU of a silhouette with the rendered tube that a right shape can give in a view
+/// where the tube's image is `spheres` wide: `min_iou`, or for a thin image the IoU of two
+/// strips of its mean width one pixel apart, `(w − 1)/(w + 1)`, when that is less. A
+/// silhouette's edge may lie a pixel off the tube's image however right the shape (the
+/// classifier leaves out a shaded edge's last pixel or takes in a blurred one of backdrop, and
+/// the rendering rounds each disc to whole pixels), and across a tube 2.7 px wide that pixel
+/// alone takes the IoU to 0.46; the default 0.75 is that pixel across a tube 7 px wide.
+pub(crate) fn iou_limit(min_iou: f64, spheres: &Spheres) -> f64 {
+    let radii: Vec<f64> = spheres.tube().iter().map(|s| s.2).collect();
+    if radii.is_empty() {
+        return min_iou;
+    }
+    let width = 2.0 * radii.iter().sum::<f64>() / radii.len() as f64;
+    min_iou.min((width - 1.0) / (width + 1.0)).max(0.0)
 }
 
 /// IoU of the rendered tube with the silhouette (leaving out the pixels only the open ends'

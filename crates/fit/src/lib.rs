@@ -60,6 +60,7 @@ mod bands;
 mod bundle;
 mod check;
 mod edges;
+mod orient;
 mod outline;
 mod pose;
 mod region;
@@ -384,12 +385,7 @@ impl TubeFitter {
             .unwrap_or_else(|| DMatrix::zeros(tube.parameters(), tube.parameters()))
             * sigma_px.powi(2);
         let length = tube.length();
-        let centres = outline::sphere_centres(&tube, length);
-        let spheres: Vec<Spheres> = self
-            .cameras
-            .iter()
-            .map(|cam| Spheres::from_centres(cam, &tube, &centres, 0.0))
-            .collect();
+        let spheres = self.spheres(&tube);
         let cameras = self
             .cameras
             .iter()
@@ -412,6 +408,7 @@ impl TubeFitter {
                     shift_px: res.shift,
                     p90_px: res.p90,
                     iou,
+                    iou_limit: check::iou_limit(s.min_iou, spheres),
                     unexplained_px,
                     end_samples: ends.samples,
                     end_found: ends.found,
@@ -504,13 +501,11 @@ impl TubeFitter {
             Ok(t) => t.with_steps(steps),
             Err(_) => return Ok((hull.clone(), None)),
         };
-        let (mut fit, spheres) = self.fit_with(
-            s,
-            views,
-            start,
-            radius.is_none() && s.fit_radius,
-            ONE_MEASUREMENT_MM,
-        )?;
+        let fit_radius = radius.is_none() && s.fit_radius;
+        let fitted = self.fit_with(s, views, start, fit_radius, ONE_MEASUREMENT_MM)?;
+        let mut base = hull.clone();
+        let (mut fit, spheres) =
+            self.orient_by_band(estimator, views, fitted, &mut base, fit_radius)?;
         let voxel_volume = volume.voxel_size.iter().product::<f64>();
         let reach = 1.5 * fit.tube.largest_radius() + 1.5 * voxel;
         fit.ghost_mm = Some(check::ghost_length(
@@ -519,7 +514,7 @@ impl TubeFitter {
             voxel_volume,
             reach,
         ));
-        let record = self.conclude(estimator, volume, views, (&fit, &spheres), hull);
+        let record = self.conclude(estimator, volume, views, (&fit, &spheres), &base);
         Ok((record, Some(fit)))
     }
 
@@ -625,6 +620,15 @@ impl TubeFitter {
             };
         }
         Ok((record, Some(fit)))
+    }
+
+    /// `tube`'s visibility spheres in each camera (rig order).
+    fn spheres(&self, tube: &Tube) -> Vec<Spheres> {
+        let centres = outline::sphere_centres(tube, tube.length());
+        self.cameras
+            .iter()
+            .map(|cam| Spheres::from_centres(cam, tube, &centres, 0.0))
+            .collect()
     }
 
     /// The part of each camera's image (rig order) within `margin_px` of `tube`'s image (its

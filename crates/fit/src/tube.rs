@@ -367,6 +367,18 @@ impl Tube {
         Some(tube)
     }
 
+    /// The same tube taken from its other end (the tip becomes the proximal end, the caps
+    /// change ends), or `None` for a tube that steps in radius: its steps are placed from the
+    /// tip, so the other way round it is another tube.
+    pub fn reversed(&self) -> Option<Tube> {
+        self.steps.is_empty().then(|| Tube {
+            centerline: self.centerline.reversed(),
+            radius: self.radius,
+            steps: Vec::new(),
+            capped: [self.capped[1], self.capped[0]],
+        })
+    }
+
     /// Centre and unit tangent (toward the tip) at `u`.
     pub fn frame(&self, u: f64) -> (Point3<f64>, Vector3<f64>) {
         let (p, d1) = self.centerline.point_and_d1(u);

@@ -156,9 +156,9 @@ impl TubeFitter {
             .or_else(|| self.end_placed(c))
             .map(|why| why + &lighter_than_backdrop(c))
             .or_else(|| {
-                (c.iou < s.min_iou).then(|| format!(
+                (c.iou < c.iou_limit).then(|| format!(
                     "camera {i}: the fitted tube overlaps the silhouette by IoU {:.2} (at least {:.2} expected)",
-                    c.iou, s.min_iou
+                    c.iou, c.iou_limit
                 ))
             })
             .or_else(|| {

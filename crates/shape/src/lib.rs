@@ -136,9 +136,8 @@ impl ShapeEstimator {
         if slices.leaves_volume {
             record.status = Status::LeavesVolume;
         } else if undecided {
-            record.status = Status::Ambiguous {
-                reason: "neither end of the tube reaches the volume's boundary and nothing tells its tip from its proximal end (the centerline's direction is a guess): set [processing.shape] proximal_hint, or tip_band = true when a band marks the tip".into(),
-            };
+            record.status = self.undirected("reaches the volume's boundary");
+            record.direction_guessed = true;
         }
         let t3 = Instant::now();
         self.finish(&mut record, &curve);
@@ -151,10 +150,27 @@ impl ShapeEstimator {
         record
     }
 
+    /// The status of a shape whose direction nothing decided: neither end `open_by` (what
+    /// makes an end the proximal one, e.g. "reaches the volume's boundary"), no hint, and no
+    /// band seen running into one end only when `tip_band` says one marks the tip.
+    pub fn undirected(&self, open_by: &str) -> Status {
+        let cue = if self.settings.tip_band {
+            "no band was seen running into one end only (tip_band): set [processing.shape] proximal_hint"
+        } else {
+            "set [processing.shape] proximal_hint, or tip_band = true when a band marks the tip"
+        };
+        Status::Ambiguous {
+            reason: format!(
+                "neither end of the tube {open_by} and nothing tells its tip from its proximal end (the centerline's direction is a guess): {cue}"
+            ),
+        }
+    }
+
     /// The record of a centerline found another way — the tube fitted to the images (see
     /// [`FittedCurve`]) — from its proximal end to its tip, cut at the volume's boundary at the
     /// ends the tube runs through. The status comes from `hull`, the same frame's hull record,
-    /// which must hold a shape, and so do the bands unless the fit found its own: each hull
+    /// which must hold a shape, except that the bands are counted again (the hull's
+    /// `bands_missing` is not carried over); so do the bands unless the fit found its own: each hull
     /// band keeps its place (its centre's nearest point on the new curve; a band ending at the
     /// tip keeps its distance from the tip).
     pub fn record_from_curve(
@@ -173,7 +189,12 @@ impl ShapeEstimator {
         let t0 = Instant::now();
         let curve = centerline::Centerline::fitted(curve, volume, open[0], open[1]);
         let mut record = self.sampled(&curve, radius, open[0]);
-        record.status = hull.status.clone();
+        // Bands are counted again on the new curve: the hull's count was its own.
+        record.status = match &hull.status {
+            Status::BandsMissing { .. } => Status::Ok,
+            other => other.clone(),
+        };
+        record.direction_guessed = hull.direction_guessed;
         if let Some(sigma) = sigma {
             record.sigma = record
                 .arc

@@ -183,6 +183,10 @@ pub struct ShapeRecord {
     pub radius: f64,
     /// Whether the proximal end was placed on the volume's boundary (the tube enters there).
     pub enters_volume: bool,
+    /// Whether nothing told the proximal end from the tip, so that the centerline's direction
+    /// is a guess (the status is then `ambiguous`); absent when false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub direction_guessed: bool,
     /// Bands from the proximal end to the tip.
     pub bands: Vec<BandOnCurve>,
     /// Measured axial strains.
@@ -209,6 +213,7 @@ impl ShapeRecord {
             tip_direction: [0.0; 3],
             radius: 0.0,
             enters_volume: false,
+            direction_guessed: false,
             bands: Vec::new(),
             compression: Vec::new(),
             arc_fit: None,

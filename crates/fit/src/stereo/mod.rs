@@ -77,13 +77,11 @@ impl TubeFitter {
             else {
                 continue;
             };
-            let (fit, spheres) = self.fit_with(
-                s,
-                views,
-                start,
-                radius.is_none() && s.fit_radius,
-                crate::ONE_MEASUREMENT_MM,
-            )?;
+            let fit_radius = radius.is_none() && s.fit_radius;
+            let fitted = self.fit_with(s, views, start, fit_radius, crate::ONE_MEASUREMENT_MM)?;
+            let mut base = base;
+            let (fit, spheres) =
+                self.orient_by_band(estimator, views, fitted, &mut base, fit_radius)?;
             if self.verdict(&fit, volume).is_none() {
                 explaining.push((fit, spheres, base));
             }
@@ -153,15 +151,17 @@ fn oriented(
         points.reverse();
         open.reverse();
     }
+    let guessed = open == [false, false] && hint.is_none();
     let status = match open {
         [true, true] => Status::LeavesVolume,
-        [false, false] if hint.is_none() => Status::Ambiguous {
-            reason: "neither end of the tube leaves the cameras' views or reaches the volume's boundary and nothing tells its tip from its proximal end (the centerline's direction is a guess): set [processing.shape] proximal_hint".into(),
-        },
+        _ if guessed => {
+            estimator.undirected("leaves the cameras' views or reaches the volume's boundary")
+        }
         _ => Status::Ok,
     };
     let mut base = ShapeRecord::empty(status);
     base.enters_volume = open[0];
+    base.direction_guessed = guessed;
     (points.len() >= 4).then_some((points, open, base))
 }
 

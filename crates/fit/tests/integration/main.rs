@@ -8,4 +8,5 @@ mod floating_base;
 mod following;
 mod hard_scenes;
 mod selfcheck;
+mod thin_tubes;
 mod two_cameras;
