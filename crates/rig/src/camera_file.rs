@@ -39,7 +39,7 @@ struct RawCameraFile {
     tvec: Option<RawMatrix>,
 }
 
-fn is_json(path: &Path) -> bool {
+pub(crate) fn is_json(path: &Path) -> bool {
     path.extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"))
 }

@@ -39,13 +39,33 @@ impl std::fmt::Display for SkippedFile {
     }
 }
 
-/// `None` when `file` is (meant as) a camera file: it names `camera_matrix`. Otherwise why
-/// not. Unreadable files are left to the camera reader's error.
+/// `None` when `file` is (meant as) a camera file: `camera_matrix` is one of its top-level
+/// entries (a JSON object's key; a YAML key at the start of a line), or it names
+/// `camera_matrix` but cannot be parsed as JSON. Otherwise why not: another tool's rig or
+/// notes beside the camera files may name `camera_matrix` inside entries of their own.
+/// Unreadable files are left to the camera reader's error.
 fn camera_file_or_why_not(file: &Path) -> Option<String> {
     let text = crate::files::read_bytes(file, crate::files::MAX_TEXT_BYTES, "camera file").ok()?;
     let text = String::from_utf8_lossy(&text);
-    (!text.contains("camera_matrix"))
-        .then(|| "not a camera file (no camera_matrix); skipped".to_string())
+    if !text.contains("camera_matrix") {
+        return Some("not a camera file (no camera_matrix); skipped".to_string());
+    }
+    let top_level = if crate::camera_file::is_json(file) {
+        match serde_json::from_str::<serde_json::Value>(&text) {
+            Ok(value) => value.get("camera_matrix").is_some(),
+            // Meant as a camera file, broken: the reader says where.
+            Err(_) => true,
+        }
+    } else {
+        text.lines().any(|l| {
+            l.strip_prefix("camera_matrix")
+                .is_some_and(|rest| rest.trim_start().starts_with(':'))
+        })
+    };
+    (!top_level).then(|| {
+        "not a camera file (camera_matrix only inside other entries: another tool's file?); skipped"
+            .to_string()
+    })
 }
 
 /// One camera of a rig.

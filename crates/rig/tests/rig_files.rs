@@ -307,12 +307,18 @@ fn a_calibration_folder_skips_files_that_are_not_cameras() {
     let dir = tempfile::tempdir().unwrap();
     write_rig(dir.path());
     let cal = dir.path().join("calibration");
+    // Another tool's rig naming each camera's matrix inside its own entries (no image size:
+    // read as a camera file it would be an error).
     std::fs::write(
         cal.join("rig.json"),
-        r#"{"cameras": ["cam0", "cam1"], "tool": "other"}"#,
+        r#"{"cameras": [{"name": "cam0", "camera_matrix": [[800, 0, 320], [0, 800, 240], [0, 0, 1]]}], "tool": "other"}"#,
     )
     .unwrap();
-    std::fs::write(cal.join("notes.yaml"), "operator: me\nlens: 8 mm\n").unwrap();
+    std::fs::write(
+        cal.join("notes.yaml"),
+        "operator: me\nlens: 8 mm\nprevious:\n  camera_matrix: [800, 0, 320, 0, 800, 240, 0, 0, 1]\n",
+    )
+    .unwrap();
     std::fs::write(cal.join("README.md"), "calibrated on Monday").unwrap();
     let (rig, skipped) = Rig::from_calibration_dir_skipping(&cal, Volume::default()).unwrap();
     let names: Vec<_> = rig.cameras.iter().map(|c| c.name.as_str()).collect();
@@ -323,6 +329,14 @@ fn a_calibration_folder_skips_files_that_are_not_cameras() {
         .collect();
     assert_eq!(files, ["notes.yaml", "rig.json"]);
     assert!(skipped[0].to_string().contains("not a camera file"));
+    assert!(skipped[1].to_string().contains("inside other entries"));
+    // A camera file broken so that it is not JSON any more is still a camera file: an error.
+    std::fs::write(cal.join("cam9.json"), r#"{"camera_matrix": [1, 2"#).unwrap();
+    assert!(matches!(
+        Rig::from_calibration_dir(&cal, Volume::default()),
+        Err(RigError::Syntax { .. })
+    ));
+    std::fs::remove_file(cal.join("cam9.json")).unwrap();
     // A camera file with a problem is an error, not a skip.
     let cam1 = cal.join("cam1.yml");
     let text = std::fs::read_to_string(&cam1).unwrap();
