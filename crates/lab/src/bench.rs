@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::LabError;
-use crate::demo::{DemoFigures, ShapeErrors};
+use crate::demo::{DemoFigures, RightBounds, ShapeErrors};
 
 /// What to measure.
 #[derive(Debug, Clone, PartialEq)]
@@ -146,6 +146,11 @@ pub struct Accuracy {
     pub tip_mm: [f64; 2],
     /// Worst distance of a true band centre from the nearest one found.
     pub band_mm: f64,
+    /// Frames whose status says the shape is right but the truth does not (centerline RMS
+    /// beyond 0.15 mm or tip beyond 0.3 mm, [`RightBounds`]).
+    pub right_said_wrong: usize,
+    /// Frames whose status refuses a shape the truth says is right.
+    pub right_refused: usize,
 }
 
 impl Accuracy {
@@ -157,6 +162,8 @@ impl Accuracy {
             centerline_rms_mm: pair(&figures.rms),
             tip_mm: pair(&figures.tip),
             band_mm: figures.band,
+            right_said_wrong: figures.right_said_wrong,
+            right_refused: figures.right_refused,
         }
     }
 }
@@ -227,11 +234,13 @@ fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figure
         let tracked = pipeline.process_after(&refs[k], prior.as_deref())?;
         let elapsed = t.elapsed().as_secs_f64() * 1e3;
         recent.update(step as u64, tracked.prior());
-        if step < refs.len()
-            && tracked.shape.status.is_right()
-            && let Some(e) = ShapeErrors::of(pipeline, &frames[k].1, &tracked)
-        {
-            errors.add(&e);
+        if step < refs.len() {
+            let e = ShapeErrors::of(pipeline, &frames[k].1, &tracked);
+            let said_right = tracked.shape.status.is_right();
+            errors.judge(said_right, e.as_ref(), RightBounds::default());
+            if let Some(e) = e.filter(|_| said_right) {
+                errors.add(&e);
+            }
         }
         if tracked.start == Start::Previous {
             followed += 1;
@@ -250,14 +259,14 @@ fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figure
     // frames further back, so their records differ from one frame at a time.
     let mut in_lanes = DemoFigures::default();
     let checked = lanes(pipeline, &refs, steps, threads, &shown, |step, tracked| {
-        if tracked.shape.status.is_right() {
-            ShapeErrors::of(pipeline, &frames[shown(step)].1, tracked)
-        } else {
-            None
-        }
+        let e = ShapeErrors::of(pipeline, &frames[shown(step)].1, tracked);
+        (tracked.shape.status.is_right(), e)
     })?;
-    for e in checked.iter().flatten() {
-        in_lanes.add(e);
+    for (said_right, e) in &checked {
+        in_lanes.judge(*said_right, e.as_ref(), RightBounds::default());
+        if let Some(e) = e.as_ref().filter(|_| *said_right) {
+            in_lanes.add(e);
+        }
     }
     let throughput_fps = quantile(&mut passes, 0.5);
     Ok(Figures {
@@ -448,9 +457,11 @@ fn figures_table(out: &mut String, title: &str, results: &[Figures]) {
 /// Frames right and their errors from the truth, as the table prints them.
 fn accuracy_line(a: &Accuracy) -> String {
     format!(
-        "{} of {} frames right; centerline rms median {:.3} mm, worst {:.3}; tip median {:.3} mm, worst {:.3}; band worst {:.3} mm",
+        "{} of {} frames right; {} said right but off the truth, {} right but refused; centerline rms median {:.3} mm, worst {:.3}; tip median {:.3} mm, worst {:.3}; band worst {:.3} mm",
         a.right,
         a.frames,
+        a.right_said_wrong,
+        a.right_refused,
         a.centerline_rms_mm[0],
         a.centerline_rms_mm[1],
         a.tip_mm[0],

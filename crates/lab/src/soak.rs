@@ -17,7 +17,7 @@ use flexshape_track::{Processed, TrackRecord};
 use serde::Serialize;
 
 use crate::LabError;
-use crate::demo::Demo;
+use crate::demo::{Demo, RightBounds};
 
 /// How long to run and how to report it.
 #[derive(Debug, Clone, PartialEq)]
@@ -46,8 +46,8 @@ impl Default for SoakSettings {
             window: 1_000,
             fps: 12.0,
             threads: 1,
-            right_rms_mm: 0.15,
-            right_tip_mm: 0.3,
+            right_rms_mm: RightBounds::default().rms_mm,
+            right_tip_mm: RightBounds::default().tip_mm,
         }
     }
 }
@@ -225,9 +225,11 @@ pub fn soak(
         stop,
         |p: Processed| {
             let record = TrackRecord::from_processed(&p);
-            let right = demo.errors(&p).map(|e| {
-                e.centerline_rms <= settings.right_rms_mm && e.tip <= settings.right_tip_mm
-            });
+            let bounds = RightBounds {
+                rms_mm: settings.right_rms_mm,
+                tip_mm: settings.right_tip_mm,
+            };
+            let right = demo.errors(&p).map(|e| e.within(bounds));
             current.add(&record, right);
             if current.frames == settings.window {
                 current.rss_mb = resident_mb();

@@ -68,6 +68,33 @@ impl ShapeErrors {
     }
 }
 
+/// How far from the truth a shape may be and still be right: the third wave's bounds, held
+/// alike by `flexshape bench` and the soak run. On the default 640×480 rig a pixel spans about
+/// 0.6 mm at the volume's centre; scale both with it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RightBounds {
+    /// Centerline RMS distance from the truth, mm.
+    pub rms_mm: f64,
+    /// Tip distance from the true tip, mm.
+    pub tip_mm: f64,
+}
+
+impl Default for RightBounds {
+    fn default() -> Self {
+        RightBounds {
+            rms_mm: 0.15,
+            tip_mm: 0.3,
+        }
+    }
+}
+
+impl ShapeErrors {
+    /// Whether the shape is right by the truth, within `bounds`.
+    pub fn within(&self, bounds: RightBounds) -> bool {
+        self.centerline_rms <= bounds.rms_mm && self.tip <= bounds.tip_mm
+    }
+}
+
 /// Figures over the frames so far (mm; curvature relative).
 #[derive(Debug, Clone, Default)]
 pub struct DemoFigures {
@@ -83,6 +110,11 @@ pub struct DemoFigures {
     pub cover: Option<f64>,
     /// Each frame's time through the chain, ms.
     pub chain_ms: Vec<f64>,
+    /// Frames whose status says the shape is right that the truth says is not (or that carry
+    /// no shape to hold against it), see [`DemoFigures::judge`].
+    pub right_said_wrong: usize,
+    /// Frames whose status refuses a shape the truth says is right.
+    pub right_refused: usize,
 }
 
 impl DemoFigures {
@@ -97,6 +129,16 @@ impl DemoFigures {
         {
             self.curvature = self.curvature.max((fit / truth - 1.0).abs());
         }
+    }
+
+    /// Counts a frame's status against the truth: `said_right` is the status's word (`ok`,
+    /// `bands_missing` or `leaves_volume`: the shape is right), `errors` its shape's errors (`None` without a
+    /// shape or a true centerline in the volume, when nothing is counted unless the status
+    /// claimed a shape).
+    pub fn judge(&mut self, said_right: bool, errors: Option<&ShapeErrors>, bounds: RightBounds) {
+        let right = errors.map(|e| e.within(bounds));
+        self.right_said_wrong += usize::from(said_right && right != Some(true));
+        self.right_refused += usize::from(!said_right && right == Some(true));
     }
 
     /// The largest value (0 when none).

@@ -37,7 +37,7 @@ use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, Simulator};
 use flexshape_track::{ModelFrame, Pipeline, Processed};
 
-pub use errors::{DemoFigures, ShapeErrors};
+pub use errors::{DemoFigures, RightBounds, ShapeErrors};
 pub use report::table_header;
 pub use rig::{DemoRig, OnDemand};
 
