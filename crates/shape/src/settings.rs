@@ -154,6 +154,24 @@ impl Default for ShapeSettings {
 }
 
 impl ShapeSettings {
+    /// What tells the tube's proximal end from its tip, for the operator: an end that runs
+    /// out of the volume or a camera's view always does; then the hint or the tip band, if set,
+    /// or a warning that a tube held wholly inside the volume will be `ambiguous`.
+    pub fn direction_cues(&self) -> String {
+        let always = "the end that leaves the volume or a camera's view is the proximal one";
+        match (self.proximal_hint, self.tip_band) {
+            (Some([x, y, z]), _) => {
+                format!("{always}; else the end nearer proximal_hint ({x:.1}, {y:.1}, {z:.1}) mm")
+            }
+            (None, true) => {
+                format!("{always}; else the end a band runs into is the tip (tip_band)")
+            }
+            (None, false) => format!(
+                "{always}; nothing else is set, so a tube held wholly inside the volume will be ambiguous: set [processing.shape] proximal_hint (a point near the proximal end, world mm), or tip_band = true when a band ends at the tip"
+            ),
+        }
+    }
+
     /// The settings in a rig file's `[processing.shape]` table (defaults for missing keys;
     /// all defaults without the table), validated.
     pub fn from_processing(processing: &toml::Table) -> Result<Self, ShapeError> {

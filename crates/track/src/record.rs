@@ -238,6 +238,10 @@ pub struct TrackRecord {
     /// none).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub background_restored: Vec<BackgroundUpdate>,
+    /// Nothing told the proximal end from the tip, so the centerline's direction is a guess
+    /// and the status `ambiguous` (absent: false).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub direction_guessed: bool,
 }
 
 /// A measured axial strain.
@@ -344,6 +348,7 @@ impl TrackRecord {
             }),
             background_updated: t.background_updated.clone(),
             background_restored: t.background_restored.clone(),
+            direction_guessed: s.direction_guessed,
         }
     }
 
@@ -414,6 +419,7 @@ impl TrackRecord {
             start: None,
             background_updated: Vec::new(),
             background_restored: Vec::new(),
+            direction_guessed: false,
         }
     }
 }
@@ -438,6 +444,7 @@ pub struct Tally {
     ok: usize,
     errors: usize,
     frames: usize,
+    direction_guessed: usize,
 }
 
 impl Default for Tally {
@@ -449,6 +456,7 @@ impl Default for Tally {
             ok: 0,
             errors: 0,
             frames: 0,
+            direction_guessed: 0,
         }
     }
 }
@@ -467,6 +475,7 @@ impl Tally {
             RecordStatus::Error => self.errors += 1,
             _ => {}
         }
+        self.direction_guessed += usize::from(record.direction_guessed);
         if record.status != RecordStatus::Error {
             self.timings.push(record.timings_ms);
         }
@@ -505,6 +514,7 @@ impl Tally {
             }),
             input_error: end.input_error.as_ref().map(|e| e.to_string()),
             startup_s: None,
+            direction_guessed: self.direction_guessed,
         }
     }
 }
@@ -539,6 +549,14 @@ pub struct TrackSummary {
     /// backgrounds, setting up carving and the outputs — not counted in `seconds` (additive).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub startup_s: Option<f64>,
+    /// Frames `ambiguous` only because nothing told the proximal end from the tip (additive;
+    /// absent: none); the summary line then says once which setting decides it.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub direction_guessed: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// The summary as its own line.
@@ -608,6 +626,43 @@ impl TrackSummary {
                 .map(|s| format!("{} {:.2}/{:.2}", s.stage, s.median_ms, s.p95_ms))
                 .collect::<Vec<_>>()
                 .join(", ")
-        )
+        ) + &self.direction_advice()
+    }
+
+    /// Once per run, when frames were `ambiguous` for want of a cue to the tube's direction:
+    /// which setting decides it.
+    fn direction_advice(&self) -> String {
+        match self.direction_guessed {
+            0 => String::new(),
+            n => format!(
+                "\n{n} of {} frames are ambiguous only because nothing tells the tube's tip from its proximal end (neither end leaves the volume or a camera's view): set [processing.shape] proximal_hint (a point near the proximal end, world mm), or tip_band = true when a band ends at the tip",
+                self.frames
+            ),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_of_frames_without_a_direction_says_once_which_setting_decides_it() {
+        let mut tally = Tally::new();
+        let mut record = TrackRecord::error(0, String::new());
+        record.status = RecordStatus::Ambiguous;
+        record.direction_guessed = true;
+        for _ in 0..3 {
+            tally.add(&record);
+        }
+        tally.add(&TrackRecord::error(3, String::new()));
+        let summary = tally.summary(&RunEnd::default());
+        assert_eq!(summary.direction_guessed, 3);
+        let line = summary.line(false, false);
+        assert_eq!(line.matches("proximal_hint").count(), 1, "{line}");
+        assert!(line.contains("3 of 4 frames"), "{line}");
+        // Frames that had a direction say nothing of it.
+        let quiet = Tally::new().summary(&RunEnd::default()).line(false, false);
+        assert!(!quiet.contains("proximal_hint"), "{quiet}");
     }
 }

@@ -34,6 +34,9 @@ pub fn run(args: &RigCheckArgs) -> anyhow::Result<()> {
     );
     let check = RigCheck::of(&rig);
     print!("{check}");
+    let shape = flexshape_shape::ShapeSettings::from_processing(&rig.processing)
+        .with_context(|| format!("{}: invalid [processing.shape]", path.display()))?;
+    println!("direction: {}", shape.direction_cues());
     let blind = check.blind();
     if !blind.is_empty() {
         anyhow::bail!(

@@ -58,8 +58,16 @@ fn simulate_writes_the_recording_layout_and_refuses_to_overwrite() {
         "{}",
         text(&o)
     );
+    // The simulated catheter's band ends at its tip: that decides a floating tube's direction.
+    assert!(text(&o).contains("(tip_band)"), "{}", text(&o));
+    // A bare calibration folder sets nothing: it says which setting would decide it.
     let o = flexshape(&["rig", "check", out.join("calibration").to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("will be ambiguous: set [processing.shape] proximal_hint"),
+        "{}",
+        text(&o)
+    );
 }
 
 #[test]
