@@ -137,6 +137,7 @@ fn views<'a>(
             background: m.means(),
             silhouette: &s.object,
             markers: &s.markers,
+            shadow_like: Some(&s.shadow_like),
         })
         .collect()
 }

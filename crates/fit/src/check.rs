@@ -47,6 +47,11 @@ pub struct CameraCheck {
     pub iou_limit: f64,
     /// Silhouette pixels farther than the check's distance from the re-rendered tube.
     pub unexplained_px: usize,
+    /// Shadow-coloured silhouette pixels that far from it, left out of `iou` and
+    /// `unexplained_px`: a shadow on the backdrop sharp enough to be taken for an object (the
+    /// tube's own pixels, grey or not, lie near it and always count).
+    #[serde(default)]
+    pub shadow_px: usize,
     /// Outline samples around the tube's free ends (their caps and the last two radii of
     /// the sides), where a tip that stopped short or ran on shows; few among the whole
     /// outline, so they are checked apart.
@@ -225,13 +230,43 @@ pub(crate) fn iou_limit(min_iou: f64, spheres: &Spheres) -> f64 {
     min_iou.min((width - 1.0) / (width + 1.0)).max(0.0)
 }
 
-/// IoU of the rendered tube with the silhouette (leaving out the pixels only the open ends'
-/// continuations cover), and the silhouette pixels farther than `explain_px` from both.
+/// How a view's silhouette overlaps the rendered tube.
+pub(crate) struct Overlap {
+    /// [`CameraCheck::iou`].
+    pub iou: f64,
+    /// [`CameraCheck::unexplained_px`].
+    pub unexplained_px: usize,
+    /// [`CameraCheck::shadow_px`].
+    pub shadow_px: usize,
+}
+
+/// IoU of the rendered tube with `view`'s silhouette (leaving out the pixels only the open
+/// ends' continuations cover), and the silhouette pixels farther than `explain_px` from both;
+/// shadow-coloured silhouette pixels that far are counted apart, in neither — unless they
+/// meet `end_zones` (around the capped ends): a grey distal part the fit missed looks so.
 pub(crate) fn overlap(
     (tube, beyond): &(BitMask, BitMask),
-    silhouette: &BitMask,
+    view: &crate::View<'_>,
     explain_px: usize,
-) -> (f64, usize) {
+    end_zones: impl FnOnce() -> BitMask,
+) -> Overlap {
+    let near = tube.or(beyond).dilate(explain_px);
+    let shadow = view
+        .shadow_like
+        .map(|s| s.and_not(&near))
+        .filter(|away| away.count() > 0)
+        .map(|away| {
+            let missed = flexshape_silhouette::components::touching(&away, &end_zones());
+            away.and_not(&missed)
+        });
+    let kept;
+    let silhouette = match &shadow {
+        Some(shadow) if shadow.count() > 0 => {
+            kept = view.silhouette.and_not(shadow);
+            &kept
+        }
+        _ => view.silhouette,
+    };
     // Word by word: the silhouette where the continuations alone do not reach, against the
     // tube (all of which is such a place).
     let (mut inter, mut union) = (0u64, 0u64);
@@ -250,9 +285,11 @@ pub(crate) fn overlap(
     } else {
         inter as f64 / union as f64
     };
-    let near = tube.or(beyond).dilate(explain_px);
-    let unexplained = silhouette.and_not(&near).count();
-    (iou, unexplained)
+    Overlap {
+        iou,
+        unexplained_px: silhouette.and_not(&near).count(),
+        shadow_px: shadow.map_or(0, |s| s.count()),
+    }
 }
 
 /// A camera's frame with what the self-check saw drawn on it: the fitted tube's outline points
@@ -515,26 +552,57 @@ mod tests {
 
     #[test]
     fn overlap_is_the_iou_outside_the_continuations_and_the_unexplained_pixels() {
+        let view = |silhouette: &BitMask, shadow: Option<&BitMask>, f: &dyn Fn(&crate::View)| {
+            let (w, h) = (silhouette.width(), silhouette.height());
+            let image = image::RgbImage::new(w as u32, h as u32);
+            let background = vec![[0f32; 3]; w * h];
+            let markers = BitMask::new(w, h);
+            f(&crate::View {
+                image: &image,
+                background: &background,
+                silhouette,
+                markers: &markers,
+                shadow_like: shadow,
+            })
+        };
         for seed in 0..20 {
             let (tube, beyond, silhouette) =
                 (blobs(seed, 6), blobs(seed + 100, 3), blobs(seed + 200, 8));
             // As the check defines it, with whole masks.
             let sure = beyond.and(&tube.not()).not();
-            let iou = tube.and(&sure).iou(&silhouette.and(&sure));
             let near = tube.or(&beyond).dilate(2);
-            let unexplained = silhouette.and(&near.not()).count();
-            let (got_iou, got_unexplained) = overlap(&(tube, beyond), &silhouette, 2);
-            assert!(
-                (got_iou - iou).abs() < 1e-12,
-                "seed {seed}: {got_iou} against {iou}"
-            );
-            assert_eq!(got_unexplained, unexplained, "seed {seed}");
+            let expect = |silhouette: &BitMask| {
+                let iou = tube.and(&sure).iou(&silhouette.and(&sure));
+                (iou, silhouette.and(&near.not()).count())
+            };
+            let drawn = (tube.clone(), beyond.clone());
+            // The overlap of `silhouette` with `shadow_like` and `zones` against the check's
+            // definition with whole masks, `left_out` the shadow pixels it should leave out.
+            let agrees = |shadow: Option<&BitMask>, zones: &BitMask, left_out: &BitMask| {
+                let (iou, unexplained) = expect(&silhouette.and(&left_out.not()));
+                view(&silhouette, shadow, &|v| {
+                    let got = overlap(&drawn, v, 2, || zones.clone());
+                    assert!((got.iou - iou).abs() < 1e-12, "seed {seed}: {}", got.iou);
+                    assert_eq!(got.unexplained_px, unexplained, "seed {seed}");
+                    assert_eq!(got.shadow_px, left_out.count(), "seed {seed}");
+                });
+            };
+            let none = BitMask::new(150, 40);
+            agrees(None, &none, &none);
+            // Shadow-coloured pixels away from the tube are left out of both; near it they count.
+            let shadow = silhouette.and(&blobs(seed + 300, 10));
+            let away = shadow.and(&near.not());
+            agrees(Some(&shadow), &none, &away);
+            // …except those meeting a capped end's zone: a grey distal part the fit missed.
+            let zones = blobs(seed + 400, 3);
+            let missed = flexshape_silhouette::components::touching(&away, &zones);
+            agrees(Some(&shadow), &zones, &away.and_not(&missed));
         }
         let empty = BitMask::new(150, 40);
-        assert_eq!(
-            overlap(&(empty.clone(), empty.clone()), &empty, 2),
-            (1.0, 0)
-        );
+        view(&empty, None, &|v| {
+            let got = overlap(&(empty.clone(), empty.clone()), v, 2, || empty.clone());
+            assert_eq!((got.iou, got.unexplained_px), (1.0, 0));
+        });
     }
 
     fn arc(radius: f64, turns: f64, pitch: f64) -> Vec<[f64; 3]> {

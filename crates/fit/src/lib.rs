@@ -42,6 +42,7 @@
 //!         background: backgrounds[k].means(),
 //!         silhouette: &masks[k],
 //!         markers: &markers[k],
+//!         shadow_like: None,
 //!     })
 //!     .collect();
 //! let names = sim.rig().cameras.iter().map(|c| c.name.clone()).collect();
@@ -119,6 +120,11 @@ pub struct View<'a> {
     pub silhouette: &'a BitMask,
     /// The frame's marker-band pixels (which tell tape from body colour).
     pub markers: &'a BitMask,
+    /// The part of the silhouette that is shadow-coloured (see
+    /// `flexshape_silhouette::Silhouette::shadow_like`), if known: where it lies away from the
+    /// fitted tube the self-check takes it for a shadow on the backdrop, not for something the
+    /// fit left unexplained.
+    pub shadow_like: Option<&'a BitMask>,
 }
 
 /// One predicted outline point and its measured boundary.
@@ -397,8 +403,9 @@ impl TubeFitter {
                 let res = check::residual_stats(m);
                 let ends = check::end_stats(m, &tube, length);
                 let rendered = check::render(cam, spheres);
-                let (iou, unexplained_px) =
-                    check::overlap(&rendered, view.silhouette, s.explain_px);
+                let (w, h) = (view.silhouette.width(), view.silhouette.height());
+                let zones = || self.end_zones(cam, &tube, w, h);
+                let overlap = check::overlap(&rendered, view, s.explain_px, zones);
                 CameraCheck {
                     camera: name.clone(),
                     samples: res.samples,
@@ -407,9 +414,10 @@ impl TubeFitter {
                     offset_px: res.mean,
                     shift_px: res.shift,
                     p90_px: res.p90,
-                    iou,
+                    iou: overlap.iou,
                     iou_limit: check::iou_limit(s.min_iou, spheres),
-                    unexplained_px,
+                    unexplained_px: overlap.unexplained_px,
+                    shadow_px: overlap.shadow_px,
                     end_samples: ends.samples,
                     end_found: ends.found,
                     end_residual_px: ends.rms,

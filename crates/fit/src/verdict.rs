@@ -2,6 +2,7 @@
 //! shape (no tube bends tighter than its radius or passes through itself) — and, apart, whether
 //! the tube is at least where the images show it, whatever else they show.
 
+use flexshape_camera::Camera;
 use flexshape_rig::Volume;
 use flexshape_silhouette::BitMask;
 use flexshape_silhouette::components::touching;
@@ -123,7 +124,21 @@ impl TubeFitter {
         let (body, beyond) = self.render(camera, tube)?;
         let drawn = body.or(&beyond);
         let unexplained = silhouette.and_not(&drawn.dilate(self.settings.explain_px));
-        let mut zones = BitMask::new(drawn.width(), drawn.height());
+        let zones = self.end_zones(cam, tube, drawn.width(), drawn.height());
+        let near = silhouette.and(&drawn.dilate(self.settings.explain_px + END_ZONE_PX as usize));
+        Some(
+            drawn
+                .or(&near)
+                .dilate(KEEP_PX)
+                .or(&touching(&unexplained, &zones)),
+        )
+    }
+
+    /// Discs around `tube`'s capped ends in `cam`'s image (`w` × `h`), reaching
+    /// [`END_ZONE_PX`] beyond the check's distance from the cap: a silhouette part the tube
+    /// does not explain that meets one is taken for more of the tube (a missed distal part).
+    pub(crate) fn end_zones(&self, cam: &Camera, tube: &Tube, w: usize, h: usize) -> BitMask {
+        let mut zones = BitMask::new(w, h);
         for end in [0, 1].into_iter().filter(|&e| tube.capped[e]) {
             let (centre, _) = tube.frame(end as f64);
             let r = tube.radius_at(end as f64, tube.length());
@@ -133,13 +148,7 @@ impl TubeFitter {
             let reach = rp + self.settings.explain_px as f64 + END_ZONE_PX;
             check::disc(&mut zones, (c, px, reach));
         }
-        let near = silhouette.and(&drawn.dilate(self.settings.explain_px + END_ZONE_PX as usize));
-        Some(
-            drawn
-                .or(&near)
-                .dilate(KEEP_PX)
-                .or(&touching(&unexplained, &zones)),
-        )
+        zones
     }
 
     /// Why camera `c`'s image is not explained, if it is not (the first failing check).

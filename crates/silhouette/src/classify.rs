@@ -460,14 +460,17 @@ impl Prepared {
     }
 
     /// Classifies a frame into the foreground mask (before clean-up): the pixels of `region`
-    /// (rounded out to whole 64-pixel words across), the rest background.
-    pub fn foreground(&self, frame: &RgbImage, region: &impl Area) -> BitMask {
+    /// (rounded out to whole 64-pixel words across), the rest background; and the part of it
+    /// that is shadow-coloured: the sharp-edged shadow-like regions taken in (a grey object, or
+    /// a shadow sharp enough to pass for one; colour alone cannot tell them apart).
+    pub fn foreground_and_shade(&self, frame: &RgbImage, region: &impl Area) -> (BitMask, BitMask) {
         let (strong, weak, shady) = self.classify(frame, region);
         let Kind::Colour {
             bg, inv_e2, edge, ..
         } = &self.kind
         else {
-            return strong;
+            let none = BitMask::new(strong.width(), strong.height());
+            return (strong, none);
         };
         let (w, h) = (strong.width(), strong.height());
         let beside = strong.dilate(1);
@@ -512,9 +515,12 @@ impl Prepared {
             let apart = shady.and_not(&beside);
             // The backdrop: neither foreground nor shadow-like.
             let backdrop = |x: usize, y: usize| !shady.get(x, y) && !strong.get(x, y);
-            out = out.or(&crate::shade::sharp_regions(&apart, backdrop, alpha, *edge));
+            let sharp = crate::shade::sharp_regions(&apart, backdrop, alpha, *edge);
+            out = out.or(&sharp);
+            return (out, sharp);
         }
-        out
+        let none = BitMask::new(w, h);
+        (out, none)
     }
 
     /// A classifier with one test per pixel (`fg(pixel index, [r, g, b])`), run on the blocks
@@ -888,7 +894,9 @@ mod tests {
         frame.put_pixel(5, 1, image::Rgb([10, 51, 10])); // 41 above: foreground
         frame.put_pixel(66, 1, image::Rgb([10, 10, 49])); // 39 above: background
         frame.put_pixel(67, 2, image::Rgb([200, 0, 0]));
-        let fg = Prepared::new(&model, &Classifier::Difference(d)).foreground(&frame, &Region::ALL);
+        let fg = Prepared::new(&model, &Classifier::Difference(d))
+            .foreground_and_shade(&frame, &Region::ALL)
+            .0;
         assert_eq!(fg.count(), 2);
         assert!(fg.get(5, 1) && fg.get(67, 2));
     }

@@ -1,4 +1,5 @@
-//! The per-camera silhouette pipeline: classify, hysteresis, closing, components, markers.
+//! The per-camera silhouette pipeline: classify, hysteresis, closing, components (a
+//! shadow-coloured part apart from a coloured object dropped as its shadow), markers.
 
 use image::{DynamicImage, RgbImage};
 use serde::{Deserialize, Serialize};
@@ -6,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::background::BackgroundModel;
 use crate::bitmask::BitMask;
 use crate::classify::{Area, Classifier, Prepared, Region};
-use crate::components::{KeepComponents, keep_components};
+use crate::components::{KeepComponents, keep_components, touching};
 use crate::error::SilhouetteError;
 use crate::markers::{MarkerSettings, find_markers};
 
@@ -196,6 +197,10 @@ pub struct Silhouette {
     pub object: BitMask,
     /// Marker-band pixels, a subset of `object`.
     pub markers: BitMask,
+    /// The part of `object` that is shadow-coloured (the background's chromaticity, darker)
+    /// and was kept for its sharp edges: a grey object, or a shadow sharp enough to pass for
+    /// one. Empty for classifiers other than `colour_shadow`.
+    pub shadow_like: BitMask,
     /// Number of object components kept.
     pub components: usize,
     /// Summary.
@@ -256,11 +261,28 @@ impl Silhouetter {
                 expected_height: self.height,
             });
         }
-        let closed = self
-            .prepared
-            .foreground(frame, region)
-            .close(self.settings.close_radius);
-        let (object, components) = keep_components(&closed, self.settings.keep);
+        let (foreground, shade) = self.prepared.foreground_and_shade(frame, region);
+        let closed = foreground.close(self.settings.close_radius);
+        let (mut object, mut components) = keep_components(&closed, self.settings.keep);
+        // A shadow-coloured part apart from a coloured object is its shadow (or a grey thing
+        // that is not the instrument): what stays is the parts that are not shadow-coloured
+        // throughout. (Shade closed as the foreground was: closing fills its gaps too.) When
+        // every part is shadow-coloured — a grey tube on a white backdrop — colour tells
+        // nothing, and all stay.
+        let shadow_like = if shade.count() == 0 {
+            shade
+        } else {
+            let shade = shade.close(self.settings.close_radius);
+            let coloured = object.and_not(&shade);
+            if coloured.count() > 0 {
+                let kept = touching(&object, &coloured);
+                if kept.count() < object.count() {
+                    components = keep_components(&kept, KeepComponents::MinArea(1)).1;
+                    object = kept;
+                }
+            }
+            object.and(&shade)
+        };
         let markers = find_markers(frame, &object, &self.settings.markers);
         let fraction = object.count() as f64 / (w as f64 * h as f64);
         let status = if fraction > self.settings.max_foreground {
@@ -275,6 +297,7 @@ impl Silhouetter {
         Ok(Silhouette {
             object,
             markers,
+            shadow_like,
             components,
             status,
         })

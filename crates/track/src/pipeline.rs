@@ -434,6 +434,7 @@ impl Pipeline {
                 background: bg.means(),
                 silhouette: &s.object,
                 markers: &s.markers,
+                shadow_like: Some(&s.shadow_like),
             })
             .collect()
     }

@@ -89,6 +89,7 @@ impl Chain {
                 background: b.means(),
                 silhouette: &s.object,
                 markers: &s.markers,
+                shadow_like: Some(&s.shadow_like),
             })
             .collect()
     }

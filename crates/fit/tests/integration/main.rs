@@ -7,6 +7,7 @@ mod accuracy;
 mod floating_base;
 mod following;
 mod hard_scenes;
+mod lamp_shadows;
 mod selfcheck;
 mod thin_tubes;
 mod two_cameras;

@@ -68,12 +68,14 @@ fn a_thin_tube_is_measured_with_its_bands_and_its_direction() {
         for seed in [1, 2, 3] {
             let label = format!("floating {floating} seed {seed}");
             let (ok, wrong) = sweep(&Chain::new(config(seed, floating)), &label);
-            // Measured: 11, 11, 12 of 12 ok with the base entering the volume, 11, 12, 10
+            // Measured: 11, 12, 12 of 12 ok with the base entering the volume, 12, 12, 11
             // floating (rms ≤ 0.04 mm, tips ≤ 0.21 mm, bands ≤ 0.15 mm). Before the bands were
             // counted on the fitted curve and the overlap allowed for the tube's width: 0, 0,
             // 0 and 7, 8, 7 (`bands_missing` with every band found, IoU 0.64–0.74 against
-            // 0.75). The rest: a thin shadow taken for the tube beside it (unexplained
-            // pixels), a shadow carved as a second object, a band not seen.
+            // 0.75); before shadow-coloured pixels away from the tube were left out of the
+            // overlap check, 11, 11, 12 and 11, 12, 10 (a thin shadow beside the tube: 103–268
+            // pixels unexplained). The rest: a shadow carved as a second object, a band not
+            // seen.
             assert!(ok >= 10, "{label}: only {ok} of 12 ok");
             assert_eq!(wrong, 0, "{label}: {wrong} ok frames wrong");
         }

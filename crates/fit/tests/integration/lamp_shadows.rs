@@ -1,0 +1,79 @@
+//! Lamp shadows other than the simulator's default: a softer lamp nearer the backdrop, whose
+//! shadow falls beside the tube in the images, and a small lamp whose sharp shadow passes the
+//! silhouettes' edge test for an object. Shadow-coloured silhouette pixels away from the
+//! fitted tube are a shadow, not something the fit left unexplained; every `ok` stays right.
+
+use crate::common;
+
+use common::*;
+use flexshape_shape::Status;
+use flexshape_sim::{RenderSettings, SimConfig};
+
+/// `ok` frames and right-but-refused frames (rms ≤ 0.1 mm, tip ≤ 0.3 mm) of 20, asserting
+/// every `ok` frame right.
+fn sweep(depth: f64, lamp_radius: f64, seed: u64) -> (usize, usize) {
+    let chain = Chain::new(SimConfig {
+        render: RenderSettings {
+            shadows: true,
+            backdrop_depth: depth,
+            lamp_radius,
+            ..RenderSettings::default()
+        },
+        seed,
+        ..SimConfig::default()
+    });
+    let sim = &chain.sim;
+    let (mut ok, mut refused) = (0, 0);
+    for (n, pose) in sim.sweep(20).iter().enumerate() {
+        let b = chain.run(sim.render(n as u64, pose).unwrap());
+        let (rms, tip) = b.fitted_errors(sim);
+        let label = format!("depth {depth} lamp {lamp_radius} seed {seed} frame {n:2}");
+        if b.fitted.status == Status::Ok {
+            ok += 1;
+            assert!(
+                rms <= 0.1 && tip <= 0.3,
+                "{label}: ok, rms {rms:.3} tip {tip:.2}"
+            );
+        } else {
+            refused += usize::from(rms <= 0.1 && tip <= 0.3);
+            println!(
+                "{label}: {:?}, rms {rms:.3} mm, tip {tip:.2}",
+                b.fitted.status
+            );
+        }
+    }
+    println!(
+        "depth {depth} lamp {lamp_radius} seed {seed}: {ok} of 20 ok, {refused} refused but right"
+    );
+    (ok, refused)
+}
+
+/// A soft lamp (radius 15 mm) with the backdrop 200 mm behind the volume's centre: its
+/// shadow falls beside the tube in the images.
+#[test]
+fn a_soft_shadow_beside_the_tube_leaves_right_frames_ok() {
+    for seed in [1, 2, 3] {
+        let (ok, _) = sweep(800.0, 15.0, seed);
+        // Measured: 17, 17, 18 of 20 (the rest right but refused: a shadow at the tip leaves
+        // the free end's boundary found at 7 of 13 samples, or the outline's p90 0.27–0.31 px;
+        // issue 44's scaled limits).
+        assert!(ok >= 16, "seed {seed}: only {ok} of 20 ok");
+    }
+}
+
+/// A small lamp (radius 3 mm) with the backdrop 160 mm behind the volume's centre: a shadow
+/// sharp enough to pass the silhouettes' edge test for an object. Apart from the tube it is
+/// dropped (a shadow-coloured part beside a coloured object) or left out of the overlap check;
+/// where it touches the tube in an image it still carves a second object or a ghost, and those
+/// frames are `ambiguous`, never a wrong `ok`.
+#[test]
+fn a_sharp_shadow_is_never_taken_for_the_tube() {
+    let mut ok = 0;
+    for seed in [1, 2, 3] {
+        ok += sweep(760.0, 3.0, seed).0;
+    }
+    // Measured: 9 of 60 ok (4, 2, 3), every one right; 0 before shadow-coloured parts were
+    // told from the tube (the shadow apart from the tube failed the overlap check, IoU
+    // 0.44–0.53, in every frame the hull did not already refuse).
+    assert!(ok >= 6, "only {ok} of 60 ok");
+}
