@@ -41,8 +41,9 @@ pub struct CameraCheck {
     pub p90_px: f64,
     /// Overlap of the re-rendered tube with the silhouette (intersection over union).
     pub iou: f64,
-    /// The least overlap this view allows ([`iou_limit`]): the setting's `min_iou`, or less
-    /// for a tube imaged so thin that a pixel's disagreement at its edges costs more.
+    /// The least overlap this view allows: the setting's `min_iou`, or for a tube imaged
+    /// thinner than 7 px the IoU of two strips of its mean width one pixel apart,
+    /// `(w − 1)/(w + 1)`, when that is less (a pixel's disagreement at its edges costs more).
     #[serde(default)]
     pub iou_limit: f64,
     /// Silhouette pixels farther than the check's distance from the re-rendered tube.
