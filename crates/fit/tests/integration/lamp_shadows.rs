@@ -9,7 +9,7 @@ use common::*;
 use flexshape_shape::Status;
 use flexshape_sim::{RenderSettings, SimConfig};
 
-/// `ok` frames and right-but-refused frames (rms ≤ 0.1 mm, tip ≤ 0.3 mm) of 20, asserting
+/// `ok` frames and right-but-refused frames (rms ≤ 0.1 mm, tip ≤ 0.3 mm) of 12, asserting
 /// every `ok` frame right.
 fn sweep(depth: f64, lamp_radius: f64, seed: u64) -> (usize, usize) {
     let chain = Chain::new(SimConfig {
@@ -24,7 +24,7 @@ fn sweep(depth: f64, lamp_radius: f64, seed: u64) -> (usize, usize) {
     });
     let sim = &chain.sim;
     let (mut ok, mut refused) = (0, 0);
-    for (n, pose) in sim.sweep(20).iter().enumerate() {
+    for (n, pose) in sim.sweep(12).iter().enumerate() {
         let b = chain.run(sim.render(n as u64, pose).unwrap());
         let (rms, tip) = b.fitted_errors(sim);
         let label = format!("depth {depth} lamp {lamp_radius} seed {seed} frame {n:2}");
@@ -43,7 +43,7 @@ fn sweep(depth: f64, lamp_radius: f64, seed: u64) -> (usize, usize) {
         }
     }
     println!(
-        "depth {depth} lamp {lamp_radius} seed {seed}: {ok} of 20 ok, {refused} refused but right"
+        "depth {depth} lamp {lamp_radius} seed {seed}: {ok} of 12 ok, {refused} refused but right"
     );
     (ok, refused)
 }
@@ -52,13 +52,11 @@ fn sweep(depth: f64, lamp_radius: f64, seed: u64) -> (usize, usize) {
 /// shadow falls beside the tube in the images.
 #[test]
 fn a_soft_shadow_beside_the_tube_leaves_right_frames_ok() {
-    for seed in [1, 2, 3] {
-        let (ok, _) = sweep(800.0, 15.0, seed);
-        // Measured: 17, 17, 18 of 20 (the rest right but refused: a shadow at the tip leaves
-        // the free end's boundary found at 7 of 13 samples, or the outline's p90 0.27–0.31 px;
-        // issue 44's scaled limits).
-        assert!(ok >= 16, "seed {seed}: only {ok} of 20 ok");
-    }
+    let ok: Vec<usize> = [1, 2, 3].map(|seed| sweep(800.0, 15.0, seed).0).to_vec();
+    // Measured: 10, 11, 12 of 12 (the rest right but refused: a shadow at the tip leaves the free
+    // end's boundary found at 7 of 13 samples, or the outline's p90 at 0.27–0.31 px; issue
+    // 44's scaled limits).
+    assert!(ok.iter().all(|&n| n >= 9), "only {ok:?} of 12 ok");
 }
 
 /// A small lamp (radius 3 mm) with the backdrop 160 mm behind the volume's centre: a shadow
@@ -72,8 +70,8 @@ fn a_sharp_shadow_is_never_taken_for_the_tube() {
     for seed in [1, 2, 3] {
         ok += sweep(760.0, 3.0, seed).0;
     }
-    // Measured: 9 of 60 ok (4, 2, 3), every one right; 0 before shadow-coloured parts were
+    // Measured: 5 of 36 ok (3, 1, 1), every one right; 0 before shadow-coloured parts were
     // told from the tube (the shadow apart from the tube failed the overlap check, IoU
     // 0.44–0.53, in every frame the hull did not already refuse).
-    assert!(ok >= 6, "only {ok} of 60 ok");
+    assert!(ok >= 4, "only {ok} of 36 ok");
 }
