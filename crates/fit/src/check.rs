@@ -223,11 +223,11 @@ pub(crate) fn disc(mask: &mut BitMask, (_, c, radius): (Point3<f64>, nalgebra::V
 /// the rendering rounds each disc to whole pixels), and across a tube 2.7 px wide that pixel
 /// alone takes the IoU to 0.46; the default 0.75 is that pixel across a tube 7 px wide.
 pub(crate) fn iou_limit(min_iou: f64, spheres: &Spheres) -> f64 {
-    let radii: Vec<f64> = spheres.tube().iter().map(|s| s.2).collect();
+    let radii = spheres.tube();
     if radii.is_empty() {
         return min_iou;
     }
-    let width = 2.0 * radii.iter().sum::<f64>() / radii.len() as f64;
+    let width = 2.0 * radii.iter().map(|s| s.2).sum::<f64>() / radii.len() as f64;
     min_iou.min((width - 1.0) / (width + 1.0)).max(0.0)
 }
 

@@ -391,7 +391,7 @@ impl TubeFitter {
             .unwrap_or_else(|| DMatrix::zeros(tube.parameters(), tube.parameters()))
             * sigma_px.powi(2);
         let length = tube.length();
-        let spheres = self.spheres(&tube);
+        let spheres = self.spheres(&tube, length);
         let cameras = self
             .cameras
             .iter()
@@ -630,9 +630,9 @@ impl TubeFitter {
         Ok((record, Some(fit)))
     }
 
-    /// `tube`'s visibility spheres in each camera (rig order).
-    fn spheres(&self, tube: &Tube) -> Vec<Spheres> {
-        let centres = outline::sphere_centres(tube, tube.length());
+    /// `tube`'s visibility spheres in each camera (rig order); `length` is its length, mm.
+    fn spheres(&self, tube: &Tube, length: f64) -> Vec<Spheres> {
+        let centres = outline::sphere_centres(tube, length);
         self.cameras
             .iter()
             .map(|cam| Spheres::from_centres(cam, tube, &centres, 0.0))

@@ -236,11 +236,11 @@ fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figure
         recent.update(step as u64, tracked.prior());
         if step < refs.len() {
             let e = ShapeErrors::of(pipeline, &frames[k].1, &tracked);
-            let said_right = tracked.shape.status.is_right();
-            errors.judge(said_right, e.as_ref(), RightBounds::default());
-            if let Some(e) = e.filter(|_| said_right) {
-                errors.add(&e);
-            }
+            errors.judge(
+                tracked.shape.status.is_right(),
+                e.as_ref(),
+                RightBounds::default(),
+            );
         }
         if tracked.start == Start::Previous {
             followed += 1;
@@ -264,9 +264,6 @@ fn measure(pipeline: &Pipeline, frames: &Frames, rounds: usize) -> Result<Figure
     })?;
     for (said_right, e) in &checked {
         in_lanes.judge(*said_right, e.as_ref(), RightBounds::default());
-        if let Some(e) = e.as_ref().filter(|_| *said_right) {
-            in_lanes.add(e);
-        }
     }
     let throughput_fps = quantile(&mut passes, 0.5);
     Ok(Figures {

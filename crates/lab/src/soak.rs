@@ -31,12 +31,8 @@ pub struct SoakSettings {
     pub fps: f64,
     /// Frames tracked at once.
     pub threads: usize,
-    /// A frame whose centerline is at most this far from the truth (RMS, mm)…
-    pub right_rms_mm: f64,
-    /// …and whose tip is at most this far from the true tip (mm) is right by the truth (on
-    /// the default 640×480 rig a pixel spans about 0.6 mm at the volume's centre; scale both
-    /// with it).
-    pub right_tip_mm: f64,
+    /// How far from the truth a frame may be and still be right.
+    pub right: RightBounds,
 }
 
 impl Default for SoakSettings {
@@ -46,8 +42,7 @@ impl Default for SoakSettings {
             window: 1_000,
             fps: 12.0,
             threads: 1,
-            right_rms_mm: RightBounds::default().rms_mm,
-            right_tip_mm: RightBounds::default().tip_mm,
+            right: RightBounds::default(),
         }
     }
 }
@@ -62,7 +57,7 @@ pub struct SoakWindow {
     /// Frames whose status is `ok`.
     pub ok: u64,
     /// `ok` frames off the truth (centerline RMS or tip beyond
-    /// [`SoakSettings::right_rms_mm`], [`SoakSettings::right_tip_mm`]), or without a shape to
+    /// [`SoakSettings::right`]), or without a shape to
     /// hold against it.
     pub ok_wrong: u64,
     /// Frames not `ok` whose shape is right by the truth.
@@ -225,11 +220,7 @@ pub fn soak(
         stop,
         |p: Processed| {
             let record = TrackRecord::from_processed(&p);
-            let bounds = RightBounds {
-                rms_mm: settings.right_rms_mm,
-                tip_mm: settings.right_tip_mm,
-            };
-            let right = demo.errors(&p).map(|e| e.within(bounds));
+            let right = demo.errors(&p).map(|e| e.within(settings.right));
             current.add(&record, right);
             if current.frames == settings.window {
                 current.rss_mb = resident_mb();

@@ -60,7 +60,9 @@ pub use order::angle_order;
 pub use record::{
     ArcFit, BandOnCurve, Compression, CurveBand, ShapeRecord, Status, Timings, TwoSectionFit,
 };
-pub use settings::{ArcFitSettings, NominalSection, ShapeSettings, Smoothing, TipEnd};
+pub use settings::{
+    ArcFitSettings, DIRECTION_SETTINGS, NominalSection, ShapeSettings, Smoothing, TipEnd,
+};
 pub use spline::{CubicSpline3, Derivatives, moving_average, polynomial_fit};
 
 /// Why the shape stage cannot be set up.
@@ -157,7 +159,7 @@ impl ShapeEstimator {
         let cue = if self.settings.tip_band {
             "no band was seen running into one end only (tip_band): set [processing.shape] proximal_hint"
         } else {
-            "set [processing.shape] proximal_hint, or tip_band = true when a band marks the tip"
+            settings::DIRECTION_SETTINGS
         };
         Status::Ambiguous {
             reason: format!(

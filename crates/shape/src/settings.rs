@@ -153,6 +153,9 @@ impl Default for ShapeSettings {
     }
 }
 
+/// What to set when nothing tells the tube's tip from its proximal end, for the operator.
+pub const DIRECTION_SETTINGS: &str = "set [processing.shape] proximal_hint (a point near the proximal end, world mm), or tip_band = true when a band ends at the tip";
+
 impl ShapeSettings {
     /// What tells the tube's proximal end from its tip, for the operator: an end that runs
     /// out of the volume or a camera's view always does; then the hint or the tip band, if set,
@@ -167,7 +170,7 @@ impl ShapeSettings {
                 format!("{always}; else the end a band runs into is the tip (tip_band)")
             }
             (None, false) => format!(
-                "{always}; nothing else is set, so a tube held wholly inside the volume will be ambiguous: set [processing.shape] proximal_hint (a point near the proximal end, world mm), or tip_band = true when a band ends at the tip"
+                "{always}; nothing else is set, so a tube held wholly inside the volume will be ambiguous: {DIRECTION_SETTINGS}"
             ),
         }
     }

@@ -635,8 +635,9 @@ impl TrackSummary {
         match self.direction_guessed {
             0 => String::new(),
             n => format!(
-                "\n{n} of {} frames are ambiguous only because nothing tells the tube's tip from its proximal end (neither end leaves the volume or a camera's view): set [processing.shape] proximal_hint (a point near the proximal end, world mm), or tip_band = true when a band ends at the tip",
-                self.frames
+                "\n{n} of {} frames are ambiguous only because nothing tells the tube's tip from its proximal end (neither end leaves the volume or a camera's view): {}",
+                self.frames,
+                flexshape_shape::DIRECTION_SETTINGS
             ),
         }
     }

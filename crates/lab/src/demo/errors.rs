@@ -135,10 +135,14 @@ impl DemoFigures {
     /// `bands_missing` or `leaves_volume`: the shape is right), `errors` its shape's errors (`None` without a
     /// shape or a true centerline in the volume, when nothing is counted unless the status
     /// claimed a shape).
+    /// The errors of a frame said right are added ([`DemoFigures::add`]).
     pub fn judge(&mut self, said_right: bool, errors: Option<&ShapeErrors>, bounds: RightBounds) {
         let right = errors.map(|e| e.within(bounds));
         self.right_said_wrong += usize::from(said_right && right != Some(true));
         self.right_refused += usize::from(!said_right && right == Some(true));
+        if let Some(e) = errors.filter(|_| said_right) {
+            self.add(e);
+        }
     }
 
     /// The largest value (0 when none).

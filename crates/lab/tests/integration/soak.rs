@@ -3,6 +3,7 @@
 
 use std::sync::atomic::AtomicBool;
 
+use flexshape_lab::demo::RightBounds;
 use flexshape_lab::soak::{SoakSettings, soak};
 use flexshape_sim::{RenderSettings, SimConfig, SimRigConfig};
 
@@ -33,8 +34,10 @@ fn a_long_run_on_a_changed_backdrop_keeps_its_ok_share() {
         frames: 400,
         window: 100,
         fps: 3.0,
-        right_rms_mm: 0.3,
-        right_tip_mm: 1.0,
+        right: RightBounds {
+            rms_mm: 0.3,
+            tip_mm: 1.0,
+        },
         ..SoakSettings::default()
     };
     let report = soak(config, &settings, &AtomicBool::new(false), |w| {
