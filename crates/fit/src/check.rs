@@ -69,11 +69,40 @@ pub struct CameraCheck {
     /// folded over the shaft, or seen end-on) has none or few.
     #[serde(default)]
     pub cap_found: [usize; 2],
+    /// 90th percentile of the boundaries' ¼–¾ rise, pixels (over those found): up to about 1
+    /// for a still tube in focus ([`STILL_RAMP_PX`]), wider where it moved while the shutter
+    /// was open (its fastest part, often the tip, first) or is out of focus.
+    #[serde(default)]
+    pub ramp_px: f64,
+    /// The outline residuals' statistics with each boundary's size less what its blur adds
+    /// to its rise: the least the residuals may be (the same as `residual_px`, `p90_px` and
+    /// `end_residual_px` where every edge is still and in focus). A camera that fails the
+    /// checks as measured but passes them so is excused while two others pass them
+    /// `with_blur`.
+    #[serde(default)]
+    pub beyond_blur: OutlineResiduals,
+    /// The same with each boundary's size plus what its blur adds: the most they may be. A
+    /// camera that passes the checks so places the tube whatever its blur hides.
+    #[serde(default)]
+    pub with_blur: OutlineResiduals,
     /// Share of the outline, among its samples where a boundary was found, along which the
     /// tube is lighter than the background. A lit tube darkens toward its outline, so against
     /// a darker backdrop its edges fade into it and its outline is faint.
     #[serde(default)]
     pub lighter_share: f64,
+}
+
+/// Statistics of a camera's outline residuals with each boundary's blur allowed for: the
+/// residual's size less, or plus, what blur adds to its ¼–¾ rise beyond [`STILL_RAMP_PX`]
+/// (at least 0), pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct OutlineResiduals {
+    /// Their RMS.
+    pub residual_px: f64,
+    /// Their 90th percentile.
+    pub p90_px: f64,
+    /// Their RMS around the tube's free ends.
+    pub end_residual_px: f64,
 }
 
 /// The samples of each end's cap outline (proximal end, tip) in `measured` where a boundary
@@ -92,38 +121,90 @@ pub(crate) fn cap_found(measured: &[Measured]) -> [usize; 2] {
 /// sample weighted by the outline length it stands for (a tube seen end-on crowds many
 /// samples into a few pixels).
 pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
-    let mut found: Vec<(f64, f64)> = measured
-        .iter()
-        .filter_map(|m| m.residual.map(|r| (r, m.point.weight)))
+    let found = || measured.iter().filter(|m| m.residual.is_some());
+    let w = found().map(|m| m.point.weight).sum::<f64>().max(1e-12);
+    let residual = |m: &Measured| m.residual.unwrap_or(0.0);
+    let mut sizes: Vec<(f64, f64)> = Vec::with_capacity(measured.len());
+    let mut spread = |size: &dyn Fn(&Measured) -> f64| {
+        sizes.clear();
+        sizes.extend(found().map(|m| (size(m), m.point.weight)));
+        let rms = (sizes.iter().map(|(r, k)| k * r * r).sum::<f64>() / w).sqrt();
+        (rms, weighted_quantile(&mut sizes, 0.9, w))
+    };
+    let (rms, p90) = spread(&|m| residual(m).abs());
+    let (rms_beyond, p90_beyond) =
+        spread(&|m| (residual(m).abs() - blur_allowance(m.ramp)).max(0.0));
+    let (rms_with, p90_with) = spread(&|m| residual(m).abs() + blur_allowance(m.ramp));
+    let mut ramps: Vec<(f64, f64)> = found()
+        .map(|m| (m.ramp.unwrap_or(f64::INFINITY), m.point.weight))
         .collect();
-    let w = found.iter().map(|f| f.1).sum::<f64>().max(1e-12);
-    let rms = (found.iter().map(|(r, k)| k * r * r).sum::<f64>() / w).sqrt();
-    let mean = found.iter().map(|(r, k)| k * r).sum::<f64>() / w;
-    let shift = shift(measured);
-    found.sort_by(|a, b| a.0.abs().total_cmp(&b.0.abs()));
-    let mut acc = 0.0;
-    let p90 = found
-        .iter()
-        .find(|(_, k)| {
-            acc += k;
-            acc >= 0.9 * w
-        })
-        .map_or(0.0, |(r, _)| r.abs());
+    let ramp = weighted_quantile(&mut ramps, 0.9, w);
+    let mean = found().map(|m| m.point.weight * residual(m)).sum::<f64>() / w;
     // A fold from +0 (a float sum of nothing is −0).
-    let lighter = measured
-        .iter()
-        .filter(|m| m.residual.is_some() && m.lighter)
+    let lighter = found()
+        .filter(|m| m.lighter)
         .fold(0.0, |acc, m| acc + m.point.weight)
         / w;
     Residuals {
         samples: measured.len(),
-        found: found.len(),
+        found: found().count(),
         rms,
         mean,
         p90,
-        shift,
+        shift: shift(measured),
         lighter,
+        ramp,
+        beyond_blur: OutlineResiduals {
+            residual_px: rms_beyond,
+            p90_px: p90_beyond,
+            end_residual_px: 0.0,
+        },
+        with_blur: OutlineResiduals {
+            residual_px: rms_with,
+            p90_px: p90_with,
+            end_residual_px: 0.0,
+        },
     }
+}
+
+/// How far off a sharp tube's outline a boundary whose ¼–¾ rise is `ramp` pixels may lie,
+/// pixels: [`BLUR_SHARE`] of what blur adds to the rise beyond [`STILL_RAMP_PX`]. A blurred
+/// edge's ½ crossing is a sharp outline's only where the blur is symmetric about it: where
+/// the outline curves (a cap), or the motion while the shutter was open was not uniform, it
+/// moves within the rise.
+pub(crate) fn blur_allowance(ramp: Option<f64>) -> f64 {
+    ramp.map_or(0.0, |r| (r - STILL_RAMP_PX).max(0.0) * BLUR_SHARE)
+}
+
+/// How much wider than a still, focused edge's a boundary's ¼–¾ rise is (at least 1; a rise
+/// not measured counts as still): the fit weights the boundary by its inverse square, as a
+/// blurred boundary places the outline that much less well.
+pub(crate) fn blur_scale(ramp: Option<f64>) -> f64 {
+    ramp.map_or(1.0, |r| (r / STILL_RAMP_PX).max(1.0))
+}
+
+/// The widest ¼–¾ rise of a boundary taken for still and in focus, pixels: half again a step
+/// edge's (0.67 px: a step integrated over a pixel and read bilinearly), for a round tube's
+/// shading toward its limb and the noise (the simulator's still edges rise over 0.74–0.82 px
+/// in the median, up to 1.03 at the 90th percentile).
+pub const STILL_RAMP_PX: f64 = 1.5 * crate::edges::SHARP_RAMP_PX;
+
+/// The share of what blur adds to a boundary's rise within which its ½ crossing may lie off a
+/// sharp outline.
+const BLUR_SHARE: f64 = 1.0;
+
+/// The `q` quantile of `values` by size (all at least 0), each weighted (`total` their
+/// weights' sum); sorts them. 0 for none.
+fn weighted_quantile(values: &mut [(f64, f64)], q: f64, total: f64) -> f64 {
+    values.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut acc = 0.0;
+    values
+        .iter()
+        .find(|(_, k)| {
+            acc += k;
+            acc >= q * total
+        })
+        .map_or(0.0, |(r, _)| *r)
 }
 
 /// The image translation `d` minimising `Σ w (n·d + r)²` over the found samples (outline
@@ -172,6 +253,12 @@ pub(crate) struct Residuals {
     pub shift: [f64; 2],
     /// [`CameraCheck::lighter_share`].
     pub lighter: f64,
+    /// [`CameraCheck::ramp_px`].
+    pub ramp: f64,
+    /// [`CameraCheck::beyond_blur`] (its end residual left at 0).
+    pub beyond_blur: OutlineResiduals,
+    /// [`CameraCheck::with_blur`] (its end residual left at 0).
+    pub with_blur: OutlineResiduals,
 }
 
 /// The tube drawn into masks of `camera`'s image size from its `spheres` (every half radius

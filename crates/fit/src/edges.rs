@@ -42,7 +42,19 @@ pub(crate) struct Edge {
     /// Whether the surface there is lighter than the background (their difference summed
     /// over the channels is positive).
     pub lighter: bool,
+    /// How far the coverage takes to rise from ¼ to ¾ across the boundary, pixels: about
+    /// [`SHARP_RAMP_PX`] for an edge in focus and still, wider where optics or motion blur it
+    /// (`None` where it does not rise to ¾ within the line).
+    pub ramp: Option<f64>,
 }
+
+/// The ¼–¾ rise of a sharp step edge as [`EdgeImage::find`] reads it, pixels: a step
+/// integrated over a pixel (a box 1 px wide) and read bilinearly (a triangle 2 px wide) rises
+/// as a Gaussian of variance 1/12 + 1/6 = ¼ px² does, over 1.349·½ px. A boundary cannot be
+/// placed better than its rise allows, and a wider rise tells of blur (optics out of focus,
+/// the tube moving while the shutter was open) that moves the ½ crossing off a sharp tube's
+/// outline where the outline curves or the motion is not uniform.
+pub const SHARP_RAMP_PX: f64 = 0.67;
 
 impl<'a> EdgeImage<'a> {
     /// `background` holds the mean colour of every pixel of `image`, row-major.
@@ -153,21 +165,25 @@ impl<'a> EdgeImage<'a> {
         let projected = projection(diffs, &diffs[surface], min_contrast)?;
         let inside_colour = self.background_at(at(surface));
         let raw = std::array::from_fn(|c| diffs[surface][c] + inside_colour[c]);
-        let (k, frac) = match unmixing(raw, &self.background_at(at(0)), min_contrast) {
+        let ((k, frac), ramp) = match unmixing(raw, &self.background_at(at(0)), min_contrast) {
             Some(unmix) => {
                 // The unmixed crossing lies near the projected one (shading moves it by a
                 // pixel or so): searched from there, it reads a few samples, not the line.
                 let (near, _) = crossing(count, &projected)?;
-                crossing_near(near, count, |k| {
-                    unmix(&diffs[k], &self.background_at(at(k)))
-                })
+                let coverage = |k: usize| unmix(&diffs[k], &self.background_at(at(k)));
+                let found = crossing_near(near, count, coverage)?;
+                (found, ramp(found.0, count, coverage))
             }
-            None => crossing(count, projected),
-        }?;
+            None => {
+                let found = crossing(count, &projected)?;
+                (found, ramp(found.0, count, projected))
+            }
+        };
         Some(Edge {
             offset: (outer - k as i32 + 1) as f64 * STEP - frac * STEP,
             contrast: (norm2(&diffs[surface]) as f64).sqrt(),
             lighter: diffs[surface].iter().sum::<f32>() > 0.0,
+            ramp,
         })
     }
 }
@@ -256,6 +272,30 @@ fn crossing(count: usize, coverage: impl Fn(usize) -> f32) -> Option<(usize, f64
         return None;
     }
     half_from(1, outside, count, coverage)
+}
+
+/// The coverage's ¼–¾ rise around its ½ crossing at sample `k` (of `0..count`), pixels:
+/// from the last sample outside it below ¼ to the first inside at ¾ or more, each crossing
+/// interpolated. `None` when either lies beyond the line.
+fn ramp(k: usize, count: usize, coverage: impl Fn(usize) -> f32) -> Option<f64> {
+    let cross = |a: usize, b: usize, level: f32| {
+        let (ca, cb) = (coverage(a), coverage(b));
+        a as f64 + ((level - ca) / (cb - ca).max(1e-6)).clamp(0.0, 1.0) as f64
+    };
+    let mut lo = k.checked_sub(1)?;
+    while coverage(lo) >= 0.25 {
+        lo = lo.checked_sub(1)?;
+    }
+    let mut hi = k;
+    while coverage(hi) < 0.75 {
+        hi += 1;
+        if hi >= count {
+            return None;
+        }
+    }
+    let quarter = cross(lo, lo + 1, 0.25);
+    let three = cross(hi - 1, hi, 0.75);
+    Some((three - quarter).max(0.0) * STEP)
 }
 
 /// The first sample from `first` on where `coverage` reaches ½, the sample before it covered

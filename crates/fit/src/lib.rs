@@ -80,7 +80,7 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use thiserror::Error;
 
 pub use bundle::Bundle;
-pub use check::{CameraCheck, debug_image};
+pub use check::{CameraCheck, OutlineResiduals, STILL_RAMP_PX, debug_image};
 pub use settings::{FitSettings, Method};
 pub use tube::Tube;
 
@@ -423,6 +423,15 @@ impl TubeFitter {
                     end_residual_px: ends.rms,
                     cap_found: check::cap_found(m),
                     lighter_share: res.lighter,
+                    ramp_px: res.ramp,
+                    beyond_blur: check::OutlineResiduals {
+                        end_residual_px: ends.beyond_blur.residual_px,
+                        ..res.beyond_blur
+                    },
+                    with_blur: check::OutlineResiduals {
+                        end_residual_px: ends.with_blur.residual_px,
+                        ..res.with_blur
+                    },
                 }
             })
             .collect();

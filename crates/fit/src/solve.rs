@@ -32,6 +32,8 @@ pub(crate) struct Measured {
     pub edge: Option<(Vector2<f64>, Vector2<f64>)>,
     /// Whether the tube is lighter than the background at the boundary found.
     pub lighter: bool,
+    /// The boundary's ¼–¾ rise, pixels ([`crate::edges::Edge::ramp`]).
+    pub ramp: Option<f64>,
 }
 
 /// Every camera's outline of `tube`, measured.
@@ -68,6 +70,7 @@ pub(crate) fn measure(
                     residual: edge.map(|e| -e.offset),
                     edge: edge.map(|e| (p.pixel + p.normal * e.offset, p.normal)),
                     lighter: edge.is_some_and(|e| e.lighter),
+                    ramp: edge.and_then(|e| e.ramp),
                 }
             })
             .collect()
@@ -102,6 +105,7 @@ pub(crate) fn against(
                         residual: Some(normal.dot(&(p.pixel - pixel))),
                         edge: m.edge,
                         lighter: m.lighter,
+                        ramp: m.ramp,
                     })
                 })
                 .collect()
@@ -189,7 +193,8 @@ pub(crate) fn for_each_row(
         for m in ms {
             let Some(r) = m.residual else { continue };
             let p = &m.point;
-            let w = huber(r, settings.huber_px) * p.weight;
+            let blur = crate::check::blur_scale(m.ramp);
+            let w = huber(r / blur, settings.huber_px) * p.weight / (blur * blur);
             let dir = p.surface * p.gain;
             entries.clear();
             match p.part {

@@ -7,7 +7,7 @@ use flexshape_rig::Volume;
 use flexshape_silhouette::BitMask;
 use flexshape_silhouette::components::touching;
 
-use crate::check::{self, CameraCheck};
+use crate::check::{self, CameraCheck, OutlineResiduals, STILL_RAMP_PX};
 use crate::outline;
 use crate::{Fit, Tube, TubeFitter};
 
@@ -89,10 +89,26 @@ impl TubeFitter {
     }
 
     /// Why the fit does not explain the images, if it does not (the first failing check).
+    /// A camera that fails only for its blur — its residuals within what blur adds to its
+    /// edges' rise ([`CameraCheck::beyond_blur`]) — is excused while two other cameras pass
+    /// every check even with their own blur added ([`CameraCheck::with_blur`]): they place
+    /// the tube, and the fit weighted the blurred boundaries less.
     pub(crate) fn verdict(&self, fit: &Fit, volume: &Volume) -> Option<String> {
+        let placing = fit
+            .cameras
+            .iter()
+            .filter(|c| self.camera_verdict(c, Outline::with_blur(c)).is_none())
+            .count();
         fit.cameras
             .iter()
-            .find_map(|c| self.camera_verdict(c))
+            .find_map(|c| {
+                let why = self.camera_verdict(c, Outline::measured(c))?;
+                let within_blur = self.camera_verdict(c, Outline::beyond_blur(c)).is_none();
+                if within_blur && placing >= 2 {
+                    return None;
+                }
+                Some(why + &blurred(c, within_blur))
+            })
             .or_else(|| shape_verdict(&fit.tube, volume))
     }
 
@@ -101,15 +117,17 @@ impl TubeFitter {
     /// — though the rest of an image may not match (outline residuals' tail, overlap,
     /// silhouette pixels beyond the tube). Then what does not match is not the tube.
     pub fn located(&self, fit: &Fit, volume: &Volume) -> bool {
-        fit.cameras
-            .iter()
-            .all(|c| self.outline_placed(c).is_none() && self.end_placed(c).is_none())
-            && shape_verdict(&fit.tube, volume).is_none()
+        fit.cameras.iter().all(|c| {
+            let o = Outline::measured(c);
+            self.outline_placed(c, o).is_none() && self.end_placed(c, o).is_none()
+        }) && shape_verdict(&fit.tube, volume).is_none()
     }
 
-    /// Whether one camera's image passes every check of the fit.
+    /// Whether one camera's image passes every check of the fit as measured (no allowance
+    /// for blur).
     pub fn explains(&self, check: &CameraCheck) -> bool {
-        self.camera_verdict(check).is_none()
+        self.camera_verdict(check, Outline::measured(check))
+            .is_none()
     }
 
     /// The pixels of camera `camera`'s image that are the tube's as far as its background is
@@ -151,18 +169,19 @@ impl TubeFitter {
         zones
     }
 
-    /// Why camera `c`'s image is not explained, if it is not (the first failing check).
-    fn camera_verdict(&self, c: &CameraCheck) -> Option<String> {
+    /// Why camera `c`'s image is not explained, its outline's residuals `o`, if it is not
+    /// (the first failing check).
+    fn camera_verdict(&self, c: &CameraCheck, o: Outline) -> Option<String> {
         let s = &self.settings;
         let i = &c.camera;
-        self.outline_placed(c)
+        self.outline_placed(c, o)
             .or_else(|| {
-                (c.p90_px > s.max_p90_px).then(|| format!(
+                (o.p90 > s.max_p90_px).then(|| format!(
                     "camera {i}: a tenth of the outline lies more than {:.2} px from the image's boundary (limit {:.2}): the shape does not explain this camera, or its calibration is off",
-                    c.p90_px, s.max_p90_px
+                    o.p90, s.max_p90_px
                 ))
             })
-            .or_else(|| self.end_placed(c))
+            .or_else(|| self.end_placed(c, o))
             .map(|why| why + &lighter_than_backdrop(c))
             .or_else(|| {
                 (c.iou < c.iou_limit).then(|| format!(
@@ -178,8 +197,9 @@ impl TubeFitter {
             })
     }
 
-    /// Why camera `c`'s outline is not where the image's boundary is, if it is not.
-    fn outline_placed(&self, c: &CameraCheck) -> Option<String> {
+    /// Why camera `c`'s outline, its residuals `o`, is not where the image's boundary is, if
+    /// it is not.
+    fn outline_placed(&self, c: &CameraCheck, o: Outline) -> Option<String> {
         let s = &self.settings;
         let i = &c.camera;
         if c.samples == 0 {
@@ -193,10 +213,10 @@ impl TubeFitter {
                 s.min_found * 100.0
             ));
         }
-        (c.residual_px > s.max_residual_px).then(|| {
+        (o.residual > s.max_residual_px).then(|| {
             format!(
                 "camera {i}: outline residual {:.2} px RMS (limit {:.2}; mean {:+.2} px)",
-                c.residual_px, s.max_residual_px, c.offset_px
+                o.residual, s.max_residual_px, c.offset_px
             )
         })
     }
@@ -204,21 +224,75 @@ impl TubeFitter {
     /// Why camera `c`'s outline around the tube's free ends is off, if it is: where the tip
     /// is. Its few samples hardly move the statistics of the whole outline, so a tip that
     /// stopped short passes them.
-    fn end_placed(&self, c: &CameraCheck) -> Option<String> {
+    fn end_placed(&self, c: &CameraCheck, o: Outline) -> Option<String> {
         let s = &self.settings;
         if c.samples == 0 || c.end_samples < END_SAMPLES {
             return None;
         }
         let found = c.end_found as f64 / c.end_samples as f64;
-        (found < s.min_found || c.end_residual_px > s.max_residual_px).then(|| format!(
+        (found < s.min_found || o.end_residual > s.max_residual_px).then(|| format!(
             "camera {}: the outline around the tube's free end is not where the image shows it (boundary found at {}/{} samples, residual {:.2} px RMS; limits {:.0} %, {:.2} px): the tip has moved farther than the fit could follow, or is hidden",
             c.camera,
             c.end_found,
             c.end_samples,
-            c.end_residual_px,
+            o.end_residual,
             s.min_found * 100.0,
             s.max_residual_px
         ))
+    }
+}
+
+/// The outline residuals a camera is judged on, pixels: as measured, or beyond its blur.
+#[derive(Debug, Clone, Copy)]
+struct Outline {
+    residual: f64,
+    p90: f64,
+    end_residual: f64,
+}
+
+impl Outline {
+    fn measured(c: &CameraCheck) -> Self {
+        Outline {
+            residual: c.residual_px,
+            p90: c.p90_px,
+            end_residual: c.end_residual_px,
+        }
+    }
+
+    fn beyond_blur(c: &CameraCheck) -> Self {
+        Self::of(&c.beyond_blur)
+    }
+
+    fn with_blur(c: &CameraCheck) -> Self {
+        Self::of(&c.with_blur)
+    }
+
+    fn of(r: &OutlineResiduals) -> Self {
+        Outline {
+            residual: r.residual_px,
+            p90: r.p90_px,
+            end_residual: r.end_residual_px,
+        }
+    }
+}
+
+/// What a camera whose check failed should know of its edges' blur (empty when they are
+/// still and in focus): how wide they rise, and when its residuals lie within what that blur
+/// allows (`within`), that fewer than two other cameras placed the tube without it.
+fn blurred(c: &CameraCheck, within: bool) -> String {
+    if c.ramp_px <= STILL_RAMP_PX {
+        return String::new();
+    }
+    let cause = format!(
+        "its edges rise over {:.1} px where a still tube in focus gives at most {:.1}: the tube moved while the shutter was open, or is out of focus",
+        c.ramp_px, STILL_RAMP_PX
+    );
+    if within {
+        format!(
+            " ({cause}; its outline is within what that blur allows, but fewer than two cameras see the tube sharply enough to place it whatever their blur hides: shorten the exposure, or focus)"
+        )
+    } else {
+        format!(" ({cause})")
     }
 }
 

@@ -48,5 +48,5 @@ pub use error::SimError;
 pub use render::{RenderSettings, Renderer, View};
 pub use rig::SimRigConfig;
 pub use scene::{Albedo, BAND_ALBEDO, BODY_ALBEDO, Gloss, OCCLUDER_ALBEDO, Occluder, Scene, Tube};
-pub use sequence::{MAX_BEND_ANGLE, MAX_INSERTION, motion, sweep};
+pub use sequence::{MAX_BEND_ANGLE, MAX_INSERTION, motion, motion_at, sweep};
 pub use simulator::{SimConfig, SimFrame, Simulator};

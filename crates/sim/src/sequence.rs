@@ -39,8 +39,16 @@ pub fn sweep(catheter: &Catheter, seed: u64, frames: usize) -> Vec<CatheterPose>
 /// it: the bend angle swings between 5° and 150° and back every 6 s, the bending plane turns
 /// once every 9 s, the insertion runs 0–30 mm and back every 7 s (at 30 Hz the tip moves up
 /// to about 5 mm between frames, at 120 Hz about 1 mm), compression following the bend. The
-/// seed sets the phases.
+/// seed sets the phases. Frame `i` is [`motion_at`] `i / rate_hz` seconds.
 pub fn motion(catheter: &Catheter, seed: u64, frames: usize, rate_hz: f64) -> Vec<CatheterPose> {
+    (0..frames)
+        .map(|i| motion_at(catheter, seed, i as f64 / rate_hz.max(1e-9)))
+        .collect()
+}
+
+/// The pose of [`motion`] at `t` seconds from its start (any instant, e.g. while a shutter is
+/// open).
+pub fn motion_at(catheter: &Catheter, seed: u64, t: f64) -> CatheterPose {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x00F0_1100);
     let phase: [f64; 3] = [
         rng.random_range(0.0..TAU),
@@ -48,22 +56,17 @@ pub fn motion(catheter: &Catheter, seed: u64, frames: usize, rate_hz: f64) -> Ve
         rng.random_range(0.0..TAU),
     ];
     let (low, high) = (5f64.to_radians(), 150f64.to_radians());
-    (0..frames)
-        .map(|i| {
-            let t = i as f64 / rate_hz.max(1e-9);
-            let swing = 0.5 - 0.5 * (TAU * t / 6.0 + phase[0]).cos();
-            let angle = low + (high - low) * swing;
-            let phi = TAU * t / 9.0 + phase[1];
-            let insertion = MAX_INSERTION * (0.5 - 0.5 * (TAU * t / 7.0 + phase[2]).cos());
-            bent(
-                catheter,
-                angle,
-                phi,
-                [0.01 * swing, 0.03 * swing],
-                insertion,
-            )
-        })
-        .collect()
+    let swing = 0.5 - 0.5 * (TAU * t / 6.0 + phase[0]).cos();
+    let angle = low + (high - low) * swing;
+    let phi = TAU * t / 9.0 + phase[1];
+    let insertion = MAX_INSERTION * (0.5 - 0.5 * (TAU * t / 7.0 + phase[2]).cos());
+    bent(
+        catheter,
+        angle,
+        phi,
+        [0.01 * swing, 0.03 * swing],
+        insertion,
+    )
 }
 
 /// The constant-curvature pose of bend angle `angle` (radians, over the compressed bending

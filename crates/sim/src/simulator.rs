@@ -119,6 +119,62 @@ impl Simulator {
         })
     }
 
+    /// Renders frame number `frame` exposed while the catheter moves through `poses` (evenly
+    /// spaced instants while the shutter is open, see [`Renderer::render_exposure`]): moving
+    /// parts blur along their path. The truth is the middle pose's, the instant a right shape
+    /// is measured at. `SimError::Config` for no poses.
+    pub fn render_exposure(
+        &self,
+        frame: u64,
+        poses: &[CatheterPose],
+    ) -> Result<SimFrame, SimError> {
+        let Some(middle) = poses.get(poses.len() / 2) else {
+            return Err(SimError::Config {
+                field: "poses".into(),
+                problem: "an exposure needs at least one pose".into(),
+            });
+        };
+        let scenes = poses
+            .iter()
+            .map(|p| self.scene(p))
+            .collect::<Result<Vec<_>, _>>()?;
+        let catheter = &self.config.catheter;
+        Ok(SimFrame {
+            views: self.renderer.render_exposure(&scenes, frame),
+            truth: catheter.truth(frame, middle, &catheter.state(middle)?)?,
+        })
+    }
+
+    /// The default seeded smooth motion's poses at `steps` evenly spaced instants over each of
+    /// `frames` exposures filmed at `rate_hz` with the shutter open for `shutter` of the frame
+    /// interval (0–1), centred on the frame's instant ([`Simulator::motion`]'s pose): for
+    /// [`Simulator::render_exposure`].
+    pub fn motion_exposures(
+        &self,
+        frames: usize,
+        rate_hz: f64,
+        shutter: f64,
+        steps: usize,
+    ) -> Vec<Vec<CatheterPose>> {
+        let interval = 1.0 / rate_hz.max(1e-9);
+        let steps = steps.max(1);
+        (0..frames)
+            .map(|i| {
+                (0..steps)
+                    .map(|k| {
+                        let within = if steps == 1 {
+                            0.0
+                        } else {
+                            k as f64 / (steps - 1) as f64 - 0.5
+                        };
+                        let t = (i as f64 + within * shutter) * interval;
+                        sequence::motion_at(&self.config.catheter, self.config.seed, t)
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
     /// Renders an arbitrary scene (any tubes and occluders) through the rig.
     pub fn render_scene(&self, scene: &Scene, frame: u64) -> Vec<View> {
         self.renderer.render(scene, frame)

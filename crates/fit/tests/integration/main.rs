@@ -8,6 +8,7 @@ mod floating_base;
 mod following;
 mod hard_scenes;
 mod lamp_shadows;
+mod motion_blur;
 mod selfcheck;
 mod thin_tubes;
 mod two_cameras;

@@ -142,6 +142,14 @@ struct Prepared<'a> {
     shadow: RectIndex,
 }
 
+/// One view's rendering before the sensor: linear light and the truth masks, row-major.
+struct Linear {
+    rgb: Vec<[f64; 3]>,
+    mask: Vec<u8>,
+    markers: Vec<u8>,
+    coverage: Vec<f32>,
+}
+
 enum Hit {
     Capsule(usize),
     Sphere(usize),
@@ -180,6 +188,51 @@ impl Renderer {
             .enumerate()
             .map(|(i, v)| {
                 self.render_view(v, &v.backdrop, i, scene, frame, self.settings.noise_sigma)
+            })
+            .collect()
+    }
+
+    /// Every camera's image of a moving scene over one exposure: the light of `scenes` (the
+    /// scene at evenly spaced instants while the shutter is open) averaged before the sensor's
+    /// noise, so whatever moves is blurred along its path. The masks and coverage are those of
+    /// the middle scene, the instant a right shape is measured at (an even count takes the
+    /// later of the two middle ones). `frame` selects the noise. One scene renders as
+    /// [`Renderer::render`]; none renders the backdrop alone.
+    pub fn render_exposure(&self, scenes: &[Scene], frame: u64) -> Vec<View> {
+        let empty = Scene {
+            tubes: Vec::new(),
+            occluders: Vec::new(),
+        };
+        let scenes = if scenes.is_empty() {
+            std::slice::from_ref(&empty)
+        } else {
+            scenes
+        };
+        let middle = scenes.len() / 2;
+        self.views
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let mut sum = self.linear_view(v, &v.backdrop, &scenes[middle]);
+                let others = scenes
+                    .iter()
+                    .enumerate()
+                    .filter(|&(k, _)| k != middle)
+                    .map(|(_, s)| self.linear_view(v, &v.backdrop, s).rgb);
+                for rgb in others {
+                    for (acc, add) in sum.rgb.iter_mut().zip(&rgb) {
+                        for c in 0..3 {
+                            acc[c] += add[c];
+                        }
+                    }
+                }
+                let inv = 1.0 / scenes.len() as f64;
+                for acc in &mut sum.rgb {
+                    for a in acc.iter_mut() {
+                        *a *= inv;
+                    }
+                }
+                self.exposed(v, i, frame, self.settings.noise_sigma, sum)
             })
             .collect()
     }
@@ -271,57 +324,73 @@ impl Renderer {
         frame: u64,
         sigma: f64,
     ) -> View {
+        let linear = self.linear_view(view, backdrop, scene);
+        self.exposed(view, cam, frame, sigma, linear)
+    }
+
+    /// The view's linear (noise-free, unquantised) image of `scene` and its truth masks.
+    fn linear_view(&self, view: &CameraView, backdrop: &[[f64; 3]], scene: &Scene) -> Linear {
         let prep = self.prepare(view, scene);
+        let w = view.width;
+        let n = w * view.height;
+        let mut out = Linear {
+            rgb: vec![[0.0; 3]; n],
+            mask: vec![0u8; n],
+            markers: vec![0u8; n],
+            coverage: vec![0f32; n],
+        };
+        out.rgb
+            .par_chunks_mut(w * TILE)
+            .zip(out.mask.par_chunks_mut(w * TILE))
+            .zip(out.markers.par_chunks_mut(w * TILE))
+            .zip(out.coverage.par_chunks_mut(w * TILE))
+            .enumerate()
+            .for_each(|(ty, (((linear, mask), markers), coverage))| {
+                self.render_tile_row(view, backdrop, &prep, ty, linear, mask, markers, coverage);
+            });
+        out
+    }
+
+    /// The 8-bit image a sensor makes of `linear` (its light, its masks kept), with Gaussian
+    /// noise `sigma` drawn per row from a generator seeded by the frame, camera and row.
+    fn exposed(
+        &self,
+        view: &CameraView,
+        cam: usize,
+        frame: u64,
+        sigma: f64,
+        linear: Linear,
+    ) -> View {
         let (w, h) = (view.width, view.height);
         let mut rgb = vec![0u8; w * h * 3];
-        let mut mask = vec![0u8; w * h];
-        let mut markers = vec![0u8; w * h];
-        let mut coverage = vec![0f32; w * h];
-        rgb.par_chunks_mut(w * 3 * TILE)
-            .zip(mask.par_chunks_mut(w * TILE))
-            .zip(markers.par_chunks_mut(w * TILE))
-            .zip(coverage.par_chunks_mut(w * TILE))
+        rgb.par_chunks_mut(w * 3)
+            .zip(linear.rgb.par_chunks(w))
             .enumerate()
-            .for_each(|(ty, (((rgb, mask), markers), coverage))| {
-                let mut linear = vec![[0.0f64; 3]; w * TILE];
-                self.render_tile_row(
-                    view,
-                    backdrop,
-                    &prep,
-                    ty,
-                    &mut linear,
-                    mask,
-                    markers,
-                    coverage,
-                );
-                let rows = rgb.len() / (w * 3);
-                for r in 0..rows {
-                    let y = (ty * TILE + r) as u64;
-                    let mut rng = Xoshiro256PlusPlus::seed_from_u64(noise_seed(
-                        self.settings.seed,
-                        frame,
-                        cam as u64,
-                        y,
-                    ));
-                    for x in 0..w {
-                        for c in 0..3 {
-                            let noise = if sigma > 0.0 {
-                                sigma * Distribution::<f64>::sample(&StandardNormal, &mut rng)
-                            } else {
-                                0.0
-                            };
-                            let v = linear[r * w + x][c] * 255.0 + noise;
-                            rgb[(r * w + x) * 3 + c] = v.round().clamp(0.0, 255.0) as u8;
-                        }
+            .for_each(|(y, (out, light))| {
+                let mut rng = Xoshiro256PlusPlus::seed_from_u64(noise_seed(
+                    self.settings.seed,
+                    frame,
+                    cam as u64,
+                    y as u64,
+                ));
+                for x in 0..w {
+                    for c in 0..3 {
+                        let noise = if sigma > 0.0 {
+                            sigma * Distribution::<f64>::sample(&StandardNormal, &mut rng)
+                        } else {
+                            0.0
+                        };
+                        let v = light[x][c] * 255.0 + noise;
+                        out[x * 3 + c] = v.round().clamp(0.0, 255.0) as u8;
                     }
                 }
             });
         let img = |data: Vec<u8>| GrayImage::from_raw(w as u32, h as u32, data).unwrap_or_default();
         View {
             image: RgbImage::from_raw(w as u32, h as u32, rgb).unwrap_or_default(),
-            mask: img(mask),
-            markers: img(markers),
-            coverage,
+            mask: img(linear.mask),
+            markers: img(linear.markers),
+            coverage: linear.coverage,
         }
     }
 

@@ -405,3 +405,85 @@ fn other_camera_counts_and_sizes() {
         );
     }
 }
+
+#[test]
+fn an_exposure_blurs_what_moves_and_keeps_the_middle_instant_as_truth() {
+    let sim = sim(SimConfig::default());
+    // 10 frames a second, the shutter open for half the interval: the tip travels millimetres
+    // while it is open.
+    let exposures = sim.motion_exposures(20, 10.0, 0.5, 5);
+    let catheter = &sim.config().catheter;
+    let tip = |pose: &CatheterPose| {
+        let state = catheter.state(pose).expect("a pose");
+        let truth = catheter.truth(0, pose, &state).expect("a truth");
+        Point3::from(*truth.centerline.last().expect("a centerline"))
+    };
+    // The frame whose tip moves farthest while the shutter is open.
+    let (at, poses) = exposures
+        .iter()
+        .enumerate()
+        .max_by(|a, b| {
+            let moved = |p: &[CatheterPose]| (tip(&p[0]) - tip(&p[4])).norm();
+            moved(a.1).total_cmp(&moved(b.1))
+        })
+        .expect("frames");
+    assert_eq!(poses.len(), 5);
+    assert!((tip(&poses[0]) - tip(&poses[4])).norm() > 6.0);
+    // One instant is a still frame, byte for byte.
+    let still = sim.render(7, &poses[2]).expect("renders");
+    let one = sim.render_exposure(7, &poses[2..3]).expect("renders");
+    for (a, b) in still.views.iter().zip(&one.views) {
+        assert_eq!(a.image, b.image);
+        assert_eq!(a.mask, b.mask);
+    }
+    assert_eq!(still.truth.centerline, one.truth.centerline);
+    // The middle instant is the frame's pose and its truth.
+    assert_eq!(sim.motion(20, 10.0)[at], poses[2]);
+    let blurred = sim.render_exposure(7, poses).expect("renders");
+    assert_eq!(blurred.truth.centerline, still.truth.centerline);
+    // The tip where it was when the shutter opened and when it closed; either may lie inside
+    // the middle instant's tube (the catheter advancing or withdrawing along itself).
+    let ends = [
+        sim.render(7, &poses[0]).expect("renders"),
+        sim.render(7, &poses[4]).expect("renders"),
+    ];
+    let tip_of = |f: &SimFrame| Point3::from(*f.truth.centerline.last().expect("a centerline"));
+    let backgrounds = sim.backgrounds();
+    let mut checked = 0;
+    for (c, cam) in sim.rig().cameras.iter().enumerate() {
+        assert_eq!(blurred.views[c].mask, still.views[c].mask, "camera {c}");
+        // Where the tip was at one end of the exposure and no longer is at the middle instant,
+        // the tube stayed about a fifth of it: the pixel is partly tube, partly backdrop.
+        for end in &ends {
+            let Ok(p) = cam.camera.project(&tip_of(end)) else {
+                continue;
+            };
+            let Some((u, v)) = cam.camera.intrinsics.pixel_index(p.pixel) else {
+                continue;
+            };
+            if still.views[c].mask.get_pixel(u, v)[0] != 0
+                || end.views[c].mask.get_pixel(u, v)[0] == 0
+            {
+                continue;
+            }
+            let grey = |img: &image::RgbImage| {
+                img.get_pixel(u, v).0.iter().map(|&x| x as f64).sum::<f64>()
+            };
+            let (bg, moving, there) = (
+                grey(&backgrounds[c]),
+                grey(&blurred.views[c].image),
+                grey(&end.views[c].image),
+            );
+            let share = (moving - bg) / (there - bg);
+            assert!(
+                (there - bg).abs() > 60.0 && (0.05..0.6).contains(&share),
+                "camera {c}: backdrop {bg}, tube {there}, blurred {moving} (share {share:.2})"
+            );
+            checked += 1;
+        }
+    }
+    assert!(
+        checked >= 1,
+        "an end instant's tip lay off the middle's tube in {checked} cameras"
+    );
+}
