@@ -135,10 +135,11 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
     let (rms_beyond, p90_beyond) =
         spread(&|m| (residual(m).abs() - blur_allowance(m.ramp)).max(0.0));
     let (rms_with, p90_with) = spread(&|m| residual(m).abs() + blur_allowance(m.ramp));
-    let mut ramps: Vec<(f64, f64)> = found()
-        .map(|m| (m.ramp.unwrap_or(f64::INFINITY), m.point.weight))
-        .collect();
-    let ramp = weighted_quantile(&mut ramps, 0.9, w);
+    // Over the boundaries whose rise was measured (one that never reaches ¾ has none).
+    sizes.clear();
+    sizes.extend(found().filter_map(|m| Some((m.ramp?, m.point.weight))));
+    let measured_w = sizes.iter().map(|s| s.1).sum::<f64>();
+    let ramp = weighted_quantile(&mut sizes, 0.9, measured_w);
     let mean = found().map(|m| m.point.weight * residual(m)).sum::<f64>() / w;
     // A fold from +0 (a float sum of nothing is −0).
     let lighter = found()
@@ -168,12 +169,12 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
 }
 
 /// How far off a sharp tube's outline a boundary whose ¼–¾ rise is `ramp` pixels may lie,
-/// pixels: [`BLUR_SHARE`] of what blur adds to the rise beyond [`STILL_RAMP_PX`]. A blurred
-/// edge's ½ crossing is a sharp outline's only where the blur is symmetric about it: where
-/// the outline curves (a cap), or the motion while the shutter was open was not uniform, it
-/// moves within the rise.
+/// pixels: what blur adds to the rise beyond [`STILL_RAMP_PX`]. A blurred edge's ½ crossing
+/// is a sharp outline's only where the blur is symmetric about it: where the outline curves
+/// (a cap), or the motion while the shutter was open was not uniform, it moves within the
+/// rise.
 pub(crate) fn blur_allowance(ramp: Option<f64>) -> f64 {
-    ramp.map_or(0.0, |r| (r - STILL_RAMP_PX).max(0.0) * BLUR_SHARE)
+    ramp.map_or(0.0, |r| (r - STILL_RAMP_PX).max(0.0))
 }
 
 /// How much wider than a still, focused edge's a boundary's ¼–¾ rise is (at least 1; a rise
@@ -188,10 +189,6 @@ pub(crate) fn blur_scale(ramp: Option<f64>) -> f64 {
 /// shading toward its limb and the noise (the simulator's still edges rise over 0.74–0.82 px
 /// in the median, up to 1.03 at the 90th percentile).
 pub const STILL_RAMP_PX: f64 = 1.5 * crate::edges::SHARP_RAMP_PX;
-
-/// The share of what blur adds to a boundary's rise within which its ½ crossing may lie off a
-/// sharp outline.
-const BLUR_SHARE: f64 = 1.0;
 
 /// The `q` quantile of `values` by size (all at least 0), each weighted (`total` their
 /// weights' sum); sorts them. 0 for none.

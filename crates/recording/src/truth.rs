@@ -66,3 +66,23 @@ pub struct BendBase {
     /// Rotation local → world, row-major.
     pub rotation: [[f64; 3]; 3],
 }
+
+/// How far from the truth a shape may be and still be right: the third wave's bounds, held
+/// alike by `flexshape bench`, the soak run and `flexshape validate`. On the default 640×480
+/// rig a pixel spans about 0.6 mm at the volume's centre; scale both with it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RightBounds {
+    /// Centerline RMS distance from the truth, mm.
+    pub rms_mm: f64,
+    /// Tip distance from the true tip, mm.
+    pub tip_mm: f64,
+}
+
+impl Default for RightBounds {
+    fn default() -> Self {
+        RightBounds {
+            rms_mm: 0.15,
+            tip_mm: 0.3,
+        }
+    }
+}

@@ -8,7 +8,7 @@ use flexshape_fit::Method;
 use serde::Serialize;
 
 use crate::simulated::{
-    AccuracyRun, Experiments, PrecisionRun, accuracy_experiment, precision_experiment,
+    AccuracyRun, Experiments, Judged, PrecisionRun, accuracy_experiment, precision_experiment,
 };
 use crate::{AccuracyReport, PrecisionReport, ValidateError, figures};
 
@@ -104,6 +104,8 @@ pub struct SimulatedValidation {
     pub paper: PaperFigures,
     /// Poses that gave no usable shape, with why.
     pub skipped: Vec<String>,
+    /// Both fitted runs' records held against the truth.
+    pub judged: Judged,
     /// The seed and settings.
     #[serde(skip)]
     pub experiments: Experiments,
@@ -130,6 +132,7 @@ impl SimulatedValidation {
             precision: pre.report.clone(),
             paper: PAPER,
             skipped: acc.skipped.iter().chain(&pre.skipped).cloned().collect(),
+            judged: acc.judged.and(pre.judged),
             experiments: experiments.clone(),
             runs: (acc, pre),
         })
@@ -186,6 +189,11 @@ impl fmt::Display for SimulatedValidation {
             "precision at the marks",
             self.precision.rms_marks,
             self.hull.precision.rms_marks,
+        )?;
+        writeln!(
+            f,
+            "\nHeld against the truth (centerline RMS ≤ 0.15 mm, tip ≤ 0.3 mm): {} pose(s) said right but off it, {} refused though right",
+            self.judged.said_right_but_off, self.judged.refused_but_right
         )?;
         for s in &self.skipped {
             writeln!(f, "skipped {s}")?;

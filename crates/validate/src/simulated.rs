@@ -13,6 +13,7 @@ use std::path::Path;
 use flexshape_camera::nalgebra::{Matrix3, Point3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use flexshape_curve::{Frame, Polyline};
 use flexshape_fit::{FitSettings, Method};
+use flexshape_recording::RightBounds;
 use flexshape_register::RigidTransform;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{
@@ -72,6 +73,8 @@ pub struct AccuracyRun {
     pub skipped: Vec<String>,
     /// Every pose's tracking record.
     pub records: Vec<TrackRecord>,
+    /// The records held against the truth.
+    pub judged: Judged,
 }
 
 /// The precision experiment's data and result.
@@ -91,6 +94,60 @@ pub struct PrecisionRun {
     pub skipped: Vec<String>,
     /// Every pose's tracking record.
     pub records: Vec<TrackRecord>,
+    /// The records held against the truth.
+    pub judged: Judged,
+}
+
+/// Records held against the simulator's truth ([`RightBounds`]): what a status says of a
+/// shape and what the truth says of it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct Judged {
+    /// Records whose status says the shape is right that the truth says is not.
+    pub said_right_but_off: usize,
+    /// Records refused (any status but `ok`) whose shape the truth says is right.
+    pub refused_but_right: usize,
+}
+
+impl Judged {
+    /// Counts one record: whether its status said `ok`, and whether its shape is right by
+    /// the truth (`None`: it carries none).
+    fn count(&mut self, said_ok: bool, right: Option<bool>) {
+        match (said_ok, right) {
+            (true, Some(true)) | (false, None | Some(false)) => {}
+            (true, None | Some(false)) => self.said_right_but_off += 1,
+            (false, Some(true)) => self.refused_but_right += 1,
+        }
+    }
+
+    /// Both runs' counts together.
+    pub fn and(self, other: Judged) -> Judged {
+        Judged {
+            said_right_but_off: self.said_right_but_off + other.said_right_but_off,
+            refused_but_right: self.refused_but_right + other.refused_but_right,
+        }
+    }
+}
+
+/// Whether `record`'s centerline and tip are right by the truth — the true centerline
+/// (world mm, proximal to distal, ending at the true tip) where it lies inside the volume
+/// (`inside`) — within `bounds`; `None` when the record carries no centerline.
+fn right_by_truth(
+    record: &TrackRecord,
+    truth: &[Point3<f64>],
+    inside: impl Fn(&Point3<f64>) -> bool,
+    bounds: RightBounds,
+) -> Option<bool> {
+    let sensed =
+        Polyline::new(record.centerline.iter().map(|p| Point3::from(*p)).collect()).ok()?;
+    let tip = Point3::from(record.tip?);
+    let d2: Vec<f64> = truth
+        .iter()
+        .filter(|p| inside(p))
+        .map(|p| sensed.closest(p).1.powi(2))
+        .collect();
+    let true_tip = truth.last()?;
+    let rms = (d2.iter().sum::<f64>() / d2.len().max(1) as f64).sqrt();
+    Some(rms <= bounds.rms_mm && (tip - true_tip).norm() <= bounds.tip_mm)
 }
 
 /// The simulated rig and its sensing chain.
@@ -132,6 +189,18 @@ impl Bench {
         Ok(Bench { sim, pipeline })
     }
 
+    /// Whether `record`'s shape is right by `truth` (the true centerline, world mm, proximal
+    /// to distal), [`RightBounds::default`]; `None` when it carries none.
+    fn right(&self, record: &TrackRecord, truth: &[Point3<f64>]) -> Option<bool> {
+        let volume = &self.sim.rig().volume;
+        right_by_truth(
+            record,
+            truth,
+            |p| volume.contains(p),
+            RightBounds::default(),
+        )
+    }
+
     fn track(&self, scene: &Scene, frame: u64) -> Result<(TrackRecord, Tracked), ValidateError> {
         let views = self.sim.render_scene(scene, frame);
         let images: Vec<_> = views.iter().map(|v| &v.image).collect();
@@ -141,6 +210,23 @@ impl Bench {
             .map_err(|e| ValidateError::Pipeline(format!("pose {frame}: {e}")))?;
         Ok((TrackRecord::from_tracked(frame, &tracked), tracked))
     }
+}
+
+/// What a refused pose's line says when the truth says its shape is right.
+fn right_note(right: Option<bool>) -> &'static str {
+    if right == Some(true) {
+        " (right by the truth: refused though right)"
+    } else {
+        ""
+    }
+}
+
+/// `line`'s points every `step` mm or closer, its ends included.
+fn sampled(line: &Polyline, step: f64) -> Vec<Point3<f64>> {
+    let n = (line.length() / step).ceil().max(1.0) as usize;
+    (0..=n)
+        .map(|i| line.point_at(line.length() * i as f64 / n as f64))
+        .collect()
 }
 
 /// Half the default volume's edge less a margin, mm.
@@ -154,6 +240,7 @@ pub fn accuracy_experiment(e: &Experiments) -> Result<AccuracyRun, ValidateError
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(e.seed ^ 0xACC0_AC55);
     let (mut sensed, mut truth, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
     let mut records = Vec::new();
+    let mut judged = Judged::default();
     for k in 0..e.probe_poses {
         let (entry, dir, tip) = loop {
             let entry = Point3::new(
@@ -174,6 +261,7 @@ pub fn accuracy_experiment(e: &Experiments) -> Result<AccuracyRun, ValidateError
                 .collect(),
         )
         .map_err(|e| ValidateError::Pipeline(e.to_string()))?;
+        let true_line = sampled(&line, 0.5);
         let scene = Scene {
             tubes: vec![Tube {
                 centerline: line,
@@ -187,15 +275,19 @@ pub fn accuracy_experiment(e: &Experiments) -> Result<AccuracyRun, ValidateError
             occluders: Vec::new(),
         };
         let (record, _) = bench.track(&scene, k as u64)?;
-        match (&record.status, record.tip) {
-            (RecordStatus::Ok, Some(t)) => {
+        let said_ok = record.status == RecordStatus::Ok;
+        let right = bench.right(&record, &true_line);
+        judged.count(said_ok, right);
+        match (said_ok, record.tip) {
+            (true, Some(t)) => {
                 sensed.push(Point3::from(t));
                 truth.push(tip);
             }
             _ => skipped.push(format!(
-                "pose {k}: {} {}",
+                "pose {k}: {} {}{}",
                 record.status,
-                record.reason.clone().unwrap_or_default()
+                record.reason.clone().unwrap_or_default(),
+                right_note(right)
             )),
         }
         records.push(record);
@@ -232,6 +324,7 @@ pub fn accuracy_experiment(e: &Experiments) -> Result<AccuracyRun, ValidateError
         report,
         skipped,
         records,
+        judged,
     })
 }
 
@@ -283,6 +376,7 @@ pub fn precision_experiment(e: &Experiments) -> Result<PrecisionRun, ValidateErr
         report: precision(&[]),
         skipped: Vec::new(),
         records: Vec::new(),
+        judged: Judged::default(),
     };
     for k in 0..e.object_poses {
         let (catheter, pose) = loop {
@@ -331,11 +425,20 @@ pub fn precision_experiment(e: &Experiments) -> Result<PrecisionRun, ValidateErr
         };
         let (record, tracked) = bench.track(&scene, k as u64)?;
         run.records.push(record.clone());
+        let truth: Vec<Point3<f64>> = state
+            .chain
+            .sample_frames(0.5)
+            .iter()
+            .map(|(_, f)| f.position)
+            .collect();
+        let right = bench.right(&record, &truth);
+        run.judged.count(record.status.is_ok(), right);
         if !record.status.is_ok() {
             run.skipped.push(format!(
-                "pose {k}: {} {}",
+                "pose {k}: {} {}{}",
                 record.status,
-                record.reason.unwrap_or_default()
+                record.reason.unwrap_or_default(),
+                right_note(right)
             ));
             continue;
         }

@@ -2,7 +2,9 @@
 //! ≤ 0.5 mm per axis for points and ≤ 0.3 mm per axis for the shape, against the paper's
 //! 0.72/0.61/0.64 mm and 0.69/0.59/0.24 mm (0.49/0.77/0.47 mm at the bands).
 
-use flexshape_validate::simulated::{Experiments, accuracy_experiment, precision_experiment};
+use flexshape_validate::simulated::{
+    Experiments, Judged, accuracy_experiment, precision_experiment,
+};
 
 #[test]
 fn accuracy_of_the_stylus_tip_is_within_half_a_millimetre_per_axis() {
@@ -13,6 +15,8 @@ fn accuracy_of_the_stylus_tip_is_within_half_a_millimetre_per_axis() {
         r.points, r.rms_x, r.rms_y, r.rms_z, r.rms, r.max, run.skipped
     );
     assert!(run.skipped.is_empty(), "{:?}", run.skipped);
+    // Every tip held against the true ball centre is right (within 0.3 mm).
+    assert_eq!(run.judged, Judged::default(), "{:?}", run.judged);
     assert_eq!(r.points, 25);
     for a in 0..3 {
         assert!(r.rms_axis()[a] <= 0.5, "axis {a}: {}", r.rms_axis()[a]);
@@ -49,6 +53,9 @@ fn precision_along_the_object_and_at_its_bands_is_within_0_3_mm_per_axis() {
         run.skipped
     );
     assert!(run.skipped.is_empty(), "{:?}", run.skipped);
+    // Every shape held against the object's true pose is right (centerline RMS ≤ 0.15 mm,
+    // tip ≤ 0.3 mm).
+    assert_eq!(run.judged, Judged::default(), "{:?}", run.judged);
     assert_eq!(r.poses, 8);
     for a in 0..3 {
         assert!(r.rms_along[a] <= 0.3, "along, axis {a}: {}", r.rms_along[a]);

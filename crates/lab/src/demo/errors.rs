@@ -2,7 +2,7 @@
 
 use flexshape_curve::Polyline;
 use flexshape_model::nalgebra_types::Point3;
-use flexshape_recording::Truth;
+use flexshape_recording::{RightBounds, Truth};
 use flexshape_track::{Pipeline, Tracked, quantile};
 
 /// A shape against the simulator's truth, mm (curvature in 1/mm).
@@ -65,26 +65,6 @@ impl ShapeErrors {
             curvature,
             hull_covers: covered as f64 / inside.len() as f64,
         })
-    }
-}
-
-/// How far from the truth a shape may be and still be right: the third wave's bounds, held
-/// alike by `flexshape bench` and the soak run. On the default 640×480 rig a pixel spans about
-/// 0.6 mm at the volume's centre; scale both with it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RightBounds {
-    /// Centerline RMS distance from the truth, mm.
-    pub rms_mm: f64,
-    /// Tip distance from the true tip, mm.
-    pub tip_mm: f64,
-}
-
-impl Default for RightBounds {
-    fn default() -> Self {
-        RightBounds {
-            rms_mm: 0.15,
-            tip_mm: 0.3,
-        }
     }
 }
 

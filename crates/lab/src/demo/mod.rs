@@ -37,7 +37,8 @@ use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, Simulator};
 use flexshape_track::{ModelFrame, Pipeline, Processed};
 
-pub use errors::{DemoFigures, RightBounds, ShapeErrors};
+pub use errors::{DemoFigures, ShapeErrors};
+pub use flexshape_recording::RightBounds;
 pub use report::table_header;
 pub use rig::{DemoRig, OnDemand};
 
