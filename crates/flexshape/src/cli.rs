@@ -89,6 +89,12 @@ pub struct ValidateArgs {
     /// Seed of the simulated experiments.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Stylus poses of the accuracy experiment (the paper: 25).
+    #[arg(long, default_value_t = 25, value_parser = clap::value_parser!(u64).range(3..=10_000))]
+    pub probe_poses: u64,
+    /// Poses of the S-bent object in the precision experiment (the paper: 4).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    pub object_poses: u64,
     /// Write the experiments' figures (PNG + SVG) to this folder.
     #[arg(long)]
     pub out: Option<PathBuf>,

@@ -110,6 +110,8 @@ pub fn shape(args: &ValidateShapeArgs) -> anyhow::Result<()> {
 pub fn simulate(args: &ValidateArgs) -> anyhow::Result<()> {
     let experiments = Experiments {
         seed: args.seed,
+        probe_poses: args.probe_poses as usize,
+        object_poses: args.object_poses as usize,
         ..Experiments::default()
     };
     eprintln!(

@@ -27,7 +27,22 @@ fn simulated_validation_meets_its_targets_and_the_tools_reproduce_it() {
     let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("validation");
     let _ = std::fs::remove_dir_all(&out);
     let dir = out.to_str().unwrap();
-    let v = json(&["validate", "--simulate", "--out", dir, "--json"]);
+    // Fewer poses than the defaults (25 and 8, which the validate crate's own tests run): the
+    // command, its files and the tools reading them back are what is tested here.
+    let v = json(&[
+        "validate",
+        "--simulate",
+        "--probe-poses",
+        "10",
+        "--object-poses",
+        "3",
+        "--out",
+        dir,
+        "--json",
+    ]);
+    assert_eq!(v["accuracy"]["points"], 10, "{}", v["accuracy"]);
+    assert_eq!(v["precision"]["poses"], 3, "{}", v["precision"]);
+    assert_eq!(v["judged"]["said_right_but_off"], 0, "{}", v["judged"]);
     // Targets: ≤ 0.5 mm per axis for points, ≤ 0.3 mm per axis for the shape.
     let acc = &v["accuracy"];
     for axis in ["rms_x", "rms_y", "rms_z"] {
@@ -65,8 +80,10 @@ fn simulated_validation_meets_its_targets_and_the_tools_reproduce_it() {
         &p("stylus_reference.csv"),
         "--json",
     ]);
+    // The same within the files' rounding of each coordinate (ten poses register less
+    // stiffly than 25: 1.2e-5 mm apart).
     assert!(
-        (f(&points["rms"]) - f(&acc["rms"])).abs() < 1e-5,
+        (f(&points["rms"]) - f(&acc["rms"])).abs() < 1e-4,
         "{points}"
     );
     let shape = json(&[
