@@ -11,7 +11,6 @@ use common::*;
 use flexshape_fit::STILL_RAMP_PX;
 use flexshape_shape::Status;
 use flexshape_sim::SimConfig;
-use nalgebra::{Rotation3, Vector3};
 
 /// Frames of the 10 Hz motion (every other of the first 20), the shutter open half the
 /// interval, rendered at five instants while it is open.
@@ -79,12 +78,7 @@ fn blurred_views_leave_right_frames_ok() {
 /// must not excuse it.
 #[test]
 fn blur_does_not_excuse_a_miscalibrated_camera() {
-    let chain = Chain::calibrated_as(SimConfig::default(), |cams| {
-        let turn = Rotation3::from_axis_angle(&Vector3::y_axis(), 0.2f64.to_radians());
-        let pose = &mut cams[1].pose;
-        pose.rotation = turn * pose.rotation;
-        pose.translation = turn * pose.translation;
-    });
+    let chain = Chain::with_camera_turned(SimConfig::default(), 1, 0.2);
     let (ok, _) = sweep(&chain, "miscalibrated");
     assert!(ok <= 1, "{ok} of {FRAMES} ok with a camera 0.2° off");
 }

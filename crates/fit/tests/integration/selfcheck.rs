@@ -5,7 +5,6 @@
 use crate::common;
 
 use common::*;
-use flexshape_camera::nalgebra::{Rotation3, Vector3};
 use flexshape_shape::Status;
 use flexshape_sim::SimConfig;
 
@@ -15,12 +14,7 @@ use flexshape_sim::SimConfig;
 /// leave it unseen; `rig refine` over many frames is the remedy.)
 #[test]
 fn a_miscalibrated_camera_makes_frames_inconsistent() {
-    let chain = Chain::calibrated_as(SimConfig::default(), |cams| {
-        let turn = Rotation3::from_axis_angle(&Vector3::y_axis(), 0.2f64.to_radians());
-        let pose = &mut cams[1].pose;
-        pose.rotation = turn * pose.rotation;
-        pose.translation = turn * pose.translation;
-    });
+    let chain = Chain::with_camera_turned(SimConfig::default(), 1, 0.2);
     let sim = &chain.sim;
     let (mut flagged, mut tenth) = (0, 0);
     for (n, pose) in sim.sweep(12).iter().enumerate() {

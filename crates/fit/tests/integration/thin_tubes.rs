@@ -8,7 +8,7 @@ use crate::common;
 use common::*;
 use flexshape_shape::Status;
 use flexshape_sim::{Catheter, RenderSettings, SimConfig};
-use nalgebra::{Point3, Rotation3, Vector3};
+use nalgebra::Point3;
 
 fn config(seed: u64, floating: bool) -> SimConfig {
     let mut catheter = Catheter {
@@ -86,12 +86,7 @@ fn a_thin_tube_is_measured_with_its_bands_and_its_direction() {
 /// overlap check allows a thin tube more, and the outline checks must still refuse it.
 #[test]
 fn a_thin_tube_seen_by_a_miscalibrated_camera_is_not_ok() {
-    let chain = Chain::calibrated_as(config(1, false), |cams| {
-        let turn = Rotation3::from_axis_angle(&Vector3::y_axis(), 0.2f64.to_radians());
-        let pose = &mut cams[1].pose;
-        pose.rotation = turn * pose.rotation;
-        pose.translation = turn * pose.translation;
-    });
+    let chain = Chain::with_camera_turned(config(1, false), 1, 0.2);
     let (ok, wrong) = sweep(&chain, "miscalibrated");
     assert_eq!(wrong, 0, "{wrong} ok frames wrong");
     assert!(ok <= 1, "{ok} of 12 ok with a camera 0.2° off");
