@@ -792,6 +792,11 @@ pub struct SimulateArgs {
         conflicts_with = "model"
     )]
     pub motion: Option<f64>,
+    /// With `--motion`: the share of each frame interval the shutter is open (0–1; 0 films
+    /// each frame at its instant). What moves meanwhile is blurred along its path, as a real
+    /// camera's exposure blurs it; the truth is the middle of the exposure.
+    #[arg(long, default_value_t = 0.0, requires = "motion")]
+    pub shutter: f64,
     #[command(flatten)]
     pub sim: SimArgs,
 }

@@ -30,6 +30,10 @@ pub enum Scenario {
         frames: usize,
         /// Frame rate, frames per second.
         rate_hz: f64,
+        /// Share of the frame interval the shutter is open, 0–1: what moves meanwhile is
+        /// blurred along its path (rendered at [`EXPOSURE_INSTANTS`] instants and averaged).
+        /// 0 films each frame at its instant.
+        shutter: f64,
     },
     /// The paper's experiment for `model` (reference, registration and workspace poses), the
     /// catheter made as the model describes it; the commands are written beside the frames.
@@ -41,6 +45,12 @@ pub enum Scenario {
         commands: Vec<CommandedPose>,
     },
 }
+
+/// Instants a frame is rendered at while its shutter is open: at the simulator's fastest
+/// motion filmed at 10 frames/s with the shutter open half the interval, the tip moves about
+/// 0.5 mm between two (under a pixel on the default rig), so the copies blur into one. Odd, so
+/// that the middle one, whose shape is the truth, is the frame's instant.
+pub const EXPOSURE_INSTANTS: usize = 17;
 
 impl Scenario {
     /// The experiment `plan` for `model`, planned once here.
@@ -77,9 +87,27 @@ pub fn simulate_recording(
         config.catheter = flexshape_steer::catheter_for(&config.catheter, model.params());
     }
     let sim = Simulator::new(config).map_err(sim_error)?;
+    let write_error = |e: flexshape_sim::SimError| LabError::Write {
+        path: out.to_path_buf(),
+        reason: e.to_string(),
+    };
     let (poses, commands) = match scenario {
         Scenario::Sweep { frames } => (sim.sweep(*frames), Vec::new()),
-        Scenario::Motion { frames, rate_hz } => (sim.motion(*frames, *rate_hz), Vec::new()),
+        Scenario::Motion {
+            frames,
+            rate_hz,
+            shutter,
+        } if *shutter > 0.0 => {
+            let exposures = sim.motion_exposures(*frames, *rate_hz, *shutter, EXPOSURE_INSTANTS);
+            let written = sim
+                .write_exposed_recording(out, &exposures, overwrite, on_frame)
+                .map_err(write_error)?;
+            write_timestamps(out, written, *rate_hz)?;
+            return Ok((written, exposures.len()));
+        }
+        Scenario::Motion {
+            frames, rate_hz, ..
+        } => (sim.motion(*frames, *rate_hz), Vec::new()),
         Scenario::Experiment { commands, .. } => {
             let catheter = &sim.config().catheter;
             commands
@@ -99,21 +127,23 @@ pub fn simulate_recording(
     };
     let written = sim
         .write_commanded_recording(out, &poses, &commands, overwrite, on_frame)
-        .map_err(|e| LabError::Write {
-            path: out.to_path_buf(),
-            reason: e.to_string(),
-        })?;
+        .map_err(write_error)?;
     if let Scenario::Motion { rate_hz, .. } = scenario {
-        // Filmed at `rate_hz`: frame n at n / rate_hz seconds.
-        let times: Vec<(u64, f64)> = (0..written).map(|n| (n, n as f64 / rate_hz)).collect();
-        RecordingWriter::reopen(out)
-            .write_timestamps(&times)
-            .map_err(|e| LabError::Write {
-                path: out.to_path_buf(),
-                reason: format!("the timestamps: {e}"),
-            })?;
+        write_timestamps(out, written, *rate_hz)?;
     }
     Ok((written, poses.len()))
+}
+
+/// The timestamps of `written` frames filmed at `rate_hz` into the recording at `out`: frame
+/// n at n / rate_hz seconds (the middle of its exposure).
+fn write_timestamps(out: &Path, written: u64, rate_hz: f64) -> Result<(), LabError> {
+    let times: Vec<(u64, f64)> = (0..written).map(|n| (n, n as f64 / rate_hz)).collect();
+    RecordingWriter::reopen(out)
+        .write_timestamps(&times)
+        .map_err(|e| LabError::Write {
+            path: out.to_path_buf(),
+            reason: format!("the timestamps: {e}"),
+        })
 }
 
 /// A calibration session of target images, as a lab would take it.

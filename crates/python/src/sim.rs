@@ -213,7 +213,11 @@ pub(crate) fn simulate(
             Scenario::experiment(model, &plan).map_err(|e| fail(&e))?
         }
         (None, None) => Scenario::Sweep { frames },
-        (Some(r), None) if r.is_finite() && r > 0.0 => Scenario::Motion { frames, rate_hz: r },
+        (Some(r), None) if r.is_finite() && r > 0.0 => Scenario::Motion {
+            frames,
+            rate_hz: r,
+            shutter: 0.0,
+        },
         (Some(r), None) => {
             return Err(PyValueError::new_err(format!(
                 "rate_hz={r}: give a positive rate"

@@ -248,7 +248,7 @@ impl Simulator {
         poses: &[CatheterPose],
         commands: &[(Vec<f64>, PoseRole)],
         overwrite: bool,
-        mut on_frame: impl FnMut(&SimFrame) -> ControlFlow<()>,
+        on_frame: impl FnMut(&SimFrame) -> ControlFlow<()>,
     ) -> Result<u64, SimError> {
         if !commands.is_empty() && commands.len() != poses.len() {
             return Err(crate::error::config_error(
@@ -256,21 +256,51 @@ impl Simulator {
                 format!("{} commands for {} poses", commands.len(), poses.len()),
             ));
         }
-        let writer = self.create_recording(dir, overwrite)?;
-        for (i, pose) in poses.iter().enumerate() {
+        let render = |i: usize| {
             let frame = i as u64;
-            let sim = self.render(frame, pose)?;
             let command = commands.get(i).map(|(y, role)| Command {
                 frame,
                 tendon_displacements: y.clone(),
                 role: *role,
             });
+            Ok((self.render(frame, &poses[i])?, command))
+        };
+        self.write_frames(dir, poses.len(), overwrite, render, on_frame)
+    }
+
+    /// As [`Simulator::write_recording`], each frame exposed while the catheter moves through
+    /// its poses in `exposures` ([`Simulator::render_exposure`]; e.g. from
+    /// [`Simulator::motion_exposures`]): moving parts blurred, the truth the middle pose's.
+    pub fn write_exposed_recording(
+        &self,
+        dir: &Path,
+        exposures: &[Vec<CatheterPose>],
+        overwrite: bool,
+        on_frame: impl FnMut(&SimFrame) -> ControlFlow<()>,
+    ) -> Result<u64, SimError> {
+        let render = |i: usize| Ok((self.render_exposure(i as u64, &exposures[i])?, None));
+        self.write_frames(dir, exposures.len(), overwrite, render, on_frame)
+    }
+
+    /// Creates the recording and writes frames `0..count`, each as `render` makes it (with
+    /// its command, if any), handing each to `on_frame` once it is on disk.
+    fn write_frames(
+        &self,
+        dir: &Path,
+        count: usize,
+        overwrite: bool,
+        mut render: impl FnMut(usize) -> Result<(SimFrame, Option<Command>), SimError>,
+        mut on_frame: impl FnMut(&SimFrame) -> ControlFlow<()>,
+    ) -> Result<u64, SimError> {
+        let writer = self.create_recording(dir, overwrite)?;
+        for i in 0..count {
+            let (sim, command) = render(i)?;
             self.write_frame(&writer, &sim, command.as_ref())?;
             if on_frame(&sim).is_break() {
-                return Ok(frame + 1);
+                return Ok(i as u64 + 1);
             }
         }
-        Ok(poses.len() as u64)
+        Ok(count as u64)
     }
 }
 

@@ -79,9 +79,15 @@ fn scenario(args: &SimulateArgs) -> anyhow::Result<Scenario> {
                 hz.is_finite() && hz > 0.0,
                 "--motion must be a positive number of frames per second"
             );
+            anyhow::ensure!(
+                (0.0..=1.0).contains(&args.shutter),
+                "--shutter {}: give the share of the frame interval the shutter is open, 0–1",
+                args.shutter
+            );
             Scenario::Motion {
                 frames: args.frames,
                 rate_hz: hz,
+                shutter: args.shutter,
             }
         }
         None => Scenario::Sweep {

@@ -876,3 +876,117 @@ fn an_mcap_file_holds_every_frame_and_spares_the_inputs() {
     assert!(!o.status.success());
     assert_eq!(std::fs::read(&rig).unwrap(), before);
 }
+
+/// `simulate --motion HZ --shutter S`: each frame exposed while the catheter moves, so what
+/// moves is blurred; the truth is the middle of the exposure (the still frame's), and every
+/// frame `track` says is `ok` is right by it, every refusal where a camera's edges are
+/// blurred saying so. A shutter without a motion, or open longer than the interval, is refused.
+#[test]
+fn a_shutter_open_while_the_catheter_moves_blurs_the_frames_and_track_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let (still, blurred) = (dir.path().join("still"), dir.path().join("blurred"));
+    let film = |out: &std::path::Path, shutter: &str| {
+        common::run(&[
+            "simulate",
+            "--out",
+            out.to_str().unwrap(),
+            "--frames",
+            "4",
+            "--motion",
+            "4",
+            "--shutter",
+            shutter,
+        ])
+    };
+    film(&still, "0");
+    film(&blurred, "0.5");
+    let (still, blurred) = (
+        RecordingReader::open(&still).unwrap(),
+        RecordingReader::open(&blurred).unwrap(),
+    );
+    let mut moved = 0;
+    for frame in 0..4 {
+        let truth = |r: &RecordingReader| r.read_truth(frame).unwrap().unwrap();
+        assert!(
+            truth(&still) == truth(&blurred),
+            "frame {frame}: the truth is not the middle instant's (tips {:?} and {:?})",
+            truth(&still).tip,
+            truth(&blurred).tip
+        );
+        for cam in ["cam0", "cam1", "cam2"] {
+            let a = image::open(still.frame_path(cam, frame)).unwrap().to_rgb8();
+            let b = image::open(blurred.frame_path(cam, frame))
+                .unwrap()
+                .to_rgb8();
+            // The same noise (same seed and frame): what differs is the blur.
+            moved += a
+                .pixels()
+                .zip(b.pixels())
+                .filter(|(p, q)| (0..3).any(|c| p[c].abs_diff(q[c]) > 8))
+                .count();
+        }
+    }
+    assert!(moved > 300, "{moved} pixels differ");
+    let out = dir.path().join("shapes.jsonl");
+    let rec = dir.path().join("blurred");
+    common::run(&[
+        "track",
+        rec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (mut ok, mut named) = (0, 0);
+    for line in std::fs::read_to_string(&out).unwrap().lines() {
+        let r: Value = serde_json::from_str(line).unwrap();
+        let Some(frame) = r["frame"].as_u64() else {
+            continue;
+        };
+        let truth = blurred.read_truth(frame).unwrap().unwrap();
+        let reason = r["reason"].as_str().unwrap_or_default();
+        // The camera a refusal names, and whether its edges are blurred (rise over 1.0 px).
+        let blurred_camera = r["cameras"].as_array().is_some_and(|cams| {
+            cams.iter().any(|c| {
+                let named = format!("camera {}:", c["camera"].as_str().unwrap());
+                reason.starts_with(&named) && c["ramp_px"].as_f64().unwrap() > 1.005
+            })
+        });
+        if r["status"] == "ok" {
+            let tip: Vec<f64> = r["tip"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect();
+            let d = (Point3::new(tip[0], tip[1], tip[2]) - Point3::from(truth.tip)).norm();
+            assert!(d < 0.3, "frame {frame}: ok, tip {d:.3} mm off");
+            ok += 1;
+        } else if blurred_camera {
+            assert!(reason.contains("shutter"), "frame {frame}: {reason}");
+            named += 1;
+        }
+    }
+    // Filmed at 4 frames/s, the first two frames move little while the shutter is open and
+    // are `ok`; the third is blurred in cam1 (its edges rise over 2.1 px) and refused, saying
+    // why.
+    assert!(
+        ok >= 1 && named >= 1,
+        "{ok} ok, {named} refusals naming the blur"
+    );
+    for bad in [
+        vec!["simulate", "--out", "x", "--shutter", "0.5"],
+        vec![
+            "simulate",
+            "--out",
+            "x",
+            "--motion",
+            "10",
+            "--shutter",
+            "1.5",
+        ],
+    ] {
+        let o = flexshape(&bad);
+        assert!(!o.status.success());
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(e.contains("--shutter") || e.contains("--motion"), "{e}");
+    }
+}
