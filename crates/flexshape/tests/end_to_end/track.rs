@@ -375,16 +375,21 @@ fn follow_starts_each_frame_from_the_previous_one() {
             assert_eq!(r.get("ghost_mm").is_none(), expected == "previous");
             // As right as the truth says.
             let truth = reader.read_truth(i as u64).unwrap().unwrap();
-            let tip: Vec<f64> = r["tip"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|v| v.as_f64().unwrap())
-                .collect();
-            let d = (Point3::new(tip[0], tip[1], tip[2]) - Point3::from(truth.tip)).norm();
+            let d = tip_error(r, &truth);
             assert!(d < 0.3, "frame {i}: tip {d:.3} mm off");
         }
     }
+}
+
+/// Distance of a record's tip from the truth's, mm.
+fn tip_error(record: &Value, truth: &flexshape_recording::Truth) -> f64 {
+    let tip: Vec<f64> = record["tip"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    (Point3::new(tip[0], tip[1], tip[2]) - Point3::from(truth.tip)).norm()
 }
 
 /// Masks from a lab's own segmentation instead of images and backgrounds: binary grey, colour
@@ -951,13 +956,7 @@ fn a_shutter_open_while_the_catheter_moves_blurs_the_frames_and_track_says_so() 
             })
         });
         if r["status"] == "ok" {
-            let tip: Vec<f64> = r["tip"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|v| v.as_f64().unwrap())
-                .collect();
-            let d = (Point3::new(tip[0], tip[1], tip[2]) - Point3::from(truth.tip)).norm();
+            let d = tip_error(&r, &truth);
             assert!(d < 0.3, "frame {frame}: ok, tip {d:.3} mm off");
             ok += 1;
         } else if blurred_camera {
