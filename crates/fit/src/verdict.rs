@@ -94,17 +94,19 @@ impl TubeFitter {
     /// every check even with their own blur added ([`CameraCheck::with_blur`]): they place
     /// the tube, and the fit weighted the blurred boundaries less.
     pub(crate) fn verdict(&self, fit: &Fit, volume: &Volume) -> Option<String> {
-        let placing = fit
-            .cameras
-            .iter()
-            .filter(|c| self.camera_verdict(c, Outline::with_blur(c)).is_none())
-            .count();
+        // Asked only of a frame some camera fails as measured (most frames pass every check).
+        let placing = || {
+            fit.cameras
+                .iter()
+                .filter(|c| self.camera_verdict(c, Outline::with_blur(c)).is_none())
+                .count()
+        };
         fit.cameras
             .iter()
             .find_map(|c| {
                 let why = self.camera_verdict(c, Outline::measured(c))?;
                 let within_blur = self.camera_verdict(c, Outline::beyond_blur(c)).is_none();
-                if within_blur && placing >= 2 {
+                if within_blur && placing() >= 2 {
                     return None;
                 }
                 Some(why + &blurred(c, within_blur))
