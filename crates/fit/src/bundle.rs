@@ -97,6 +97,8 @@ impl TubeFitter {
             .map(|v| self.edge_images(v))
             .collect::<Result<Vec<_>, _>>()?;
         let s = &self.settings;
+        // Free widths say nothing of the radius (see `width`).
+        let fit_radius = fit_radius && !s.free_width();
         let free: Vec<usize> = (0..self.cameras.len()).filter(|&c| c != hold).collect();
         let depths: Vec<f64> = self
             .cameras
@@ -185,7 +187,7 @@ impl TubeFitter {
                 current = tubes
                     .par_iter()
                     .zip(&measured)
-                    .map(|(tube, m)| against(&cameras, tube, m, false))
+                    .map(|(tube, m)| against(&cameras, tube, m, false, s.free_width()))
                     .collect();
             }
         }

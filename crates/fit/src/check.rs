@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::outline::Spheres;
 use crate::solve::Measured;
 use crate::tube::Tube;
+use crate::width::WidthProfile;
 
 /// How well the fitted tube explains one camera's image.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -90,6 +91,13 @@ pub struct CameraCheck {
     /// a darker backdrop its edges fade into it and its outline is faint.
     #[serde(default)]
     pub lighter_share: f64,
+    /// With free widths ([`crate::OutlineWidth::Free`]: masks), how much wider each side of
+    /// the silhouette lies than the fitted tube's image, the median along it, pixels (negative:
+    /// narrower; 0 when widths follow the tube). A line drawn a fixed width shows the
+    /// difference between that width and the tube's image; a segmentation, how much it grows
+    /// the tube.
+    #[serde(default)]
+    pub width_offset_px: f64,
 }
 
 /// Statistics of a camera's outline residuals with each boundary's blur allowed for: the
@@ -262,20 +270,29 @@ pub(crate) struct Residuals {
 /// along the centerline, [`crate::outline::sphere_centres`]): a disc per sphere of the swept
 /// surface, and separately the straight continuation of each open end until it leaves the
 /// image (the tube goes on beyond the volume, how far is not known: the check neither asks
-/// for nor objects to silhouette pixels there).
-pub(crate) fn render(camera: &Camera, spheres: &Spheres) -> (BitMask, BitMask) {
+/// for nor objects to silhouette pixels there). Each disc is as much narrower as `widths` says
+/// the silhouette is there (free widths; an empty profile changes nothing).
+pub(crate) fn render(
+    camera: &Camera,
+    spheres: &Spheres,
+    widths: &WidthProfile,
+) -> (BitMask, BitMask) {
     let (w, h) = (
         camera.intrinsics.width as usize,
         camera.intrinsics.height as usize,
     );
-    let draw = |items: &[crate::outline::Projected]| {
+    let draw = |items: &[crate::outline::Projected], us: &[f64]| {
         let mut mask = BitMask::new(w, h);
-        for &s in items {
-            disc(&mut mask, s);
+        for (&(c, px, r), &u) in items.iter().zip(us) {
+            disc(&mut mask, (c, px, (r - widths.at(u)).max(0.5)));
         }
         mask
     };
-    (draw(spheres.tube()), draw(spheres.beyond()))
+    let (tube_us, beyond_us) = spheres.parameters();
+    (
+        draw(spheres.tube(), tube_us),
+        draw(spheres.beyond(), beyond_us),
+    )
 }
 
 /// Draws the image of a sphere (centre, pixel, image radius; as a disc), clipped to the mask.

@@ -70,6 +70,7 @@ mod solve;
 mod stereo;
 mod tube;
 mod verdict;
+mod width;
 
 use flexshape_camera::Camera;
 use flexshape_rig::Volume;
@@ -81,12 +82,13 @@ use thiserror::Error;
 
 pub use bundle::Bundle;
 pub use check::{CameraCheck, OutlineResiduals, STILL_RAMP_PX, debug_image};
-pub use settings::{FitSettings, Method};
+pub use settings::{FitSettings, Method, OutlineWidth};
 pub use tube::Tube;
 
 use edges::EdgeImage;
 use outline::Spheres;
 use solve::{against, measure, normal_equations};
+use width::WidthProfile;
 
 /// Why the fit cannot be set up or run.
 #[derive(Debug, Error)]
@@ -305,6 +307,8 @@ impl TubeFitter {
         one_measurement_mm: f64,
     ) -> Result<(Fit, Vec<Spheres>), FitError> {
         let images = self.edge_images(views)?;
+        // Free widths say nothing of the radius (see `width`).
+        let fit_radius = fit_radius && !s.free_width();
         let mut tube = start.clone();
         let mut iterations = 0;
         let mut measurements = 0;
@@ -362,7 +366,7 @@ impl TubeFitter {
                     break;
                 }
                 // Unfound samples kept: should these be the last, the check counts them.
-                current = against(&self.cameras, &tube, &measured, true);
+                current = against(&self.cameras, &tube, &measured, true, s.free_width());
             }
         }
         let (measured, eq) = match settled {
@@ -402,7 +406,8 @@ impl TubeFitter {
             .map(|((((cam, name), view), m), spheres)| {
                 let res = check::residual_stats(m);
                 let ends = check::end_stats(m, &tube, length);
-                let rendered = check::render(cam, spheres);
+                let widths = WidthProfile::of(m);
+                let rendered = check::render(cam, spheres, &widths);
                 let (w, h) = (view.silhouette.width(), view.silhouette.height());
                 let zones = || self.end_zones(cam, &tube, w, h);
                 let overlap = check::overlap(&rendered, view, s.explain_px, zones);
@@ -422,7 +427,9 @@ impl TubeFitter {
                     end_found: ends.found,
                     end_residual_px: ends.rms,
                     cap_found: check::cap_found(m),
-                    lighter_share: res.lighter,
+                    // A mask's object is white on black: no colour to speak of.
+                    lighter_share: if s.masks { 0.0 } else { res.lighter },
+                    width_offset_px: -widths.median(),
                     ramp_px: res.ramp,
                     beyond_blur: check::OutlineResiduals {
                         end_residual_px: ends.beyond_blur.residual_px,
@@ -453,7 +460,7 @@ impl TubeFitter {
         let centres = outline::sphere_centres(tube, tube.length());
         self.cameras.get(camera).map(|c| {
             let spheres = Spheres::from_centres(c, tube, &centres, 0.0);
-            check::render(c, &spheres)
+            check::render(c, &spheres, &WidthProfile::default())
         })
     }
 

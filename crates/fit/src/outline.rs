@@ -441,6 +441,8 @@ pub(crate) struct Spheres {
     tube_items: usize,
     /// Each sphere's radius, mm.
     radii: Vec<f64>,
+    /// Each sphere's centerline parameter (an open end's continuation: its end's, 0 or 1).
+    us: Vec<f64>,
     /// Per sphere, squared: its image radius less a quarter pixel (a pixel it surely covers)
     /// and plus a pixel (beyond, it surely does not), pixels².
     reach2: Vec<(f64, f64)>,
@@ -560,11 +562,20 @@ impl Spheres {
         centres: &[(Point3<f64>, f64)],
         clearance: f64,
     ) -> Self {
-        let (mut items, mut radii): (Vec<_>, Vec<f64>) = spheres_along(camera, centres)
+        // The centres are evenly spaced in the centerline's parameter.
+        let last = centres.len().saturating_sub(1).max(1) as f64;
+        let (mut items, mut radii, mut us) = (Vec::new(), Vec::new(), Vec::new());
+        for (i, (s, &(_, r))) in spheres_along(camera, centres)
             .into_iter()
             .zip(centres)
-            .filter_map(|(s, &(_, r))| Some((s?, r)))
-            .unzip();
+            .enumerate()
+        {
+            if let Some(s) = s {
+                items.push(s);
+                radii.push(r);
+                us.push(i as f64 / last);
+            }
+        }
         let tube_items = items.len();
         let (w, h) = (
             camera.intrinsics.width as f64,
@@ -591,6 +602,7 @@ impl Spheres {
                 }
                 items.push(s);
                 radii.push(r);
+                us.push(end as f64);
             }
         }
         Spheres {
@@ -605,6 +617,7 @@ impl Spheres {
             items,
             tube_items,
             radii,
+            us,
             clearance,
         }
     }
@@ -617,6 +630,12 @@ impl Spheres {
     /// Those of its open ends' straight continuations, until they leave the image.
     pub(crate) fn beyond(&self) -> &[Projected] {
         &self.items[self.tube_items..]
+    }
+
+    /// The centerline parameters of [`Spheres::tube`]'s spheres, then of
+    /// [`Spheres::beyond`]'s (each its end's).
+    pub(crate) fn parameters(&self) -> (&[f64], &[f64]) {
+        self.us.split_at(self.tube_items)
     }
 
     /// Whether the ray from `eye` to `target` (whose pixel is `pixel`) enters the tube before

@@ -16,6 +16,23 @@ pub enum Method {
     Hull,
 }
 
+/// Whether a silhouette's width across the tube is the tube's image or the silhouette's own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OutlineWidth {
+    /// `free` for masks, `tube` for camera images.
+    #[default]
+    Auto,
+    /// The outline lies where the tube's radius puts it: each boundary places the tube (and,
+    /// unless the rig gives it, the radius) on its own.
+    Tube,
+    /// Only the middle between the two boundaries across the tube places it; how far apart
+    /// they lie is the silhouette's own (a line drawn a fixed number of pixels wide, a
+    /// segmentation that grows or shrinks the tube): the radius is not fitted, and a cap is
+    /// placed with its end's width as measured.
+    Free,
+}
+
 /// Everything the fit can be told. Lengths in mm, image distances in pixels.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -95,6 +112,13 @@ pub struct FitSettings {
     /// within a few tenths of a millimetre of its shape; every sample costs a few
     /// microseconds. The caps are sampled at least every 2 mm whatever the spacing.
     pub track_spacing_mm: f64,
+    /// Whether the silhouettes' width across the tube follows its radius (see
+    /// [`OutlineWidth`]).
+    pub outline_width: OutlineWidth,
+    /// The frames are masks, not camera images (set by the chain that reads masks, not by the
+    /// rig file): nothing is said of the tube's colour, and [`OutlineWidth::Auto`] is `free`.
+    #[serde(skip)]
+    pub masks: bool,
 }
 
 impl Default for FitSettings {
@@ -125,11 +149,22 @@ impl Default for FitSettings {
             track_margin_px: 24.0,
             track_max_move_mm: 3.0,
             track_spacing_mm: 4.0,
+            outline_width: OutlineWidth::Auto,
+            masks: false,
         }
     }
 }
 
 impl FitSettings {
+    /// Whether only the middle between a tube's two boundaries places it ([`OutlineWidth`]).
+    pub fn free_width(&self) -> bool {
+        match self.outline_width {
+            OutlineWidth::Free => true,
+            OutlineWidth::Tube => false,
+            OutlineWidth::Auto => self.masks,
+        }
+    }
+
     /// The defaults overridden by a rig's `[processing.fit]` table, if any.
     pub fn from_processing(processing: &toml::Table) -> Result<Self, FitError> {
         let settings: FitSettings = match processing.get("fit") {

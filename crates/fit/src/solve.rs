@@ -34,9 +34,13 @@ pub(crate) struct Measured {
     pub lighter: bool,
     /// The boundary's ¼–¾ rise, pixels ([`crate::edges::Edge::ramp`]).
     pub ramp: Option<f64>,
+    /// With free widths, how much narrower the silhouette is than the tube's image here,
+    /// taken out of `residual` (pixels; 0 when widths follow the tube).
+    pub narrowing: f64,
 }
 
-/// Every camera's outline of `tube`, measured.
+/// Every camera's outline of `tube`, measured (with free widths, only the middles between
+/// the sides place it: [`crate::width::middles`]).
 pub(crate) fn measure(
     cameras: &[Camera],
     images: &[EdgeImage<'_>],
@@ -44,7 +48,7 @@ pub(crate) fn measure(
     settings: &FitSettings,
 ) -> Vec<Vec<Measured>> {
     let sampled = Sampled::new(tube, settings.spacing_mm);
-    cameras
+    let mut measured: Vec<Vec<Measured>> = cameras
         .iter()
         .zip(images)
         .map(|(cam, img)| {
@@ -71,25 +75,34 @@ pub(crate) fn measure(
                     edge: edge.map(|e| (p.pixel + p.normal * e.offset, p.normal)),
                     lighter: edge.is_some_and(|e| e.lighter),
                     ramp: edge.and_then(|e| e.ramp),
+                    narrowing: 0.0,
                 }
             })
             .collect()
         })
-        .collect()
+        .collect();
+    if settings.free_width() {
+        for m in &mut measured {
+            crate::width::middles(m);
+        }
+    }
+    measured
 }
 
 /// The same boundaries against the outline of a moved `tube`: each found boundary keeps its
 /// pixel and search direction, and its residual is the moved prediction's distance from it
 /// (point to line). Between re-measurements this makes Gauss–Newton converge on fixed data.
 /// Samples where no boundary was found are left out, or with `keep_unfound` kept as they were
-/// (for the self-check, which counts them).
+/// (for the self-check, which counts them). With `free_width` only the middles between the
+/// sides place the tube ([`crate::width::middles`]).
 pub(crate) fn against(
     cameras: &[Camera],
     tube: &Tube,
     measured: &[Vec<Measured>],
     keep_unfound: bool,
+    free_width: bool,
 ) -> Vec<Vec<Measured>> {
-    cameras
+    let mut moved: Vec<Vec<Measured>> = cameras
         .iter()
         .zip(measured)
         .map(|(cam, ms)| {
@@ -106,11 +119,18 @@ pub(crate) fn against(
                         edge: m.edge,
                         lighter: m.lighter,
                         ramp: m.ramp,
+                        narrowing: 0.0,
                     })
                 })
                 .collect()
         })
-        .collect()
+        .collect();
+    if free_width {
+        for m in &mut moved {
+            crate::width::middles(m);
+        }
+    }
+    moved
 }
 
 /// Normal equations `H δ = −g` of one linearisation.

@@ -109,6 +109,10 @@ impl TubeFitter {
                 if within_blur && placing() >= 2 {
                     return None;
                 }
+                // A mask's soft edge is its segmentation's, not a shutter's.
+                if self.settings.masks {
+                    return Some(why);
+                }
                 Some(why + &blurred(c, within_blur))
             })
             .or_else(|| shape_verdict(&fit.tube, volume))

@@ -797,6 +797,17 @@ pub struct SimulateArgs {
     /// camera's exposure blurs it; the truth is the middle of the exposure.
     #[arg(long, default_value_t = 0.0, requires = "motion")]
     pub shutter: f64,
+    /// Instead of camera frames, masks as another tool draws them: the catheter's whole
+    /// centerline stroked this many pixels wide with round ends, whatever its radius and depth
+    /// (a reconstruction tool's fixed-width masks, a line drawn by hand), written to `masks/`
+    /// with no backgrounds; the rig then claims no marker bands. Track them as any masks
+    /// (`flexshape track DIR`)
+    #[arg(
+        long,
+        value_name = "WIDTH_PX",
+        conflicts_with_all = ["model", "shutter"]
+    )]
+    pub drawn_masks: Option<f64>,
     #[command(flatten)]
     pub sim: SimArgs,
 }

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use flexshape_calib::{Board, Pattern};
 use flexshape_model::{CommandedPose, ExperimentPlan, Model, Role};
-use flexshape_recording::{PoseRole, RecordingWriter};
+use flexshape_recording::{PoseRole, RecordingWriter, Truth};
 use flexshape_sim::{
     BoardRenderer, CatheterPose, PrintedBoard, PrintedMarkers, PrintedPattern, SimConfig, SimFrame,
     Simulator, calibration_views,
@@ -130,6 +130,45 @@ pub fn simulate_recording(
         .map_err(write_error)?;
     if let Scenario::Motion { rate_hz, .. } = scenario {
         write_timestamps(out, written, *rate_hz)?;
+    }
+    Ok((written, poses.len()))
+}
+
+/// As [`simulate_recording`], masks instead of frames: every camera's mask of the catheter's
+/// whole centerline drawn as a line `width_px` wide ([`Simulator::write_drawn_mask_recording`]),
+/// as another tool's fixed-width masks or a hand-drawn line give them, with the truth; the
+/// rig claims no marker bands. A model experiment is not drawn (its commands need the frames'
+/// tendon displacements filmed). `on_frame` sees each frame's truth as it is written.
+pub fn simulate_drawn_masks(
+    config: SimConfig,
+    scenario: &Scenario,
+    width_px: f64,
+    out: &Path,
+    overwrite: bool,
+    on_frame: impl FnMut(&Truth) -> ControlFlow<()>,
+) -> Result<(u64, usize), LabError> {
+    let sim_error = |e: flexshape_sim::SimError| LabError::data("the simulated rig", e.to_string());
+    let sim = Simulator::new(config).map_err(sim_error)?;
+    let (poses, rate_hz) = match scenario {
+        Scenario::Sweep { frames } => (sim.sweep(*frames), None),
+        Scenario::Motion {
+            frames, rate_hz, ..
+        } => (sim.motion(*frames, *rate_hz), Some(*rate_hz)),
+        Scenario::Experiment { .. } => {
+            return Err(LabError::data(
+                "drawn masks",
+                "a model experiment is filmed, not drawn: leave --model out",
+            ));
+        }
+    };
+    let written = sim
+        .write_drawn_mask_recording(out, &poses, width_px, overwrite, on_frame)
+        .map_err(|e| LabError::Write {
+            path: out.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+    if let Some(hz) = rate_hz {
+        write_timestamps(out, written, hz)?;
     }
     Ok((written, poses.len()))
 }

@@ -23,5 +23,5 @@ pub use command::{Command, PoseRole};
 pub use error::RecordingError;
 pub use layout::Layout;
 pub use reader::RecordingReader;
-pub use truth::{BendBase, RightBounds, Truth, TruthBand, TruthSection};
+pub use truth::{BendBase, RightBounds, Truth, TruthBand, TruthErrors, TruthSection};
 pub use writer::RecordingWriter;

@@ -1,5 +1,7 @@
 //! Ground truth of one simulated frame (`DIR/truth/NNNNNN.json`).
 
+use flexshape_curve::Polyline;
+use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
 /// A marker band: the centerline point at the band's centre.
@@ -76,6 +78,61 @@ pub struct RightBounds {
     pub rms_mm: f64,
     /// Tip distance from the true tip, mm.
     pub tip_mm: f64,
+}
+
+/// A sensed shape against a true centerline, mm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TruthErrors {
+    /// RMS distance from the true centerline's samples (those inside the volume) to the
+    /// sensed centerline.
+    pub centerline_rms: f64,
+    /// Distance between the sensed tip and the true one (the true centerline's last sample).
+    pub tip: f64,
+}
+
+impl TruthErrors {
+    /// The errors of the `sensed` centerline (world mm, any sampling, at least two points) and
+    /// its `tip` against `truth` (world mm, proximal to distal, ending at the true tip) where
+    /// `inside` holds (the working volume: outside it no shape is reported); `None` when the
+    /// sensed centerline has fewer than two distinct points or no true sample is inside.
+    pub fn between(
+        truth: &[[f64; 3]],
+        sensed: &[[f64; 3]],
+        tip: [f64; 3],
+        inside: impl Fn(&Point3<f64>) -> bool,
+    ) -> Option<Self> {
+        let curve = Polyline::new(sensed.iter().map(|&p| Point3::from(p)).collect()).ok()?;
+        let d2: Vec<f64> = truth
+            .iter()
+            .map(|&p| Point3::from(p))
+            .filter(|p| inside(p))
+            .map(|p| curve.closest(&p).1.powi(2))
+            .collect();
+        if d2.is_empty() {
+            return None;
+        }
+        Some(TruthErrors {
+            centerline_rms: (d2.iter().sum::<f64>() / d2.len() as f64).sqrt(),
+            tip: (Point3::from(tip) - Point3::from(*truth.last()?)).norm(),
+        })
+    }
+
+    /// Whether the shape is right within `bounds`.
+    pub fn within(&self, bounds: RightBounds) -> bool {
+        self.centerline_rms <= bounds.rms_mm && self.tip <= bounds.tip_mm
+    }
+}
+
+impl Truth {
+    /// [`TruthErrors::between`] this frame's true centerline and a sensed one.
+    pub fn errors(
+        &self,
+        sensed: &[[f64; 3]],
+        tip: [f64; 3],
+        inside: impl Fn(&Point3<f64>) -> bool,
+    ) -> Option<TruthErrors> {
+        TruthErrors::between(&self.centerline, sensed, tip, inside)
+    }
 }
 
 impl Default for RightBounds {

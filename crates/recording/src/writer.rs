@@ -27,6 +27,25 @@ impl RecordingWriter {
     /// `masks/`, `truth/`, `commands/`) are removed
     /// first so no stale frame of the old recording survives, and nothing else is touched.
     pub fn create(root: &Path, rig: &Rig, overwrite: bool) -> Result<Self, RecordingError> {
+        Self::create_parts(root, rig, overwrite, false)
+    }
+
+    /// As [`RecordingWriter::create`], for a recording of masks ([`RecordingWriter::write_mask`])
+    /// instead of frames and backgrounds.
+    pub fn create_for_masks(
+        root: &Path,
+        rig: &Rig,
+        overwrite: bool,
+    ) -> Result<Self, RecordingError> {
+        Self::create_parts(root, rig, overwrite, true)
+    }
+
+    fn create_parts(
+        root: &Path,
+        rig: &Rig,
+        overwrite: bool,
+        masks: bool,
+    ) -> Result<Self, RecordingError> {
         let layout = Layout::new(root);
         if let Ok(mut entries) = std::fs::read_dir(root)
             && entries.next().is_some()
@@ -58,13 +77,16 @@ impl RecordingWriter {
                 }
             }
         }
-        let mut dirs = vec![
-            layout.calibration_dir(),
-            root.join("background"),
-            root.join("truth"),
-        ];
+        let mut dirs = vec![layout.calibration_dir(), root.join("truth")];
+        if !masks {
+            dirs.push(root.join("background"));
+        }
         for c in &rig.cameras {
-            dirs.push(layout.frames_dir(&c.name));
+            dirs.push(if masks {
+                layout.masks_dir(&c.name)
+            } else {
+                layout.frames_dir(&c.name)
+            });
         }
         for d in &dirs {
             std::fs::create_dir_all(d).map_err(|e| RecordingError::io(d, e))?;
@@ -110,6 +132,17 @@ impl RecordingWriter {
         image: &RgbImage,
     ) -> Result<(), RecordingError> {
         write_rgb(&self.layout.frame(cam, frame), image)
+    }
+
+    /// Writes `masks/<cam>/<frame:06>.png` (0 = background, 255 = object), in a recording
+    /// made by [`RecordingWriter::create_for_masks`].
+    pub fn write_mask(
+        &self,
+        cam: &str,
+        frame: u64,
+        mask: &GrayImage,
+    ) -> Result<(), RecordingError> {
+        write_gray(&self.layout.mask(cam, frame), mask)
     }
 
     /// Writes `timestamps.csv`: each frame's capture time, seconds (`frame,seconds` lines after

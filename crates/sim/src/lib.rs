@@ -33,6 +33,7 @@
 
 mod catheter;
 mod chessboard;
+mod drawn;
 mod error;
 mod render;
 mod rig;
@@ -44,6 +45,7 @@ pub use catheter::{Catheter, CatheterPose, CatheterState, RENDER_STEP, TRUTH_STE
 pub use chessboard::{
     BoardRenderer, CalibrationView, PrintedBoard, PrintedMarkers, PrintedPattern, calibration_views,
 };
+pub use drawn::drawn_mask;
 pub use error::SimError;
 pub use render::{RenderSettings, Renderer, View};
 pub use rig::SimRigConfig;

@@ -282,6 +282,48 @@ impl Simulator {
         self.write_frames(dir, exposures.len(), overwrite, render, on_frame)
     }
 
+    /// A recording of masks as another tool draws them ([`crate::drawn_mask`]): for each of
+    /// `poses`, every camera's mask of the whole true centerline stroked `width_px` wide, and
+    /// the truth; no frames, no backgrounds. Its rig claims no marker bands (a mask shows
+    /// none). Each frame is handed to `on_frame` (its truth) once it is on disk.
+    pub fn write_drawn_mask_recording(
+        &self,
+        dir: &Path,
+        poses: &[CatheterPose],
+        width_px: f64,
+        overwrite: bool,
+        mut on_frame: impl FnMut(&Truth) -> ControlFlow<()>,
+    ) -> Result<u64, SimError> {
+        if !(width_px.is_finite() && width_px >= 1.0) {
+            return Err(crate::error::config_error(
+                "drawn mask width",
+                format!("{width_px} px: give at least 1 pixel"),
+            ));
+        }
+        let mut rig = self.rig.clone();
+        if let Some(toml::Value::Table(shape)) = rig.processing.get_mut("shape") {
+            for key in ["expected_bands", "tip_band", "sections"] {
+                shape.remove(key);
+            }
+        }
+        let writer = RecordingWriter::create_for_masks(dir, &rig, overwrite)?;
+        let catheter = &self.config.catheter;
+        for (i, pose) in poses.iter().enumerate() {
+            let frame = i as u64;
+            let truth = catheter.truth(frame, pose, &catheter.state(pose)?)?;
+            let line: Vec<Point3<f64>> = truth.centerline.iter().map(|&p| p.into()).collect();
+            for cam in &rig.cameras {
+                let mask = crate::drawn_mask(&cam.camera, &line, width_px);
+                writer.write_mask(&cam.name, frame, &mask)?;
+            }
+            writer.write_truth(&truth)?;
+            if on_frame(&truth).is_break() {
+                return Ok(frame + 1);
+            }
+        }
+        Ok(poses.len() as u64)
+    }
+
     /// Creates the recording and writes frames `0..count`, each as `render` makes it (with
     /// its command, if any), handing each to `on_frame` once it is on disk.
     fn write_frames(

@@ -261,6 +261,7 @@ impl Pipeline {
             Self::with_silhouettes(rig, &black, volume, |s| SilhouetteSettings::for_masks(&s))?;
         let fit = pipeline.fit_settings();
         let settings = FitSettings {
+            masks: true,
             max_p90_px: fit.max_p90_px.max(MASK_P90_PX),
             // The outline's noise doubles (measured: 0.2 px RMS against 0.1 from images), and
             // so does the uncertainty of a fit the cameras do pin down.

@@ -13,7 +13,7 @@ use std::path::Path;
 use flexshape_camera::nalgebra::{Matrix3, Point3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use flexshape_curve::{Frame, Polyline};
 use flexshape_fit::{FitSettings, Method};
-use flexshape_recording::RightBounds;
+use flexshape_recording::{RightBounds, TruthErrors};
 use flexshape_register::RigidTransform;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{
@@ -128,28 +128,6 @@ impl Judged {
     }
 }
 
-/// Whether `record`'s centerline and tip are right by the truth — the true centerline
-/// (world mm, proximal to distal, ending at the true tip) where it lies inside the volume
-/// (`inside`) — within `bounds`; `None` when the record carries no centerline.
-fn right_by_truth(
-    record: &TrackRecord,
-    truth: &[Point3<f64>],
-    inside: impl Fn(&Point3<f64>) -> bool,
-    bounds: RightBounds,
-) -> Option<bool> {
-    let sensed =
-        Polyline::new(record.centerline.iter().map(|p| Point3::from(*p)).collect()).ok()?;
-    let tip = Point3::from(record.tip?);
-    let d2: Vec<f64> = truth
-        .iter()
-        .filter(|p| inside(p))
-        .map(|p| sensed.closest(p).1.powi(2))
-        .collect();
-    let true_tip = truth.last()?;
-    let rms = (d2.iter().sum::<f64>() / d2.len().max(1) as f64).sqrt();
-    Some(rms <= bounds.rms_mm && (tip - true_tip).norm() <= bounds.tip_mm)
-}
-
 /// The simulated rig and its sensing chain.
 struct Bench {
     sim: Simulator,
@@ -193,12 +171,11 @@ impl Bench {
     /// to distal), [`RightBounds::default`]; `None` when it carries none.
     fn right(&self, record: &TrackRecord, truth: &[Point3<f64>]) -> Option<bool> {
         let volume = &self.sim.rig().volume;
-        right_by_truth(
-            record,
-            truth,
-            |p| volume.contains(p),
-            RightBounds::default(),
-        )
+        let truth: Vec<[f64; 3]> = truth.iter().map(|p| [p.x, p.y, p.z]).collect();
+        let errors = TruthErrors::between(&truth, &record.centerline, record.tip?, |p| {
+            volume.contains(p)
+        })?;
+        Some(errors.within(RightBounds::default()))
     }
 
     fn track(&self, scene: &Scene, frame: u64) -> Result<(TrackRecord, Tracked), ValidateError> {

@@ -68,10 +68,16 @@ impl TubeFitter {
                 continue;
             }
             let r0 = radius.unwrap_or_else(|| self.radius_from_widths(&tri.points, [a, b]));
-            let Some((points, open, base)) = oriented(tri, volume, r0 + 2.0 * voxel, estimator)
+            let Some((mut points, open, base)) = oriented(tri, volume, r0 + 2.0 * voxel, estimator)
             else {
                 continue;
             };
+            // An image centerline runs to the far edge of a closed end's rounded image, its
+            // radius beyond the end's centre: left there, a wide tube's cap starts farther
+            // off than its boundaries are searched (15 px at 2500 px across).
+            for end in [0, 1].into_iter().filter(|&e| !open[e]) {
+                trim(&mut points, end, r0);
+            }
             let Ok(start) = Tube::through(&points, r0, open.map(|o| !o), s.span_mm, s.extend_mm)
                 .map(|t| t.with_steps(&estimator.settings().radius_steps))
             else {
@@ -165,6 +171,29 @@ fn oriented(
     (points.len() >= 4).then_some((points, open, base))
 }
 
+/// `points` (a polyline, world mm) shortened by `length` mm at `end` (0 the first point, 1
+/// the last), keeping at least its first or last segment's other point.
+fn trim(points: &mut Vec<[f64; 3]>, end: usize, length: f64) {
+    if end == 0 {
+        points.reverse();
+    }
+    let mut left = length;
+    while points.len() > 2 && left > 0.0 {
+        let n = points.len();
+        let (a, b) = (Point3::from(points[n - 2]), Point3::from(points[n - 1]));
+        let d = (b - a).norm();
+        if d > left {
+            points[n - 1] = (b + (a - b) * (left / d)).into();
+            break;
+        }
+        left -= d;
+        points.pop();
+    }
+    if end == 0 {
+        points.reverse();
+    }
+}
+
 /// Mean outline residual over the cameras, pixels.
 fn mean_residual(fit: &Fit) -> f64 {
     fit.cameras.iter().map(|c| c.residual_px).sum::<f64>() / fit.cameras.len().max(1) as f64
@@ -243,6 +272,23 @@ mod tests {
         let through = straight([0.0, 0.0, -127.0], [0.0, 0.0, 127.0], [false, false]);
         let (_, _, base) = oriented(through, &volume, 5.0, &estimator(None)).unwrap();
         assert_eq!(base.status, Status::LeavesVolume);
+    }
+
+    #[test]
+    fn a_closed_end_is_trimmed_along_the_curve() {
+        let line = || straight([0.0, 0.0, 0.0], [0.0, 0.0, 20.0], [false, false]).points;
+        // 1 mm apart: 2.5 mm off the tip leaves the point at 17.5.
+        let mut p = line();
+        trim(&mut p, 1, 2.5);
+        assert_eq!(p.len(), 19);
+        assert!((p[18][2] - 17.5).abs() < 1e-12, "{:?}", p[18]);
+        let mut p = line();
+        trim(&mut p, 0, 2.5);
+        assert!((p[0][2] - 2.5).abs() < 1e-12 && p[p.len() - 1][2] == 20.0);
+        // Never below one segment.
+        let mut p = line();
+        trim(&mut p, 1, 100.0);
+        assert_eq!(p.len(), 2);
     }
 
     #[test]

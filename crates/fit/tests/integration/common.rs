@@ -4,7 +4,6 @@
 
 use flexshape_camera::Camera;
 use flexshape_carve::{BandRule, HierarchicalCarver, OutsideImage, find_bands};
-use flexshape_curve::Polyline;
 use flexshape_fit::{Fit, FitSettings, TubeFitter, View};
 use flexshape_recording::Truth;
 use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings};
@@ -177,17 +176,11 @@ impl Both {
 
 /// RMS distance from the truth centerline samples inside the volume to a curve, mm.
 pub fn centerline_rms(truth: &Truth, sim: &Simulator, curve: &[[f64; 3]]) -> f64 {
-    let Ok(poly) = Polyline::new(curve.iter().map(|&p| Point3::from(p)).collect()) else {
-        return f64::INFINITY;
-    };
-    let d2: Vec<f64> = truth
-        .centerline
-        .iter()
-        .map(|&p| Point3::from(p))
-        .filter(|p| sim.rig().volume.contains(p))
-        .map(|p| poly.closest(&p).1.powi(2))
-        .collect();
-    (d2.iter().sum::<f64>() / d2.len() as f64).sqrt()
+    let volume = &sim.rig().volume;
+    let tip = curve.last().copied().unwrap_or_default();
+    truth
+        .errors(curve, tip, |p| volume.contains(p))
+        .map_or(f64::INFINITY, |e| e.centerline_rms)
 }
 
 /// Distance between the record's tip and the true one, mm.

@@ -5,7 +5,9 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use anyhow::Context;
-use flexshape_lab::simulate::{BoardSession, Scenario, simulate_boards, simulate_recording};
+use flexshape_lab::simulate::{
+    BoardSession, Scenario, simulate_boards, simulate_drawn_masks, simulate_recording,
+};
 use flexshape_model::ExperimentPlan;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -29,18 +31,29 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     bar.set_message(format!("simulating into {}", out.display()));
     let start = Instant::now();
     let config = super::sim_config(&args.sim);
-    let (written, planned) = simulate_recording(config, &scenario, out, args.overwrite, |_| {
+    let on_frame = || {
         bar.inc(1);
         if stop.requested() {
             ControlFlow::Break(())
         } else {
             ControlFlow::Continue(())
         }
-    })
+    };
+    let (written, planned) = match args.drawn_masks {
+        Some(width) => simulate_drawn_masks(config, &scenario, width, out, args.overwrite, |_| {
+            on_frame()
+        }),
+        None => simulate_recording(config, &scenario, out, args.overwrite, |_| on_frame()),
+    }
     .with_context(|| format!("cannot write the recording to {}", out.display()))?;
     bar.finish_and_clear();
     println!(
-        "wrote {written} frames × {} cameras to {} in {:.1} s{}",
+        "wrote {written} {} × {} cameras to {} in {:.1} s{}",
+        if args.drawn_masks.is_some() {
+            "drawn masks"
+        } else {
+            "frames"
+        },
         args.sim.cams,
         out.display(),
         start.elapsed().as_secs_f64(),

@@ -1,6 +1,5 @@
 //! A tracked shape against the simulator's truth, and figures over many frames.
 
-use flexshape_curve::Polyline;
 use flexshape_model::nalgebra_types::Point3;
 use flexshape_recording::{RightBounds, Truth};
 use flexshape_track::{Pipeline, Tracked, quantile};
@@ -26,17 +25,13 @@ impl ShapeErrors {
     pub fn of(pipeline: &Pipeline, truth: &Truth, t: &Tracked) -> Option<Self> {
         let shape = &t.shape;
         let volume = pipeline.volume();
+        let errors = truth.errors(&shape.points, shape.tip, |p| volume.contains(p))?;
         let inside: Vec<Point3<f64>> = truth
             .centerline
             .iter()
             .map(|p| Point3::from(*p))
             .filter(|p| volume.contains(p))
             .collect();
-        if shape.points.len() < 2 || inside.is_empty() {
-            return None;
-        }
-        let curve = Polyline::new(shape.points.iter().map(|&p| Point3::from(p)).collect()).ok()?;
-        let sum2: f64 = inside.iter().map(|p| curve.closest(p).1.powi(2)).sum();
         let band = truth
             .bands
             .iter()
@@ -59,8 +54,8 @@ impl ShapeErrors {
             .filter(|p| t.occupancy.contains_point(p))
             .count();
         Some(ShapeErrors {
-            centerline_rms: (sum2 / inside.len() as f64).sqrt(),
-            tip: (Point3::from(shape.tip) - Point3::from(truth.tip)).norm(),
+            centerline_rms: errors.centerline_rms,
+            tip: errors.tip,
             band,
             curvature,
             hull_covers: covered as f64 / inside.len() as f64,

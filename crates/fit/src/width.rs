@@ -1,0 +1,200 @@
+//! Free outline widths ([`crate::OutlineWidth::Free`]): a mask drawn as a line a fixed number
+//! of pixels wide, or a segmentation that grows or shrinks the tube, has boundaries whose
+//! distance apart says nothing of the tube's radius or depth. Only the middle between the two
+//! boundaries across the tube is its centerline's image. So each station's two side residuals
+//! (predicted minus measured along each side's outward normal) are split into their half
+//! difference — the middle's offset, which moves the tube — and their mean — how much narrower
+//! the silhouette is than the tube's image there — which is taken out. A side whose partner
+//! is not measured, and a cap, are read against the width its neighbours measured.
+//!
+//! Each pair then enters the fit as two rows of the middle's offset, ±: two boundaries' worth
+//! of information on one middle (its noise is theirs over √2), as the two sides were.
+
+use crate::outline::Part;
+use crate::solve::Measured;
+
+/// Along one camera's view of a tube, how much narrower its silhouette is than the tube's
+/// image at each station where both sides were measured: pairs of centerline parameter and
+/// pixels (negative: the silhouette is wider), by parameter.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct WidthProfile {
+    stations: Vec<(f64, f64)>,
+}
+
+impl WidthProfile {
+    /// The narrowing at parameter `u`, pixels: linear between stations, the nearest one's
+    /// beyond them, 0 with none.
+    pub(crate) fn at(&self, u: f64) -> f64 {
+        let s = &self.stations;
+        let (Some(first), Some(last)) = (s.first(), s.last()) else {
+            return 0.0;
+        };
+        if u <= first.0 {
+            return first.1;
+        }
+        if u >= last.0 {
+            return last.1;
+        }
+        let k = s.partition_point(|p| p.0 <= u).clamp(1, s.len() - 1);
+        let (a, b) = (s[k - 1], s[k]);
+        let t = if b.0 > a.0 {
+            (u - a.0) / (b.0 - a.0)
+        } else {
+            0.0
+        };
+        a.1 + (b.1 - a.1) * t
+    }
+
+    /// The profile a measured outline's samples carry ([`Measured::narrowing`]), pixels: that
+    /// of their sides with a residual (all 0 when widths follow the tube).
+    pub(crate) fn of(measured: &[Measured]) -> Self {
+        let mut stations: Vec<(f64, f64)> = measured
+            .iter()
+            .filter(|m| m.residual.is_some() && matches!(m.point.part, Part::Side(_)))
+            .map(|m| (m.point.u, m.narrowing))
+            .collect();
+        stations.sort_by(|x, y| x.0.total_cmp(&y.0));
+        WidthProfile { stations }
+    }
+
+    /// The median narrowing over the stations, pixels (0 with none).
+    pub(crate) fn median(&self) -> f64 {
+        let mut v: Vec<f64> = self.stations.iter().map(|s| s.1).collect();
+        if v.is_empty() {
+            return 0.0;
+        }
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    }
+}
+
+/// Rewrites one camera's measured outline so that only the middle between a station's two
+/// sides places the tube (see the module's comment), and returns the widths taken out. A
+/// side or cap left with no station to read its width against has no residual.
+pub(crate) fn middles(measured: &mut [Measured]) -> WidthProfile {
+    let mut stations = Vec::new();
+    let mut paired = vec![false; measured.len()];
+    for i in 0..measured.len().saturating_sub(1) {
+        let (a, b) = (&measured[i].point, &measured[i + 1].point);
+        let same_station = matches!((a.part, b.part), (Part::Side(_), Part::Side(_)))
+            && a.u == b.u
+            && a.which < 0.0
+            && b.which > 0.0;
+        if !same_station || paired[i] {
+            continue;
+        }
+        let (Some(left), Some(right)) = (measured[i].residual, measured[i + 1].residual) else {
+            continue;
+        };
+        let narrower = (left + right) / 2.0;
+        let middle = (right - left) / 2.0;
+        measured[i].residual = Some(-middle);
+        measured[i + 1].residual = Some(middle);
+        measured[i].narrowing = narrower;
+        measured[i + 1].narrowing = narrower;
+        paired[i] = true;
+        paired[i + 1] = true;
+        stations.push((a.u, narrower));
+    }
+    stations.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let profile = WidthProfile { stations };
+    for (m, &done) in measured.iter_mut().zip(&paired) {
+        if done {
+            continue;
+        }
+        let u = match m.point.part {
+            Part::Side(_) => m.point.u,
+            Part::Cap(end) => end as f64,
+        };
+        m.narrowing = profile.at(u);
+        m.residual = match (m.residual, profile.stations.is_empty()) {
+            (Some(r), false) => Some(r - m.narrowing),
+            _ => None,
+        };
+    }
+    profile
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Point3, Vector2, Vector3};
+
+    use super::*;
+    use crate::outline::OutlinePoint;
+
+    fn sample(part: Part, u: f64, which: f64, residual: Option<f64>) -> Measured {
+        Measured {
+            point: OutlinePoint {
+                pixel: Vector2::zeros(),
+                normal: Vector2::x(),
+                gain: 1.0,
+                surface: Vector3::x(),
+                half_width: 5.0,
+                weight: 1.0,
+                part,
+                section: 0,
+                u,
+                which,
+                world: Point3::origin(),
+            },
+            residual,
+            edge: None,
+            lighter: false,
+            ramp: None,
+            narrowing: 0.0,
+        }
+    }
+
+    fn side(u: f64, which: f64, residual: Option<f64>) -> Measured {
+        let basis = flexshape_curve::Basis {
+            first: 0,
+            weights: [[0.25; 4]; 4],
+        };
+        sample(Part::Side(basis), u, which, residual)
+    }
+
+    #[test]
+    fn a_pair_keeps_its_middle_and_the_rest_read_their_neighbours_width() {
+        // Station 0.2: the silhouette 3 px narrower each side than the tube's image and its
+        // middle 0.5 px toward side +1 (its residual 0.5 less); station 0.6: 1 px wider, the
+        // middle in place. Then a lone side at 0.4 and the tip's cap.
+        let mut m = vec![
+            side(0.2, -1.0, Some(3.5)),
+            side(0.2, 1.0, Some(2.5)),
+            side(0.4, 1.0, Some(0.7)),
+            side(0.6, -1.0, Some(-1.0)),
+            side(0.6, 1.0, Some(-1.0)),
+            sample(Part::Cap(1), 1.0, 0.0, Some(-0.8)),
+            side(0.8, -1.0, None),
+            side(0.8, 1.0, Some(0.3)),
+        ];
+        let profile = middles(&mut m);
+        let r: Vec<Option<f64>> = m.iter().map(|m| m.residual).collect();
+        let close = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-12);
+        assert!(close(r[0], 0.5) && close(r[1], -0.5), "{r:?}");
+        assert!(close(r[3], 0.0) && close(r[4], 0.0), "{r:?}");
+        // Between the stations the width is interpolated (3 → −1: 1 at 0.4).
+        assert!(close(r[2], -0.3), "{r:?}");
+        // The cap reads the last station's width; so does the lone side beyond it.
+        assert!(close(r[5], 0.2) && close(r[7], 1.3), "{r:?}");
+        assert_eq!(r[6], None);
+        assert_eq!(profile.stations, vec![(0.2, 3.0), (0.6, -1.0)]);
+        assert!((profile.median() - 3.0).abs() < 1e-12);
+        // The samples carry it: the profile read back from them interpolates as the first.
+        let again = WidthProfile::of(&m);
+        for u in [0.1, 0.3, 0.5, 0.7, 0.9] {
+            assert!((again.at(u) - profile.at(u)).abs() < 1e-12, "{u}");
+        }
+    }
+
+    #[test]
+    fn with_no_station_nothing_is_read() {
+        let mut m = vec![
+            side(0.5, 1.0, Some(0.2)),
+            sample(Part::Cap(0), 0.0, 0.0, Some(0.1)),
+        ];
+        let profile = middles(&mut m);
+        assert!(m.iter().all(|m| m.residual.is_none()));
+        assert_eq!(profile.at(0.3), 0.0);
+    }
+}
