@@ -428,7 +428,7 @@ fn masks_drawn_a_fixed_width_give_the_shape() {
             continue;
         }
         ok += 1;
-        // Measured: 0.015–0.030 mm RMS, tips 0.014–0.092 mm.
+        // Measured: 0.015–0.033 mm RMS, tips 0.021–0.105 mm.
         let e = errors(r, &reader.read_truth(n as u64).unwrap().unwrap(), &volume);
         assert!(e.centerline_rms <= 0.06, "frame {n}: {e:?}");
         assert!(e.tip <= 0.2, "frame {n}: {e:?}");
