@@ -406,7 +406,11 @@ impl TubeFitter {
             .map(|((((cam, name), view), m), spheres)| {
                 let res = check::residual_stats(m);
                 let ends = check::end_stats(m, &tube, length);
-                let widths = WidthProfile::of(m);
+                let widths = if s.free_width() {
+                    WidthProfile::of(m)
+                } else {
+                    WidthProfile::default()
+                };
                 let rendered = check::render(cam, spheres, &widths);
                 let (w, h) = (view.silhouette.width(), view.silhouette.height());
                 let zones = || self.end_zones(cam, &tube, w, h);
@@ -429,7 +433,8 @@ impl TubeFitter {
                     cap_found: check::cap_found(m),
                     // A mask's object is white on black: no colour to speak of.
                     lighter_share: if s.masks { 0.0 } else { res.lighter },
-                    width_offset_px: -widths.median(),
+                    // (From +0: a negated zero would be written "-0.0".)
+                    width_offset_px: 0.0 - widths.median(),
                     ramp_px: res.ramp,
                     beyond_blur: check::OutlineResiduals {
                         end_residual_px: ends.beyond_blur.residual_px,

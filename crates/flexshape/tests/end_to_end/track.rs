@@ -34,8 +34,13 @@ fn tracks_a_simulated_recording_within_the_shape_targets_and_survives_a_corrupt_
         stderr.contains("frame 000003") && stderr.contains("000003.png"),
         "{stderr}"
     );
-    let lines: Vec<Value> = std::fs::read_to_string(&out)
-        .unwrap()
+    let text = std::fs::read_to_string(&out).unwrap();
+    // Camera images: their widths are the tube's, and no mask's offset is written.
+    assert!(
+        text.contains("\"width_offset_px\":0.0") && !text.contains("\"width_offset_px\":-"),
+        "{text}"
+    );
+    let lines: Vec<Value> = text
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
