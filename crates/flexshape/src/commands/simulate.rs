@@ -22,6 +22,12 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         anyhow::bail!("give the folder to write the recording to with --out DIR");
     };
     let scenario = scenario(args)?;
+    if let Some(width) = args.drawn_masks {
+        anyhow::ensure!(
+            width.is_finite() && width >= 1.0,
+            "--drawn-masks {width}: give the drawn line's width in pixels, at least 1"
+        );
+    }
     let stop = Interrupt::install();
     let bar = ProgressBar::new(scenario.frames() as u64).with_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} frames, {per_sec}, eta {eta}")

@@ -459,6 +459,20 @@ fn masks_drawn_a_fixed_width_give_the_shape() {
     common::run(&["track", rec_arg, "--out", tube.to_str().unwrap()]);
     let (records, _) = read_lines(&tube);
     assert!(records.iter().all(|r| r["status"] != "ok"), "{records:?}");
+    // A width below a pixel, or a model experiment (filmed, not drawn), is refused by name
+    // before anything is written.
+    let bad = dir.path().join("bad");
+    let bad_arg = bad.to_str().unwrap();
+    for (args, says) in [
+        (vec!["--drawn-masks", "0.5"], "--drawn-masks 0.5"),
+        (vec!["--drawn-masks", "8", "--model", "m.toml"], "--model"),
+    ] {
+        let mut all = vec!["simulate", "--out", bad_arg];
+        all.extend(args);
+        let e = common::fails(&all);
+        assert!(e.contains(says), "{e}");
+        assert!(!bad.exists());
+    }
 }
 
 /// Masks from a lab's own segmentation instead of images and backgrounds: binary grey, colour
