@@ -11,6 +11,7 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use flexshape_silhouette::BitMask;
+use flexshape_silhouette::components::{self, Run};
 use nalgebra::Vector2;
 
 /// The centerline of a tube's image, pixels (OpenCV convention), from one end to the other.
@@ -44,10 +45,10 @@ const MAX_WIDTH_PX: f64 = 200.0;
 /// when the mask is empty or its largest component is too short for a tube (under 4 widths).
 pub(crate) fn image_curve(mask: &BitMask, spacing_px: f64) -> Option<ImageCurve> {
     let (w, h) = (mask.width(), mask.height());
-    let seed = largest_component_pixel(mask)?;
-    let (dist, _) = geodesic(mask, seed);
+    let component = Component::largest(mask)?;
+    let (dist, _) = component.geodesic(0);
     let far = farthest(&dist)?;
-    let (dist, from) = geodesic(mask, far);
+    let (dist, from) = component.geodesic(far);
     let other = farthest(&dist)?;
     let mut pixels = vec![other];
     let mut at = other;
@@ -57,7 +58,10 @@ pub(crate) fn image_curve(mask: &BitMask, spacing_px: f64) -> Option<ImageCurve>
     }
     let raw: Vec<Vector2<f64>> = pixels
         .iter()
-        .map(|&i| Vector2::new((i % w) as f64, (i / w) as f64))
+        .map(|&i| {
+            let (x, y) = component.pixels[i];
+            Vector2::new(x as f64, y as f64)
+        })
         .collect();
     let coarse = resample(&raw, spacing_px)?;
     let (centred, widths) = recentre(mask, &coarse, spacing_px);
@@ -80,78 +84,100 @@ pub(crate) fn image_curve(mask: &BitMask, spacing_px: f64) -> Option<ImageCurve>
     })
 }
 
-/// A pixel (row-major index) of the largest 8-connected component, or `None` for an empty
-/// mask.
-fn largest_component_pixel(mask: &BitMask) -> Option<usize> {
-    let (w, h) = (mask.width(), mask.height());
-    let mut seen = vec![false; w * h];
-    let mut best: Option<(usize, usize)> = None;
-    let mut stack = Vec::new();
-    for y in 0..h {
-        if mask.row(y).iter().all(|&word| word == 0) {
-            continue;
+/// One 8-connected component of a mask, its pixels numbered in row-major order: the paths
+/// are searched over them alone (a 2500 × 2500 mask's full-image distance tables cost more
+/// than the search, most of it the kernel zeroing fresh pages).
+struct Component {
+    /// Each pixel's column and row.
+    pixels: Vec<(u32, u32)>,
+    /// The component's runs, row by row, each with the number of its first pixel.
+    runs: Vec<(Run, u32)>,
+    /// The first row, and per row from it the range of `runs` on it.
+    first_row: u32,
+    rows: Vec<std::ops::Range<usize>>,
+}
+
+impl Component {
+    /// The largest component of `mask` (the first found of equal ones), `None` for an empty
+    /// mask.
+    fn largest(mask: &BitMask) -> Option<Self> {
+        let all = components::runs(mask);
+        let (labels, areas) = components::label(&all);
+        let best = (0..areas.len()).fold(None, |best: Option<usize>, l| match best {
+            Some(b) if areas[b] >= areas[l] => Some(b),
+            _ => Some(l),
+        })?;
+        let mut runs = Vec::new();
+        let mut pixels = Vec::new();
+        for (run, _) in all.iter().zip(&labels).filter(|(_, l)| **l == best) {
+            runs.push((*run, pixels.len() as u32));
+            pixels.extend((run.x0..run.x1).map(|x| (x, run.y)));
         }
-        for x in 0..w {
-            let i = y * w + x;
-            if seen[i] || !mask.get(x, y) {
+        let first_row = runs.first()?.0.y;
+        let last_row = runs.last()?.0.y;
+        let mut rows = vec![0..0; (last_row - first_row + 1) as usize];
+        let mut k = 0;
+        for (r, range) in rows.iter_mut().enumerate() {
+            let y = first_row + r as u32;
+            let start = k;
+            while k < runs.len() && runs[k].0.y == y {
+                k += 1;
+            }
+            *range = start..k;
+        }
+        Some(Component {
+            pixels,
+            runs,
+            first_row,
+            rows,
+        })
+    }
+
+    /// The number of the component's pixel at column `x`, row `y`, if it is one.
+    fn at(&self, x: i64, y: i64) -> Option<usize> {
+        let r = usize::try_from(y - i64::from(self.first_row)).ok()?;
+        let runs = &self.runs[self.rows.get(r)?.clone()];
+        let x = u32::try_from(x).ok()?;
+        runs.iter()
+            .find(|(run, _)| run.x0 <= x && x < run.x1)
+            .map(|(run, first)| (first + (x - run.x0)) as usize)
+    }
+
+    /// The neighbours of pixel `i` in the component and the chamfer step to each.
+    fn neighbours(&self, i: usize) -> impl Iterator<Item = (usize, u32)> + '_ {
+        let (x, y) = self.pixels[i];
+        STEPS.iter().filter_map(move |&(dx, dy, c)| {
+            self.at(i64::from(x) + i64::from(dx), i64::from(y) + i64::from(dy))
+                .map(|j| (j, c))
+        })
+    }
+
+    /// Chamfer distances from pixel `source` to every pixel, and each pixel's predecessor on a
+    /// shortest path.
+    fn geodesic(&self, source: usize) -> (Vec<u32>, Vec<u32>) {
+        let n = self.pixels.len();
+        let mut dist = vec![u32::MAX; n];
+        let mut from = vec![u32::MAX; n];
+        let mut heap = BinaryHeap::new();
+        dist[source] = 0;
+        heap.push(Reverse((0u32, source)));
+        while let Some(Reverse((d, i))) = heap.pop() {
+            if d > dist[i] {
                 continue;
             }
-            let mut size = 0;
-            seen[i] = true;
-            stack.push(i);
-            while let Some(j) = stack.pop() {
-                size += 1;
-                for n in neighbours(mask, j) {
-                    if !seen[n.0] {
-                        seen[n.0] = true;
-                        stack.push(n.0);
-                    }
+            for (j, c) in self.neighbours(i) {
+                if d + c < dist[j] {
+                    dist[j] = d + c;
+                    from[j] = i as u32;
+                    heap.push(Reverse((d + c, j)));
                 }
             }
-            if best.is_none_or(|b| size > b.1) {
-                best = Some((i, size));
-            }
         }
+        (dist, from)
     }
-    best.map(|b| b.0)
 }
 
-/// Object neighbours of pixel `i` (row-major) and the chamfer step to each.
-fn neighbours(mask: &BitMask, i: usize) -> impl Iterator<Item = (usize, u32)> + '_ {
-    let (w, h) = (mask.width() as i32, mask.height() as i32);
-    let (x, y) = ((i as i32) % w, (i as i32) / w);
-    STEPS.iter().filter_map(move |&(dx, dy, c)| {
-        let (nx, ny) = (x + dx, y + dy);
-        (nx >= 0 && ny >= 0 && nx < w && ny < h && mask.get(nx as usize, ny as usize))
-            .then_some(((ny * w + nx) as usize, c))
-    })
-}
-
-/// Chamfer distances from `source` within its component (`u32::MAX` elsewhere), and each
-/// reached pixel's predecessor on a shortest path.
-fn geodesic(mask: &BitMask, source: usize) -> (Vec<u32>, Vec<u32>) {
-    let n = mask.width() * mask.height();
-    let mut dist = vec![u32::MAX; n];
-    let mut from = vec![u32::MAX; n];
-    let mut heap = BinaryHeap::new();
-    dist[source] = 0;
-    heap.push(Reverse((0u32, source)));
-    while let Some(Reverse((d, i))) = heap.pop() {
-        if d > dist[i] {
-            continue;
-        }
-        for (j, c) in neighbours(mask, i) {
-            if d + c < dist[j] {
-                dist[j] = d + c;
-                from[j] = i as u32;
-                heap.push(Reverse((d + c, j)));
-            }
-        }
-    }
-    (dist, from)
-}
-
-/// The reached pixel farthest from the source.
+/// The reached pixel farthest from the source (the last of equally far ones).
 fn farthest(dist: &[u32]) -> Option<usize> {
     dist.iter()
         .enumerate()
