@@ -67,9 +67,8 @@ pub fn bench(config: SimConfig, settings: &BenchSettings) -> Result<BenchReport,
             "the rate must be a positive number of frames per second",
         ));
     }
-    let sim_error = |e: flexshape_sim::SimError| LabError::data("the simulated rig", e.to_string());
-    let sim = Simulator::new(config).map_err(sim_error)?;
-    let frames = render(&sim, &sim.sweep(s.frames)).map_err(sim_error)?;
+    let sim = Simulator::new(config).map_err(LabError::simulator)?;
+    let frames = render(&sim, &sim.sweep(s.frames)).map_err(LabError::simulator)?;
     let backgrounds = BackgroundModel::each(&sim.backgrounds())
         .map_err(|e| LabError::data("the simulated backgrounds", e.to_string()))?;
     let rig = sim.rig();
@@ -77,7 +76,7 @@ pub fn bench(config: SimConfig, settings: &BenchSettings) -> Result<BenchReport,
     // Tracking is measured whatever the rig's default (it is off unless asked for).
     let following = pipeline.clone().following(true)?;
     let motion = if following.tracks() {
-        render(&sim, &sim.motion(s.track_frames, s.rate_hz)).map_err(sim_error)?
+        render(&sim, &sim.motion(s.track_frames, s.rate_hz)).map_err(LabError::simulator)?
     } else {
         Vec::new()
     };

@@ -83,6 +83,11 @@ impl LabError {
         }
     }
 
+    /// The simulated rig could not be set up or render.
+    fn simulator(e: flexshape_sim::SimError) -> Self {
+        LabError::data("the simulated rig", e.to_string())
+    }
+
     fn model(step: impl Into<String>) -> impl FnOnce(flexshape_model::ModelError) -> Self {
         let step = step.into();
         move |source| LabError::Model { step, source }

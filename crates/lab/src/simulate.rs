@@ -82,15 +82,10 @@ pub fn simulate_recording(
     overwrite: bool,
     on_frame: impl FnMut(&SimFrame) -> ControlFlow<()>,
 ) -> Result<(u64, usize), LabError> {
-    let sim_error = |e: flexshape_sim::SimError| LabError::data("the simulated rig", e.to_string());
     if let Scenario::Experiment { model, .. } = scenario {
         config.catheter = flexshape_steer::catheter_for(&config.catheter, model.params());
     }
-    let sim = Simulator::new(config).map_err(sim_error)?;
-    let write_error = |e: flexshape_sim::SimError| LabError::Write {
-        path: out.to_path_buf(),
-        reason: e.to_string(),
-    };
+    let sim = Simulator::new(config).map_err(LabError::simulator)?;
     let (poses, commands) = match scenario {
         Scenario::Sweep { frames } => (sim.sweep(*frames), Vec::new()),
         Scenario::Motion {
@@ -101,7 +96,7 @@ pub fn simulate_recording(
             let exposures = sim.motion_exposures(*frames, *rate_hz, *shutter, EXPOSURE_INSTANTS);
             let written = sim
                 .write_exposed_recording(out, &exposures, overwrite, on_frame)
-                .map_err(write_error)?;
+                .map_err(write_error(out))?;
             write_timestamps(out, written, *rate_hz)?;
             return Ok((written, exposures.len()));
         }
@@ -127,7 +122,7 @@ pub fn simulate_recording(
     };
     let written = sim
         .write_commanded_recording(out, &poses, &commands, overwrite, on_frame)
-        .map_err(write_error)?;
+        .map_err(write_error(out))?;
     if let Scenario::Motion { rate_hz, .. } = scenario {
         write_timestamps(out, written, *rate_hz)?;
     }
@@ -147,8 +142,7 @@ pub fn simulate_drawn_masks(
     overwrite: bool,
     on_frame: impl FnMut(&Truth) -> ControlFlow<()>,
 ) -> Result<(u64, usize), LabError> {
-    let sim_error = |e: flexshape_sim::SimError| LabError::data("the simulated rig", e.to_string());
-    let sim = Simulator::new(config).map_err(sim_error)?;
+    let sim = Simulator::new(config).map_err(LabError::simulator)?;
     let (poses, rate_hz) = match scenario {
         Scenario::Sweep { frames } => (sim.sweep(*frames), None),
         Scenario::Motion {
@@ -163,14 +157,19 @@ pub fn simulate_drawn_masks(
     };
     let written = sim
         .write_drawn_mask_recording(out, &poses, width_px, overwrite, on_frame)
-        .map_err(|e| LabError::Write {
-            path: out.to_path_buf(),
-            reason: e.to_string(),
-        })?;
+        .map_err(write_error(out))?;
     if let Some(hz) = rate_hz {
         write_timestamps(out, written, hz)?;
     }
     Ok((written, poses.len()))
+}
+
+/// Writing the recording at `out` failed.
+fn write_error(out: &Path) -> impl Fn(flexshape_sim::SimError) -> LabError + '_ {
+    move |e| LabError::Write {
+        path: out.to_path_buf(),
+        reason: e.to_string(),
+    }
 }
 
 /// The timestamps of `written` frames filmed at `rate_hz` into the recording at `out`: frame
@@ -220,10 +219,7 @@ pub fn simulate_boards(
     mut on_image: impl FnMut(),
 ) -> Result<BoardImages, LabError> {
     let printed = printed(board)?;
-    let rig = config
-        .rig
-        .rig()
-        .map_err(|e| LabError::data("the simulated rig", e.to_string()))?;
+    let rig = config.rig.rig().map_err(LabError::simulator)?;
     let cameras: Vec<_> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
     let views = calibration_views(
         &cameras,

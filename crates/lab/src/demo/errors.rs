@@ -1,7 +1,7 @@
 //! A tracked shape against the simulator's truth, and figures over many frames.
 
 use flexshape_model::nalgebra_types::Point3;
-use flexshape_recording::{RightBounds, Truth};
+use flexshape_recording::{RightBounds, Truth, TruthErrors};
 use flexshape_track::{Pipeline, Tracked, quantile};
 
 /// A shape against the simulator's truth, mm (curvature in 1/mm).
@@ -66,7 +66,11 @@ impl ShapeErrors {
 impl ShapeErrors {
     /// Whether the shape is right by the truth, within `bounds`.
     pub fn within(&self, bounds: RightBounds) -> bool {
-        self.centerline_rms <= bounds.rms_mm && self.tip <= bounds.tip_mm
+        TruthErrors {
+            centerline_rms: self.centerline_rms,
+            tip: self.tip,
+        }
+        .within(bounds)
     }
 }
 
