@@ -52,6 +52,19 @@ impl Occupancy {
             .is_some_and(|i| self.voxels.binary_search(&i).is_ok())
     }
 
+    /// These voxels without those of `other` (of the same volume).
+    pub fn without(&self, other: &Occupancy) -> Occupancy {
+        Occupancy {
+            volume: self.volume,
+            voxels: self
+                .voxels
+                .iter()
+                .copied()
+                .filter(|v| other.voxels.binary_search(v).is_err())
+                .collect(),
+        }
+    }
+
     /// Occupied volume, mm³.
     pub fn volume_mm3(&self) -> f64 {
         self.len() as f64 * self.volume.voxel_size.iter().product::<f64>()

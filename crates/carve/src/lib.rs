@@ -10,6 +10,8 @@
 //! - [`OutsideImage`]: what a camera that does not see a voxel says about it.
 //! - [`find_bands`]: marker-band voxels (marker pixels in the cameras that see them on the
 //!   hull's surface) grouped into bands with their centroids.
+//! - [`shadow_carved`]: the voxels a sharp shadow on the backdrop carved (shadow-coloured
+//!   pixels in one camera, the object's colour in another).
 //! - [`Occupancy`] and [`PointCloud`]: the result, with PLY export.
 //!
 //! World frame and millimetres throughout; voxel `(i, j, k)` has index `i + nx·(j + ny·k)`.
@@ -42,6 +44,7 @@ mod hierarchical;
 mod interval;
 mod lookup;
 mod projector;
+mod shadows;
 mod surface;
 
 pub use bands::{Band, BandRule, find_bands};
@@ -49,4 +52,5 @@ pub use cloud::{Occupancy, PlyEncoding, PointCloud};
 pub use error::CarveError;
 pub use hierarchical::HierarchicalCarver;
 pub use lookup::{LookupTable, OutsideImage};
+pub use shadows::shadow_carved;
 pub use surface::SurfaceMesh;

@@ -15,7 +15,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use flexshape_camera::Camera;
-use flexshape_carve::{Band, BandRule, HierarchicalCarver, Occupancy, OutsideImage, find_bands};
+use flexshape_carve::{
+    Band, BandRule, HierarchicalCarver, Occupancy, OutsideImage, find_bands, shadow_carved,
+};
 use flexshape_fit::{Fit, FitSettings, Method, Tube, TubeFitter, View};
 use flexshape_input::FrameImage;
 use flexshape_rig::{Rig, Volume};
@@ -101,6 +103,9 @@ pub struct Tracked {
     /// Where the fit started: the hull, or an earlier frame's shape (then nothing was carved
     /// and `occupancy` and `bands` are empty).
     pub start: Start,
+    /// Voxels dropped from the hull as a sharp shadow's (see [`shadow_carved`]) before the
+    /// shape was found again from the rest; 0 when the hull as carved gave the shape.
+    pub shadow_voxels: usize,
     /// Cameras whose background took this frame's colours before the frame was processed
     /// again (see [`Pipeline::process`]).
     pub background_updated: Vec<BackgroundUpdate>,
@@ -576,6 +581,7 @@ impl Pipeline {
                 ..StageTimings::default()
             },
             start: Start::Previous,
+            shadow_voxels: 0,
             background_updated: Vec::new(),
             background_restored: Vec::new(),
         })
@@ -936,51 +942,49 @@ impl Pipeline {
                 fit: None,
                 timings,
                 start: Start::Hull,
+                shadow_voxels: 0,
                 background_updated: Vec::new(),
                 background_restored: Vec::new(),
             });
         }
-        let t = Instant::now();
-        let markers: Vec<_> = silhouettes.iter().map(|s| &s.markers).collect();
-        let bands = find_bands(&occupancy, &self.cameras, &markers, &self.band_rule)?;
-        let bands_ms = ms(t);
-        let t = Instant::now();
-        let hull = self.shape.estimate(&occupancy, &bands);
-        let shape_ms = ms(t);
-        let t = Instant::now();
-        let mut start = Start::Hull;
-        let (shape, fit) = match self.fitter.settings().method {
-            Method::Hull => (hull, None),
-            Method::Fit => {
-                let backgrounds = models(&turn.state.backdrops);
-                let views = self.views(images, &silhouettes, &backgrounds);
-                let radius = self.shape.settings().radius_mm;
-                let (shape, fit) = self.fitter.refine(
-                    &self.shape,
-                    self.carver.volume(),
-                    &views,
-                    &hull,
-                    &occupancy.centres(),
-                    radius,
-                )?;
-                // Two cameras' hull grows ghosts its centerline may follow: a start from the
-                // two silhouettes themselves may find the shape that explains them.
-                let from_views = if shape.status.is_right() {
-                    None
-                } else {
-                    self.fitter
-                        .from_two_views(&self.shape, self.carver.volume(), &views, radius)?
-                };
-                match from_views {
-                    Some((shape, fit)) => {
-                        start = Start::Views;
-                        (shape, Some(fit))
+        let backgrounds = models(&turn.state.backdrops);
+        let views = self.views(images, &silhouettes, &backgrounds);
+        let mut shaped = self.shape_of(&views, &occupancy)?;
+        let mut occupancy = occupancy;
+        let mut shadow_voxels = 0;
+        if !shaped.shape.status.is_right() {
+            let t = Instant::now();
+            match self.without_shadows(&views, &silhouettes, &occupancy)? {
+                Some((kept, dropped, again)) => {
+                    let mut spent = again.timings;
+                    spent.carve = ms(t) - (spent.bands + spent.shape + spent.fit);
+                    if again.shape.status.is_right() {
+                        (occupancy, shadow_voxels) = (kept, dropped);
+                        spent += shaped.timings;
+                        shaped = Shaped {
+                            timings: spent,
+                            ..again
+                        };
+                    } else {
+                        shaped.timings += spent;
                     }
-                    None => (shape, fit),
                 }
+                None => shaped.timings.carve += ms(t),
             }
+        }
+        let Shaped {
+            bands,
+            shape,
+            fit,
+            start,
+            timings: shape_timings,
+        } = shaped;
+        let mut timings = StageTimings {
+            silhouettes: silhouettes_ms,
+            carve: carve_ms,
+            ..StageTimings::default()
         };
-        let fit_ms = ms(t);
+        timings += shape_timings;
         // A silhouette grown far past its usual share is the tube's own only when the tube
         // fitted to it explains every camera; otherwise the growth is the frame's verdict
         // (something entered the view), and its fit is no ground to follow a backdrop from.
@@ -999,18 +1003,108 @@ impl Pipeline {
             bands,
             shape,
             fit,
-            timings: StageTimings {
-                silhouettes: silhouettes_ms,
-                carve: carve_ms,
-                bands: bands_ms,
-                shape: shape_ms,
-                fit: fit_ms,
-            },
+            timings,
             start,
+            shadow_voxels,
             background_updated: Vec::new(),
             background_restored: Vec::new(),
         })
     }
+
+    /// The shape of a frame's hull: its bands, the hull's shape and (method `fit`) the tube
+    /// fitted to `views` from it — or, when that is not right on a two-camera rig, from the
+    /// two silhouettes themselves. Timings of the bands, the shape and the fit.
+    fn shape_of(&self, views: &[View<'_>], occupancy: &Occupancy) -> Result<Shaped, TrackError> {
+        let t = Instant::now();
+        let markers: Vec<_> = views.iter().map(|v| v.markers).collect();
+        let bands = find_bands(occupancy, &self.cameras, &markers, &self.band_rule)?;
+        let bands_ms = ms(t);
+        let t = Instant::now();
+        let hull = self.shape.estimate(occupancy, &bands);
+        let shape_ms = ms(t);
+        let t = Instant::now();
+        let mut start = Start::Hull;
+        let (shape, fit) = match self.fitter.settings().method {
+            Method::Hull => (hull, None),
+            Method::Fit => {
+                let radius = self.shape.settings().radius_mm;
+                let (shape, fit) = self.fitter.refine(
+                    &self.shape,
+                    self.carver.volume(),
+                    views,
+                    &hull,
+                    &occupancy.centres(),
+                    radius,
+                )?;
+                // Two cameras' hull grows ghosts its centerline may follow: a start from the
+                // two silhouettes themselves may find the shape that explains them.
+                let from_views = if shape.status.is_right() {
+                    None
+                } else {
+                    self.fitter
+                        .from_two_views(&self.shape, self.carver.volume(), views, radius)?
+                };
+                match from_views {
+                    Some((shape, fit)) => {
+                        start = Start::Views;
+                        (shape, Some(fit))
+                    }
+                    None => (shape, fit),
+                }
+            }
+        };
+        Ok(Shaped {
+            bands,
+            shape,
+            fit,
+            start,
+            timings: StageTimings {
+                bands: bands_ms,
+                shape: shape_ms,
+                fit: ms(t),
+                ..StageTimings::default()
+            },
+        })
+    }
+
+    /// A frame whose shape is not right, once more from its hull without the voxels a sharp
+    /// shadow carved ([`shadow_carved`]: held by shadow-coloured pixels in one camera and by
+    /// the tube's colour in another): the hull kept, how many voxels were dropped, and its
+    /// shape; `None` when no voxel is a shadow's. The shape is judged on every camera's image
+    /// as any other (the shadow's pixels away from the tube are left out of the self-check
+    /// already), and the hull kept no longer holds the shadow's ghost.
+    fn without_shadows(
+        &self,
+        views: &[View<'_>],
+        silhouettes: &[Silhouette],
+        occupancy: &Occupancy,
+    ) -> Result<Option<(Occupancy, usize, Shaped)>, TrackError> {
+        let objects: Vec<_> = silhouettes.iter().map(|s| &s.object).collect();
+        let shadow_like: Vec<_> = silhouettes.iter().map(|s| &s.shadow_like).collect();
+        let dropped = shadow_carved(
+            &self.carver,
+            occupancy,
+            &objects,
+            &shadow_like,
+            OutsideImage::Carve,
+        )?;
+        if dropped.is_empty() {
+            return Ok(None);
+        }
+        let kept = occupancy.without(&dropped);
+        let shaped = self.shape_of(views, &kept)?;
+        Ok(Some((kept, dropped.len(), shaped)))
+    }
+}
+
+/// A frame's shape from its hull ([`Pipeline::shape_of`]).
+struct Shaped {
+    bands: Vec<Band>,
+    shape: ShapeRecord,
+    fit: Option<Fit>,
+    start: Start,
+    /// Of the bands, the shape and the fit.
+    timings: StageTimings,
 }
 
 /// Which silhouettes a pass through the whole chain uses.

@@ -227,6 +227,12 @@ pub struct TrackRecord {
     /// earlier frame's shape, tracking: nothing carved, `voxels` is 0 and `ghost_mm` absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start: Option<String>,
+    /// Voxels dropped from the hull as a sharp shadow's before the shape was found from the
+    /// rest: held in one camera by pixels of the backdrop's colour, darker (a shadow cast on
+    /// it), and in another by the tube's own colour (absent: none, the hull as carved gave
+    /// the shape).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub shadow_voxels: usize,
     /// Cameras whose background took this frame's colours away from the tube, the backdrop
     /// having changed since the background was captured; the frame was then processed again
     /// (absent: none).
@@ -347,6 +353,7 @@ impl TrackRecord {
                 .into()
             }),
             background_updated: t.background_updated.clone(),
+            shadow_voxels: t.shadow_voxels,
             background_restored: t.background_restored.clone(),
             direction_guessed: s.direction_guessed,
         }
@@ -418,6 +425,7 @@ impl TrackRecord {
             ghost_mm: None,
             start: None,
             background_updated: Vec::new(),
+            shadow_voxels: 0,
             background_restored: Vec::new(),
             direction_guessed: false,
         }

@@ -11,5 +11,6 @@ mod pipeline;
 mod refine;
 mod runner;
 mod settings;
+mod shadows;
 mod steps;
 mod tracking;
