@@ -344,13 +344,14 @@ pub(crate) struct Overlap {
 
 /// IoU of the rendered tube with `view`'s silhouette (leaving out the pixels only the open
 /// ends' continuations cover), and the silhouette pixels farther than `explain_px` from both;
-/// shadow-coloured silhouette pixels that far are counted apart, in neither — unless they
-/// meet `end_zones` (around the capped ends): a grey distal part the fit missed looks so.
+/// shadow-coloured silhouette pixels that far are counted apart, in neither — unless
+/// `continuations` takes them for the tube's continuing beyond a capped end: a grey distal
+/// part the fit missed looks so.
 pub(crate) fn overlap(
     (tube, beyond): &(BitMask, BitMask),
     view: &crate::View<'_>,
     explain_px: usize,
-    end_zones: impl FnOnce() -> BitMask,
+    continuations: impl FnOnce(&BitMask) -> BitMask,
 ) -> Overlap {
     let near = tube.or(beyond).dilate(explain_px);
     let shadow = view
@@ -358,7 +359,7 @@ pub(crate) fn overlap(
         .map(|s| s.and_not(&near))
         .filter(|away| away.count() > 0)
         .map(|away| {
-            let missed = flexshape_silhouette::components::touching(&away, &end_zones());
+            let missed = continuations(&away);
             away.and_not(&missed)
         });
     let kept;
@@ -683,7 +684,9 @@ mod tests {
             let agrees = |shadow: Option<&BitMask>, zones: &BitMask, left_out: &BitMask| {
                 let (iou, unexplained) = expect(&silhouette.and(&left_out.not()));
                 view(&silhouette, shadow, &|v| {
-                    let got = overlap(&drawn, v, 2, || zones.clone());
+                    let got = overlap(&drawn, v, 2, |away| {
+                        flexshape_silhouette::components::touching(away, zones)
+                    });
                     assert!((got.iou - iou).abs() < 1e-12, "seed {seed}: {}", got.iou);
                     assert_eq!(got.unexplained_px, unexplained, "seed {seed}");
                     assert_eq!(got.shadow_px, left_out.count(), "seed {seed}");
@@ -695,14 +698,14 @@ mod tests {
             let shadow = silhouette.and(&blobs(seed + 300, 10));
             let away = shadow.and(&near.not());
             agrees(Some(&shadow), &none, &away);
-            // …except those meeting a capped end's zone: a grey distal part the fit missed.
+            // …except those `continuations` takes for a grey distal part the fit missed.
             let zones = blobs(seed + 400, 3);
             let missed = flexshape_silhouette::components::touching(&away, &zones);
             agrees(Some(&shadow), &zones, &away.and_not(&missed));
         }
         let empty = BitMask::new(150, 40);
         view(&empty, None, &|v| {
-            let got = overlap(&(empty.clone(), empty.clone()), v, 2, || empty.clone());
+            let got = overlap(&(empty.clone(), empty.clone()), v, 2, |_| empty.clone());
             assert_eq!((got.iou, got.unexplained_px), (1.0, 0));
         });
     }

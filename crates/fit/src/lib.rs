@@ -412,9 +412,8 @@ impl TubeFitter {
                     WidthProfile::default()
                 };
                 let rendered = check::render(cam, spheres, &widths);
-                let (w, h) = (view.silhouette.width(), view.silhouette.height());
-                let zones = || self.end_zones(cam, &tube, w, h);
-                let overlap = check::overlap(&rendered, view, s.explain_px, zones);
+                let missed = |away: &BitMask| self.continuations(cam, &tube, away);
+                let overlap = check::overlap(&rendered, view, s.explain_px, missed);
                 CameraCheck {
                     camera: name.clone(),
                     samples: res.samples,

@@ -175,6 +175,57 @@ impl TubeFitter {
         zones
     }
 
+    /// The parts of `away` (silhouette pixels the tube leaves unexplained, in `cam`'s image)
+    /// that go on from a capped end of `tube`: a component meeting the end's zone
+    /// ([`TubeFitter::end_zones`]) at least half of whose pixels lie nearer that end than
+    /// any other point of the tube's projected centerline. A distal part the fit missed
+    /// continues beyond the end; a shadow that meets the end's zone lies beside the tube,
+    /// nearest its body.
+    pub(crate) fn continuations(&self, cam: &Camera, tube: &Tube, away: &BitMask) -> BitMask {
+        let (w, h) = (away.width(), away.height());
+        let mut out = BitMask::new(w, h);
+        let candidates = touching(away, &self.end_zones(cam, tube, w, h));
+        if candidates.count() == 0 {
+            return out;
+        }
+        const SAMPLES: usize = 200;
+        let centreline: Vec<Option<[f64; 2]>> = (0..=SAMPLES)
+            .map(|i| {
+                let (p, _) = tube.frame(i as f64 / SAMPLES as f64);
+                cam.project(&p).ok().map(|q| [q.pixel.x, q.pixel.y])
+            })
+            .collect();
+        let nearest = |x: f64, y: f64| {
+            centreline
+                .iter()
+                .enumerate()
+                .filter_map(|(i, q)| q.map(|[u, v]| (i, (u - x).powi(2) + (v - y).powi(2))))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(i, _)| i)
+        };
+        let runs = flexshape_silhouette::components::runs(&candidates);
+        let (labels, areas) = flexshape_silhouette::components::label(&runs);
+        let mut beyond = vec![0usize; areas.len()];
+        for (r, &l) in runs.iter().zip(&labels) {
+            for x in r.x0..r.x1 {
+                let end = match nearest(x as f64, r.y as f64) {
+                    Some(0) => 0,
+                    Some(SAMPLES) => 1,
+                    _ => continue,
+                };
+                beyond[l] += usize::from(tube.capped[end]);
+            }
+        }
+        for (r, &l) in runs.iter().zip(&labels) {
+            if 2 * beyond[l] >= areas[l] {
+                for x in r.x0..r.x1 {
+                    out.set(x as usize, r.y as usize, true);
+                }
+            }
+        }
+        out
+    }
+
     /// Why camera `c`'s image is not explained, its outline's residuals `o`, if it is not
     /// (the first failing check).
     fn camera_verdict(&self, c: &CameraCheck, o: Outline) -> Option<String> {
@@ -338,4 +389,56 @@ fn shape_verdict(tube: &Tube, volume: &Volume) -> Option<String> {
         c.at_mm[1],
         tube.largest_radius()
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::FitSettings;
+    use flexshape_sim::{SimConfig, Simulator};
+
+    /// A tube along world z through the volume's centre, its tip capped, `dy` mm along y and
+    /// from `z0` to `z1` mm about the centre.
+    fn tube(sim: &Simulator, dy: f64, z0: f64, z1: f64) -> Tube {
+        let v = sim.rig().volume;
+        let c: [f64; 3] =
+            std::array::from_fn(|a| v.origin[a] + 0.5 * v.voxel_size[a] * v.dims[a] as f64);
+        let at = |z: f64| [c[0], c[1] + dy, c[2] + z];
+        Tube::through(&[at(z0), at(z1)], 3.0, [false, true], 10.0, 0.0).unwrap()
+    }
+
+    #[test]
+    fn a_continuation_beyond_the_tip_is_the_tube_and_a_strip_beside_it_is_not() {
+        let sim = Simulator::new(SimConfig::default()).unwrap();
+        let names = (0..3).map(|i| format!("cam{i}")).collect();
+        let fitter = TubeFitter::new(sim.cameras(), names, FitSettings::default()).unwrap();
+        let cam = &sim.cameras()[0];
+        let fitted = tube(&sim, 0.0, -60.0, 40.0);
+        let drawn = |t: &Tube| {
+            let (body, beyond) = fitter.render(0, t).unwrap();
+            body.or(&beyond)
+        };
+        let near = drawn(&fitted).dilate(fitter.settings().explain_px);
+        let away = |t: &Tube| drawn(t).and_not(&near);
+        // 30 mm more beyond the tip: all of it is taken for the tube's.
+        let more = away(&tube(&sim, 0.0, 40.0, 70.0));
+        let taken = fitter.continuations(cam, &fitted, &more);
+        assert!(
+            more.count() > 200 && taken == more,
+            "{} of {}",
+            taken.count(),
+            more.count()
+        );
+        // A strip 7 mm beside the tube along its length, meeting the tip's zone: not the tube's.
+        let beside = away(&tube(&sim, 7.0, -60.0, 40.0));
+        let zones = fitter.end_zones(cam, &fitted, beside.width(), beside.height());
+        assert!(
+            beside.and(&zones).count() > 0,
+            "the strip does not meet the tip's zone"
+        );
+        assert_eq!(fitter.continuations(cam, &fitted, &beside).count(), 0);
+        // Both at once: each judged as its own part.
+        let both = more.or(&beside);
+        assert_eq!(fitter.continuations(cam, &fitted, &both), more);
+    }
 }

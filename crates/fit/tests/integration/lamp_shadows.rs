@@ -53,10 +53,11 @@ fn sweep(depth: f64, lamp_radius: f64, seed: u64) -> (usize, usize) {
 #[test]
 fn a_soft_shadow_beside_the_tube_leaves_right_frames_ok() {
     let ok: Vec<usize> = [1, 2, 3].map(|seed| sweep(800.0, 15.0, seed).0).to_vec();
-    // Measured: 10, 11, 12 of 12 (the rest right but refused: a shadow at the tip leaves the free
-    // end's boundary found at 7 of 13 samples, or the outline's p90 at 0.27–0.31 px; issue
-    // 44's scaled limits).
-    assert!(ok.iter().all(|&n| n >= 9), "only {ok:?} of 12 ok");
+    // Measured: 11, 11, 12 of 12 (the rest right but refused: a shadow at the tip leaves the
+    // free end's boundary found at 7 of 13 samples, or the outline's p90 at 0.27–0.31 px;
+    // issue 44's scaled limits). 10, 11, 12 while a shadow meeting the tip's zone counted as a
+    // missed distal part.
+    assert!(ok.iter().all(|&n| n >= 10), "only {ok:?} of 12 ok");
 }
 
 /// A small lamp (radius 3 mm) with the backdrop 160 mm behind the volume's centre: a shadow
@@ -70,8 +71,10 @@ fn a_sharp_shadow_is_never_taken_for_the_tube() {
     for seed in [1, 2, 3] {
         ok += sweep(760.0, 3.0, seed).0;
     }
-    // Measured: 5 of 36 ok (3, 1, 1), every one right; 0 before shadow-coloured parts were
-    // told from the tube (the shadow apart from the tube failed the overlap check, IoU
-    // 0.44–0.53, in every frame the hull did not already refuse).
-    assert!(ok >= 4, "only {ok} of 36 ok");
+    // Measured: 7 of 36 ok (4, 2, 1), every one right; 5 while a shadow beside the tube that
+    // met the tip's zone counted as a missed distal part (IoU 0.42–0.47); 0 before
+    // shadow-coloured parts were told from the tube (the shadow apart from the tube failed
+    // the overlap check, IoU 0.44–0.53, in every frame the hull did not already refuse). The
+    // chain's retry without the shadow's voxels (track's tests) does the rest.
+    assert!(ok >= 6, "only {ok} of 36 ok");
 }
