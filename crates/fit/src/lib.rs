@@ -758,7 +758,7 @@ impl TubeFitter {
                         ),
                     });
                 }
-                Ok(EdgeImage::new(v.image, v.background))
+                Ok(EdgeImage::new(v.image, v.background).with_shade(v.shadow_like))
             })
             .collect()
     }

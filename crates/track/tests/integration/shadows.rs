@@ -66,13 +66,14 @@ fn a_shadow_that_carves_is_dropped_from_the_hull() {
         println!("seed {seed}: {o} of 12 ok, {r} right but refused, {d} dropped shadow voxels");
         (ok, refused, dropped) = (ok + o, refused + r, dropped + d);
     }
-    // Measured: 24 of 36 ok (8 / 6 / 10), every one right, 17 of them from a hull without
+    // Measured: 27 of 36 ok (9 / 7 / 11), every one right, 19 of them from a hull without
     // its shadow voxels; before, 7 of 36 (12 right but refused: a second object, a branch or
     // a ghost beside the fitted shape, each of the shadow; a shadow beside the tube meeting
-    // the tip's zone taken for a missed distal part). Now 5 right but refused: the shadow
-    // alongside the tube's outline in one camera (residual, free end).
-    assert!(ok >= 21 && dropped >= 14, "{ok} ok, {dropped} dropped");
-    assert!(refused <= 7, "{refused} right but refused");
+    // the tip's zone taken for a missed distal part; a shadow along the outline read as
+    // partly covered, the boundary moved out). Now 3 right but refused (130–134 silhouette
+    // pixels beyond the tube, the outline's 90th percentile).
+    assert!(ok >= 24 && dropped >= 15, "{ok} ok, {dropped} dropped");
+    assert!(refused <= 5, "{refused} right but refused");
 }
 
 /// A second catheter beside the first, its base 45 mm along x, in the same sharp-shadow scene
