@@ -10,6 +10,7 @@ mod skeleton;
 
 use flexshape_rig::Volume;
 use flexshape_shape::{ShapeEstimator, ShapeRecord, Status};
+use flexshape_silhouette::BitMask;
 use nalgebra::Point3;
 
 use crate::outline::Spheres;
@@ -45,10 +46,45 @@ impl TubeFitter {
         if self.cameras.len() != 2 || views.len() != 2 {
             return Ok(None);
         }
-        let curves = [
-            skeleton::image_curve(views[0].silhouette, SPACING_PX),
-            skeleton::image_curve(views[1].silhouette, SPACING_PX),
-        ];
+        let found = self.two_views_of(
+            estimator,
+            volume,
+            views,
+            radius,
+            [views[0].silhouette, views[1].silhouette],
+        )?;
+        if found.is_some() {
+            return Ok(found);
+        }
+        // A sharp shadow beside the tube is part of a silhouette, and the image centerline may
+        // run into it: once more without the shadow-coloured pixels, where a view has any and
+        // something is left (a tube of the backdrop's colour is shadow-coloured all over).
+        let coloured: Vec<Option<BitMask>> = views
+            .iter()
+            .map(|v| {
+                v.shadow_like
+                    .filter(|s| s.count() > 0)
+                    .map(|s| v.silhouette.and_not(s))
+                    .filter(|c| c.count() > 0)
+            })
+            .collect();
+        if coloured.iter().all(Option::is_none) {
+            return Ok(None);
+        }
+        let pick = |i: usize| coloured[i].as_ref().unwrap_or(views[i].silhouette);
+        self.two_views_of(estimator, volume, views, radius, [pick(0), pick(1)])
+    }
+
+    /// [`TubeFitter::from_two_views`] with the image centerlines taken from `silhouettes`.
+    fn two_views_of(
+        &self,
+        estimator: &ShapeEstimator,
+        volume: &Volume,
+        views: &[View<'_>],
+        radius: Option<f64>,
+        silhouettes: [&BitMask; 2],
+    ) -> Result<Option<(ShapeRecord, Fit)>, FitError> {
+        let curves = silhouettes.map(|s| skeleton::image_curve(s, SPACING_PX));
         let [Some(a), Some(b)] = &curves else {
             return Ok(None);
         };
