@@ -100,10 +100,8 @@ fn run(sim: &Simulator, pipeline: &Pipeline, poses: &[CatheterPose]) -> (usize, 
         }
         if record.status == "ok" {
             ok += 1;
-            let (rms, tip) = (
-                common::rms(&frame.truth, sim, &t.shape),
-                common::tip_error(&frame.truth, &t.shape),
-            );
+            let e = common::errors(&frame.truth, sim, &t.shape).unwrap();
+            let (rms, tip) = (e.centerline_rms, e.tip);
             println!("  {rms:.3} mm RMS, tip {tip:.2} mm");
             assert!(rms < 0.1 && tip < 0.4, "frame {i}: {rms} mm, tip {tip} mm");
         }

@@ -1,13 +1,11 @@
 //! Shared by the track crate's tests.
 #![allow(dead_code)] // each test binary uses its own part
 
-use flexshape_curve::Polyline;
-use flexshape_recording::Truth;
+use flexshape_recording::{Truth, TruthErrors};
 use flexshape_shape::ShapeRecord;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{RenderSettings, SimConfig, Simulator};
 use flexshape_track::Pipeline;
-use nalgebra::Point3;
 
 /// The default simulated rig and the sensing chain set up for it.
 pub fn simulated_chain() -> (Simulator, Pipeline) {
@@ -23,22 +21,21 @@ pub fn chain_of(config: SimConfig) -> (Simulator, Pipeline) {
     (sim, pipeline)
 }
 
-/// RMS distance from the true centerline (inside the volume) to the record's, mm.
+/// The record's shape against the frame's truth (inside the volume); `None` without a shape.
+pub fn errors(truth: &Truth, sim: &Simulator, r: &ShapeRecord) -> Option<TruthErrors> {
+    truth.errors(&r.points, r.tip, |p| sim.rig().volume.contains(p))
+}
+
+/// The record's centerline RMS distance from the truth inside the volume, mm (infinite
+/// without a shape).
 pub fn rms(truth: &Truth, sim: &Simulator, r: &ShapeRecord) -> f64 {
-    let poly = Polyline::new(r.points.iter().map(|&p| Point3::from(p)).collect()).unwrap();
-    let d2: Vec<f64> = truth
-        .centerline
-        .iter()
-        .map(|&p| Point3::from(p))
-        .filter(|p| sim.rig().volume.contains(p))
-        .map(|p| poly.closest(&p).1.powi(2))
-        .collect();
-    (d2.iter().sum::<f64>() / d2.len() as f64).sqrt()
+    errors(truth, sim, r).map_or(f64::INFINITY, |e| e.centerline_rms)
 }
 
 /// Distance between the record's tip and the true one, mm.
 pub fn tip_error(truth: &Truth, r: &ShapeRecord) -> f64 {
-    (Point3::from(r.tip) - Point3::from(truth.tip)).norm()
+    let d: [f64; 3] = std::array::from_fn(|a| r.tip[a] - truth.tip[a]);
+    d.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
 /// Cloth whose folds (valleys losing 30 % of the light, 70 mm apart) slid `shift` mm between

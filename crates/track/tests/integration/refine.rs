@@ -70,7 +70,7 @@ fn errors(
             let t = pipeline
                 .process(&images.iter().collect::<Vec<_>>())
                 .unwrap();
-            common::rms(&f.truth, sim, &t.shape)
+            common::errors(&f.truth, sim, &t.shape).map_or(f64::INFINITY, |e| e.centerline_rms)
         })
         .collect();
     e.sort_by(f64::total_cmp);

@@ -37,11 +37,7 @@ fn sweep(config: SimConfig, frames: usize) -> (usize, usize, usize) {
         let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
         let t = pipeline.process(&images).unwrap();
         let record = TrackRecord::from_tracked(i as u64, &t);
-        let right = frame
-            .truth
-            .errors(&t.shape.points, t.shape.tip, |p| {
-                sim.rig().volume.contains(p)
-            })
+        let right = common::errors(&frame.truth, &sim, &t.shape)
             .filter(|e| e.within(RightBounds::default()));
         dropped += usize::from(record.shadow_voxels > 0);
         println!(
