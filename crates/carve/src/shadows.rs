@@ -18,9 +18,10 @@ const EDGE_PX: usize = 1;
 
 /// The voxels of `hull` (carved by `carver` from `objects` under `rule`) that some camera holds
 /// only by shadow-coloured pixels (`shadow_like`, a subset of each object) while another holds
-/// them only by the object's colour — the rest of its object; each within [`EDGE_PX`].
-/// Empty when some camera's object is shadow-coloured throughout or has no shadow-coloured
-/// pixel at all in any camera: colour tells nothing there, or nothing is a shadow.
+/// them only by the object's colour — the rest of its object; each within a pixel.
+/// Empty when no camera's object holds a shadow-coloured pixel (nothing is a shadow), or some
+/// camera's object holds nothing else (shadow-coloured throughout, or empty: colour tells
+/// nothing there).
 pub fn shadow_carved(
     carver: &HierarchicalCarver,
     hull: &Occupancy,
