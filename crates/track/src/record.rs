@@ -453,6 +453,7 @@ pub struct Tally {
     errors: usize,
     frames: usize,
     direction_guessed: usize,
+    shadow_frames: usize,
 }
 
 impl Default for Tally {
@@ -465,6 +466,7 @@ impl Default for Tally {
             errors: 0,
             frames: 0,
             direction_guessed: 0,
+            shadow_frames: 0,
         }
     }
 }
@@ -484,6 +486,7 @@ impl Tally {
             _ => {}
         }
         self.direction_guessed += usize::from(record.direction_guessed);
+        self.shadow_frames += usize::from(record.shadow_voxels > 0);
         if record.status != RecordStatus::Error {
             self.timings.push(record.timings_ms);
         }
@@ -523,6 +526,7 @@ impl Tally {
             input_error: end.input_error.as_ref().map(|e| e.to_string()),
             startup_s: None,
             direction_guessed: self.direction_guessed,
+            shadow_frames: self.shadow_frames,
         }
     }
 }
@@ -561,6 +565,11 @@ pub struct TrackSummary {
     /// absent: none); the summary line then says once which setting decides it.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub direction_guessed: usize,
+    /// Frames whose hull held a sharp shadow's voxels, dropped before the shape was found
+    /// (`shadow_voxels` in their records; additive; absent: none); the summary line then says
+    /// once what makes such shadows.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub shadow_frames: usize,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -635,6 +644,18 @@ impl TrackSummary {
                 .collect::<Vec<_>>()
                 .join(", ")
         ) + &self.direction_advice()
+            + &self.shadow_advice()
+    }
+
+    /// Once per run, when hulls held a sharp shadow's voxels: what throws such shadows.
+    fn shadow_advice(&self) -> String {
+        match self.shadow_frames {
+            0 => String::new(),
+            n => format!(
+                "\n{n} of {} frames' hulls held a sharp shadow of the tube (dropped, see shadow_voxels): a small lamp near a camera casts it on a backdrop close behind the volume; a larger or more distant lamp, or the backdrop farther back, softens it out of the silhouettes",
+                self.frames
+            ),
+        }
     }
 
     /// Once per run, when frames were `ambiguous` for want of a cue to the tube's direction:
@@ -673,5 +694,25 @@ mod tests {
         // Frames that had a direction say nothing of it.
         let quiet = Tally::new().summary(&RunEnd::default()).line(false, false);
         assert!(!quiet.contains("proximal_hint"), "{quiet}");
+        assert!(!quiet.contains("shadow"), "{quiet}");
+    }
+
+    #[test]
+    fn a_run_whose_hulls_held_a_shadow_says_once_what_casts_it() {
+        let mut tally = Tally::new();
+        let mut record = TrackRecord::error(0, String::new());
+        record.status = RecordStatus::Ok;
+        tally.add(&record);
+        record.shadow_voxels = 1200;
+        for _ in 0..2 {
+            tally.add(&record);
+        }
+        let summary = tally.summary(&RunEnd::default());
+        assert_eq!(summary.shadow_frames, 2);
+        let line = summary.line(false, false);
+        assert_eq!(line.matches("lamp").count(), 2, "{line}");
+        assert!(line.contains("2 of 3 frames' hulls"), "{line}");
+        let json = serde_json::to_string(&summary).unwrap();
+        assert!(json.contains("\"shadow_frames\":2"), "{json}");
     }
 }
