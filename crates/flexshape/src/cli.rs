@@ -982,6 +982,10 @@ pub struct BenchArgs {
     /// plays the sweep faster).
     #[arg(long, value_name = "HZ", default_value_t = 12.0, requires = "soak")]
     pub soak_fps: f64,
+    /// Frames tracked at once in --soak, and the simulator's render threads (the default 1 is
+    /// `flexshape demo --no-viewer`'s; the number of cores plays a long run sooner).
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "soak")]
+    pub threads: usize,
     #[command(flatten)]
     pub sim: SimArgs,
 }

@@ -45,11 +45,13 @@ fn run_soak(args: &BenchArgs, frames: u64) -> anyhow::Result<()> {
         args.soak_fps.is_finite() && args.soak_fps > 0.0,
         "--soak-fps must be a positive number of frames per second"
     );
+    anyhow::ensure!(args.threads > 0, "--threads must be at least 1");
     let stop = Interrupt::install();
     let settings = SoakSettings {
         frames,
         window: args.window,
         fps: args.soak_fps,
+        threads: args.threads,
         ..SoakSettings::default()
     };
     if !args.json {

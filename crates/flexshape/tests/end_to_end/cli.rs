@@ -370,6 +370,16 @@ fn negative_numbers_reach_the_options() {
         (vec!["bench".into(), "--rate".into(), "-1".into()], "--rate"),
         (
             vec![
+                "bench".into(),
+                "--soak".into(),
+                "5".into(),
+                "--threads".into(),
+                "0".into(),
+            ],
+            "--threads",
+        ),
+        (
+            vec![
                 "demo".into(),
                 "--no-viewer".into(),
                 "--fps".into(),

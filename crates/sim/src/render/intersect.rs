@@ -4,7 +4,9 @@
 use flexshape_camera::nalgebra::Vector3;
 
 /// One capsule of a tube: the swept sphere of radius `radius` along `a → b`, whose arc lengths
-/// along the tube's centerline are `s_a`, `s_b`.
+/// along the tube's centerline are `s_a`, `s_b`. Every ray the renderer casts starts at the
+/// camera centre (the origin of the capsule's frame), so what does not depend on the ray's
+/// direction is computed once here rather than for each of the ~17 rays of a pixel.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Capsule {
     pub a: Vector3<f64>,
@@ -13,6 +15,54 @@ pub(crate) struct Capsule {
     pub s_a: f64,
     pub s_b: f64,
     pub tube: usize,
+    /// `b − a`.
+    ba: Vector3<f64>,
+    /// The origin seen from `a`: `−a`.
+    oa: Vector3<f64>,
+    /// The origin seen from `b`: `−b`.
+    ob: Vector3<f64>,
+    /// `|ba|²`.
+    baba: f64,
+    /// `ba · oa`.
+    baoa: f64,
+    /// The cylinder's ray-independent term `|ba|²·|oa|² − (ba·oa)² − r²·|ba|²`.
+    qc: f64,
+    /// The end spheres' ray-independent terms `|oa|² − r²`, `|ob|² − r²`.
+    end_c: [f64; 2],
+}
+
+impl Capsule {
+    pub fn new(
+        a: Vector3<f64>,
+        b: Vector3<f64>,
+        radius: f64,
+        s_a: f64,
+        s_b: f64,
+        tube: usize,
+    ) -> Capsule {
+        let origin = Vector3::zeros();
+        let ba = b - a;
+        let oa = origin - a;
+        let ob = origin - b;
+        let baba = ba.norm_squared();
+        let baoa = ba.dot(&oa);
+        let r2 = radius * radius;
+        Capsule {
+            a,
+            b,
+            radius,
+            s_a,
+            s_b,
+            tube,
+            ba,
+            oa,
+            ob,
+            baba,
+            baoa,
+            qc: baba * oa.norm_squared() - baoa * baoa - r2 * baba,
+            end_c: [oa.norm_squared() - r2, ob.norm_squared() - r2],
+        }
+    }
 }
 
 /// Nearest positive hit distance of the ray `o + t·d` with a sphere.
@@ -23,8 +73,14 @@ pub(crate) fn ray_sphere(
     r: f64,
 ) -> Option<f64> {
     let oc = o - c;
-    let b = d.dot(&oc);
-    let h = b * b - (oc.norm_squared() - r * r);
+    sphere_hit(d.dot(&oc), oc.norm_squared() - r * r)
+}
+
+/// The nearest positive root of `t² + 2·b·t + c = 0` (a unit ray `o + t·d` and a sphere, with
+/// `b = d·(o − centre)` and `c = |o − centre|² − r²`).
+#[inline]
+fn sphere_hit(b: f64, c: f64) -> Option<f64> {
+    let h = b * b - c;
     if h < 0.0 {
         return None;
     }
@@ -32,42 +88,40 @@ pub(crate) fn ray_sphere(
     (t > 0.0).then_some(t)
 }
 
-/// Nearest positive hit distance of the ray `o + t·d` with a capsule.
+/// Nearest positive hit distance of the ray `t·d` from the origin with a capsule.
 ///
 /// The ray is first intersected with the infinite cylinder around the axis; if it enters the
 /// cylinder beside the segment the hit is on the body, otherwise it can only enter through the
 /// end sphere on that side (a ray that misses the infinite cylinder misses the capsule).
-pub(crate) fn ray_capsule(o: &Vector3<f64>, d: &Vector3<f64>, cap: &Capsule) -> Option<f64> {
-    let ba = cap.b - cap.a;
-    let oa = o - cap.a;
-    let baba = ba.norm_squared();
-    let bard = ba.dot(d);
-    let baoa = ba.dot(&oa);
-    let rdoa = d.dot(&oa);
-    let qa = baba - bard * bard;
-    let r2 = cap.radius * cap.radius;
-    if qa <= 1e-12 * baba {
+#[inline]
+pub(crate) fn ray_capsule(d: &Vector3<f64>, cap: &Capsule) -> Option<f64> {
+    let bard = cap.ba.dot(d);
+    let rdoa = d.dot(&cap.oa);
+    let qa = cap.baba - bard * bard;
+    if qa <= 1e-12 * cap.baba {
         // Ray parallel to the axis: only the end spheres can be entered first.
-        let ta = ray_sphere(o, d, &cap.a, cap.radius);
-        let tb = ray_sphere(o, d, &cap.b, cap.radius);
+        let ta = sphere_hit(rdoa, cap.end_c[0]);
+        let tb = sphere_hit(d.dot(&cap.ob), cap.end_c[1]);
         return match (ta, tb) {
             (Some(x), Some(y)) => Some(x.min(y)),
             (x, y) => x.or(y),
         };
     }
-    let qb = baba * rdoa - baoa * bard;
-    let qc = baba * oa.norm_squared() - baoa * baoa - r2 * baba;
-    let h = qb * qb - qa * qc;
+    let qb = cap.baba * rdoa - cap.baoa * bard;
+    let h = qb * qb - qa * cap.qc;
     if h < 0.0 {
         return None;
     }
     let t = (-qb - h.sqrt()) / qa;
-    let y = baoa + t * bard;
-    if y > 0.0 && y < baba {
+    let y = cap.baoa + t * bard;
+    if y > 0.0 && y < cap.baba {
         return (t > 0.0).then_some(t);
     }
-    let end = if y <= 0.0 { cap.a } else { cap.b };
-    ray_sphere(o, d, &end, cap.radius)
+    if y <= 0.0 {
+        sphere_hit(rdoa, cap.end_c[0])
+    } else {
+        sphere_hit(d.dot(&cap.ob), cap.end_c[1])
+    }
 }
 
 /// Closest point on segment `a → b` to `p`, as the parameter in `[0, 1]`.
@@ -118,36 +172,28 @@ mod tests {
     use super::*;
 
     fn cap(a: [f64; 3], b: [f64; 3], r: f64) -> Capsule {
-        Capsule {
-            a: Vector3::from(a),
-            b: Vector3::from(b),
-            radius: r,
-            s_a: 0.0,
-            s_b: 1.0,
-            tube: 0,
-        }
+        Capsule::new(Vector3::from(a), Vector3::from(b), r, 0.0, 1.0, 0)
     }
 
     #[test]
     fn capsule_body_caps_and_misses() {
-        let o = Vector3::zeros();
         let c = cap([-10.0, 0.0, 100.0], [10.0, 0.0, 100.0], 3.0);
         // Straight at the body: hits the near surface.
-        let t = ray_capsule(&o, &Vector3::z(), &c).unwrap();
+        let t = ray_capsule(&Vector3::z(), &c).unwrap();
         assert!((t - 97.0).abs() < 1e-12);
         // Beyond the end but within the end sphere.
         let d = Vector3::new(12.0, 0.0, 100.0).normalize();
-        let t = ray_capsule(&o, &d, &c).unwrap();
+        let t = ray_capsule(&d, &c).unwrap();
         let p = d * t;
         assert!(((p - c.b).norm() - 3.0).abs() < 1e-9);
         // Past the sphere: miss.
         let d = Vector3::new(13.5, 0.0, 100.0).normalize();
-        assert!(ray_capsule(&o, &d, &c).is_none());
+        assert!(ray_capsule(&d, &c).is_none());
         // Along the axis.
         let c2 = cap([0.0, 0.0, 50.0], [0.0, 0.0, 80.0], 2.0);
-        assert!((ray_capsule(&o, &Vector3::z(), &c2).unwrap() - 48.0).abs() < 1e-12);
+        assert!((ray_capsule(&Vector3::z(), &c2).unwrap() - 48.0).abs() < 1e-12);
         // Behind the ray origin: miss.
-        assert!(ray_capsule(&o, &-Vector3::z(), &c).is_none());
+        assert!(ray_capsule(&-Vector3::z(), &c).is_none());
     }
 
     #[test]

@@ -260,14 +260,14 @@ impl Renderer {
             let pts = tube.centerline.points();
             let arcs = tube.centerline.arc_lengths();
             for i in 0..pts.len() - 1 {
-                capsules.push(Capsule {
-                    a: to_cam(&pts[i]),
-                    b: to_cam(&pts[i + 1]),
-                    radius: tube.radius_between(arcs[i], arcs[i + 1]),
-                    s_a: arcs[i],
-                    s_b: arcs[i + 1],
-                    tube: t,
-                });
+                capsules.push(Capsule::new(
+                    to_cam(&pts[i]),
+                    to_cam(&pts[i + 1]),
+                    tube.radius_between(arcs[i], arcs[i + 1]),
+                    arcs[i],
+                    arcs[i + 1],
+                    t,
+                ));
             }
         }
         let spheres: Vec<_> = scene
@@ -494,7 +494,7 @@ impl Renderer {
         let mut best: Option<(f64, Hit)> = None;
         for &i in cands {
             let t = if i < ncap {
-                ray_capsule(&o, &d, &prep.capsules[i])
+                ray_capsule(&d, &prep.capsules[i])
             } else {
                 let (c, r, _) = &prep.spheres[i - ncap];
                 ray_sphere(&o, &d, c, *r)
