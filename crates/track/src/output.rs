@@ -30,8 +30,10 @@ pub struct SinkSpec {
     pub overwrite: bool,
 }
 
-/// Whether output `path` is `input` or lies inside it (compared as canonical paths; an
-/// output that does not exist yet by its folder's).
+/// Whether output `path` is `input` or lies inside it: compared as canonical paths (an
+/// output that does not exist yet by its folder's), and, for an output that exists, by file
+/// identity — a hard link to an input, or to a file inside an input folder, is that input
+/// whatever its path.
 pub fn within(path: &Path, input: &Path) -> bool {
     if path == Path::new("-") {
         return false;
@@ -39,14 +41,114 @@ pub fn within(path: &Path, input: &Path) -> bool {
     let Ok(input) = input.canonicalize() else {
         return false;
     };
-    let canonical = path.canonicalize().ok().or_else(|| {
+    let canonical = canonical_output(path);
+    canonical.is_some_and(|c| c == input || (input.is_dir() && c.starts_with(&input)))
+        || linked_into(path, &input)
+}
+
+/// `path` canonical, or for a path that does not exist yet its folder's canonical path joined
+/// with its name.
+fn canonical_output(path: &Path) -> Option<PathBuf> {
+    path.canonicalize().ok().or_else(|| {
         let parent = match path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p,
             _ => Path::new("."),
         };
         Some(parent.canonicalize().ok()?.join(path.file_name()?))
-    });
-    canonical.is_some_and(|c| c == input || (input.is_dir() && c.starts_with(&input)))
+    })
+}
+
+/// Whether two paths name one file: the same canonical path, or (both existing) the same
+/// file by identity.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    if a == Path::new("-") || b == Path::new("-") {
+        return a == b;
+    }
+    let same_path = canonical_output(a).is_some_and(|c| Some(c) == canonical_output(b));
+    same_path || identity(a).is_some_and(|i| Some(i) == identity(b))
+}
+
+/// Files looked at, at most, for a hard link of an output inside an input folder.
+const MAX_LINK_SCAN: usize = 200_000;
+
+/// Whether existing file `path` is hard-linked to `input` or to a file inside folder
+/// `input` (only asked of files with more than one link; the folder walked to
+/// [`MAX_LINK_SCAN`] entries).
+fn linked_into(path: &Path, input: &Path) -> bool {
+    let Some(id) = identity(path).filter(|_| links(path) > 1) else {
+        return false;
+    };
+    if !input.is_dir() {
+        return identity(input) == Some(id);
+    }
+    let mut pending = vec![input.to_path_buf()];
+    let mut seen = 0;
+    while let Some(dir) = pending.pop() {
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for entry in entries.flatten() {
+            seen += 1;
+            if seen > MAX_LINK_SCAN {
+                return false;
+            }
+            let Ok(kind) = entry.file_type() else {
+                continue;
+            };
+            if kind.is_dir() {
+                pending.push(entry.path());
+            } else if kind.is_file() && identity(&entry.path()) == Some(id) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// A file's identity: its device and inode (where the system has them; elsewhere none, and
+/// paths alone decide).
+#[cfg(unix)]
+fn identity(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+}
+
+#[cfg(not(unix))]
+fn identity(_path: &Path) -> Option<(u64, u64)> {
+    None
+}
+
+/// How many names the file at `path` has (1 where the system does not tell).
+#[cfg(unix)]
+fn links(path: &Path) -> u64 {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).map_or(1, |m| m.nlink())
+}
+
+#[cfg(not(unix))]
+fn links(_path: &Path) -> u64 {
+    1
+}
+
+/// Refuses two outputs of one run (`(option, path)`) that name one file (by path or, both
+/// existing, by identity): one would overwrite the other's lines.
+pub fn refuse_shared(outputs: &[(&str, &Path)]) -> Result<(), TrackError> {
+    for (i, (a, pa)) in outputs.iter().enumerate() {
+        for (b, pb) in &outputs[i + 1..] {
+            if same_file(pa, pb) {
+                if *pa == Path::new("-") {
+                    return Err(out_err!(
+                        "{a} - and {b} - would both write to standard output: give one of them a file"
+                    ));
+                }
+                return Err(out_err!(
+                    "{a} and {b} name the same file {}: give each output its own",
+                    pa.display()
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Refuses output `path` when it is one of `inputs` or lies inside one.
@@ -84,17 +186,10 @@ impl Sinks {
         for path in outputs.into_iter().flatten() {
             refuse_inputs(path, inputs)?;
         }
-        if args.csv.as_ref() == Some(&args.out) {
-            if args.out == Path::new("-") {
-                return Err(out_err!(
-                    "--csv - and --out - would both write to standard output: give one of them a file"
-                ));
-            }
-            return Err(out_err!(
-                "--csv and --out are the same file {}",
-                args.out.display()
-            ));
-        }
+        let mut named = vec![("--out", args.out.as_path())];
+        named.extend(args.csv.as_deref().map(|p| ("--csv", p)));
+        named.extend(args.ply.as_deref().map(|p| ("--ply", p)));
+        refuse_shared(&named)?;
         let out = Output::open(&args.out, args.overwrite)?;
         let csv = match &args.csv {
             Some(path) => {

@@ -101,6 +101,16 @@ fn load_rig(path: &std::path::Path) -> Result<(Rig, Vec<String>), TrackError> {
     Ok((rig, skipped.iter().map(ToString::to_string).collect()))
 }
 
+/// The camera files a rig file at `path` names (relative to its folder): inputs no output
+/// may replace. (A folder of camera files is an input as a whole.)
+fn camera_files(path: &std::path::Path, rig: &Rig) -> Vec<PathBuf> {
+    if path.is_dir() {
+        return Vec::new();
+    }
+    let folder = path.parent().unwrap_or(std::path::Path::new("."));
+    rig.cameras.iter().map(|c| folder.join(&c.file)).collect()
+}
+
 /// What `spec` reads besides the recording or frames: the rig and backgrounds.
 fn named_inputs(spec: &SourceSpec) -> Vec<PathBuf> {
     [&spec.rig, &spec.backgrounds]
@@ -133,6 +143,9 @@ fn open_recording(dir: &std::path::Path, spec: &SourceSpec) -> Result<Input, Tra
         (rig, rig_name) = (other, path.display().to_string());
     }
     let mut files = named_inputs(spec);
+    if let Some(path) = &spec.rig {
+        files.extend(camera_files(path, &rig));
+    }
     files.push(rec.layout().rig());
     for sub in [
         "calibration",
@@ -172,6 +185,7 @@ fn open_per_camera(spec: &SourceSpec) -> Result<Input, TrackError> {
     let (rig, mut warnings) = load_rig(rig_path)?;
     let rig_name = rig_path.display().to_string();
     let mut files = named_inputs(spec);
+    files.extend(camera_files(rig_path, &rig));
     for given in [&spec.images, &spec.masks, &spec.video, &spec.camera] {
         files.extend(given.iter().map(|(_, p)| p.clone()));
     }

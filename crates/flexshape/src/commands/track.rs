@@ -12,7 +12,7 @@ use std::ops::ControlFlow;
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
 use flexshape_mcap::{McapOptions, McapSink};
-use flexshape_track::output::{SinkSpec, Sinks, refuse_inputs};
+use flexshape_track::output::{SinkSpec, Sinks, refuse_inputs, refuse_shared};
 use flexshape_track::{
     Input, ModelFrame, Pipeline, Processed, RecordStatus, SummaryLine, Tally, TrackRecord,
     TrackSummary,
@@ -27,6 +27,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let stop = Interrupt::install();
     let (mut input, pipeline) = open(args)?;
+    refuse_mcap(args, &input)?;
     let spec = SinkSpec {
         out: args.out.clone(),
         csv: args.csv.clone(),
@@ -110,12 +111,27 @@ fn open(args: &TrackArgs) -> anyhow::Result<(Input, Pipeline)> {
     Ok((input, pipeline))
 }
 
-/// The MCAP file `--mcap` asks for, never one of the inputs.
+/// Refuses an `--mcap` file that is one of the inputs or another output, before any output
+/// is created.
+fn refuse_mcap(args: &TrackArgs, input: &Input) -> anyhow::Result<()> {
+    let Some(path) = &args.mcap else {
+        return Ok(());
+    };
+    refuse_inputs(path, &input.files).context("--mcap")?;
+    let mut others = vec![("--out", args.out.as_path())];
+    others.extend(args.csv.as_deref().map(|p| ("--csv", p)));
+    others.extend(args.ply.as_deref().map(|p| ("--ply", p)));
+    for (option, other) in others {
+        refuse_shared(&[("--mcap", path), (option, other)])?;
+    }
+    Ok(())
+}
+
+/// The MCAP file `--mcap` asks for ([`refuse_mcap`] asked first).
 fn open_mcap(args: &TrackArgs, input: &Input) -> anyhow::Result<Option<McapSink>> {
     let Some(path) = &args.mcap else {
         return Ok(None);
     };
-    refuse_inputs(path, &input.files).context("--mcap")?;
     let options = McapOptions {
         images: args.mcap_images,
         overwrite: args.overwrite,

@@ -649,6 +649,76 @@ fn outputs_never_replace_inputs_or_existing_files_unasked() {
     assert!(e.contains("another process"), "{e}");
 }
 
+/// Outputs are inputs by identity as well as by path: a hard link to a file inside the
+/// recording, a rig file's camera files with `--images`, and two outputs of one run on one
+/// file are refused before anything is written.
+#[test]
+fn outputs_never_alias_inputs_or_each_other() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "1"]);
+    let cam2 = rec.join("calibration/cam2.yml");
+    let calibration = std::fs::read(&cam2).unwrap();
+    #[cfg(unix)]
+    {
+        let linked = dir.path().join("h.yml");
+        std::fs::hard_link(&cam2, &linked).unwrap();
+        let e = common::fails(&["track", r, "--out", linked.to_str().unwrap(), "--overwrite"]);
+        assert!(e.contains("inside the input folder"), "{e}");
+        let e = common::fails(&["track", r, "--csv", linked.to_str().unwrap(), "--overwrite"]);
+        assert!(e.contains("inside the input folder"), "{e}");
+    }
+    // Two outputs on one file, by the same name or another.
+    let shared = dir.path().join("s.bin");
+    let s = shared.to_str().unwrap();
+    for args in [
+        vec!["--csv", s, "--mcap", s],
+        vec!["--out", s, "--mcap", s],
+        vec!["--out", s, "--csv", s],
+    ] {
+        let mut all = vec!["track", r, "--overwrite"];
+        all.extend(args.iter().copied());
+        let e = common::fails(&all);
+        assert!(e.contains("name the same file"), "{args:?}: {e}");
+        assert!(!shared.exists(), "{args:?}: an output was created");
+    }
+    // A rig file's camera files are inputs, wherever they lie.
+    let rig_dir = dir.path().join("rig");
+    std::fs::create_dir_all(rig_dir.join("calibration")).unwrap();
+    std::fs::copy(rec.join("rig.toml"), rig_dir.join("rig.toml")).unwrap();
+    for cam in ["cam0", "cam1", "cam2"] {
+        let name = format!("calibration/{cam}.yml");
+        std::fs::copy(rec.join(&name), rig_dir.join(&name)).unwrap();
+    }
+    let camera_file = rig_dir.join("calibration/cam0.yml");
+    let before = std::fs::read(&camera_file).unwrap();
+    let mut args = vec![
+        "track".to_string(),
+        "--rig".into(),
+        rig_dir.join("rig.toml").display().to_string(),
+        "--backgrounds".into(),
+        rec.join("background").display().to_string(),
+    ];
+    for cam in ["cam0", "cam1", "cam2"] {
+        args.push("--images".into());
+        args.push(format!("{cam}={}", rec.join("frames").join(cam).display()));
+    }
+    for option in ["--out", "--csv", "--mcap"] {
+        let mut all = args.clone();
+        all.extend([
+            option.into(),
+            camera_file.display().to_string(),
+            "--overwrite".into(),
+        ]);
+        let refs: Vec<&str> = all.iter().map(String::as_str).collect();
+        let e = common::fails(&refs);
+        assert!(e.contains("the input"), "{option}: {e}");
+    }
+    assert_eq!(std::fs::read(&camera_file).unwrap(), before);
+    assert_eq!(std::fs::read(&cam2).unwrap(), calibration);
+}
+
 /// A volume the cameras do not look at is named, with the box they all see.
 #[test]
 fn a_volume_no_camera_sees_is_warned_about_with_one_they_do() {
