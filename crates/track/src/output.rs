@@ -46,16 +46,24 @@ pub fn within(path: &Path, input: &Path) -> bool {
         || linked_into(path, &input)
 }
 
-/// `path` canonical, or for a path that does not exist yet its folder's canonical path joined
-/// with its name.
+/// `path` canonical, or for a path that does not exist yet its nearest existing folder's
+/// canonical path joined with the rest (folders an output would create).
 fn canonical_output(path: &Path) -> Option<PathBuf> {
-    path.canonicalize().ok().or_else(|| {
-        let parent = match path.parent() {
+    if let Ok(c) = path.canonicalize() {
+        return Some(c);
+    }
+    let mut rest = Vec::new();
+    let mut at = path;
+    loop {
+        rest.push(at.file_name()?);
+        at = match at.parent() {
             Some(p) if !p.as_os_str().is_empty() => p,
             _ => Path::new("."),
         };
-        Some(parent.canonicalize().ok()?.join(path.file_name()?))
-    })
+        if let Ok(c) = at.canonicalize() {
+            return Some(rest.iter().rev().fold(c, |acc, name| acc.join(name)));
+        }
+    }
 }
 
 /// Whether two paths name one file: the same canonical path, or (both existing) the same

@@ -43,6 +43,7 @@ pub fn import(args: &RigImportArgs) -> anyhow::Result<()> {
     let rig_path = args.out.join("rig.toml");
     let mut files: Vec<PathBuf> = rig.cameras.iter().map(|c| args.out.join(&c.file)).collect();
     files.push(rig_path.clone());
+    refuse_inputs(&files, &args.inputs)?;
     refuse_existing(&files, args.overwrite)?;
     rig.save(&rig_path)?;
     for note in &read.notes {
@@ -72,6 +73,18 @@ pub fn export(args: &RigExportArgs) -> anyhow::Result<()> {
             .map(|f| args.out.join(f))
             .collect(),
     };
+    // The rig read (a folder of camera files as a whole, or a rig file and the camera files
+    // it names): an export written among them would replace them, or be loaded with them.
+    let mut inputs = vec![args.rig.clone()];
+    if !args.rig.is_dir() {
+        let folder = args.rig.parent().unwrap_or(Path::new("."));
+        inputs.extend(rig.cameras.iter().map(|c| folder.join(&c.file)));
+    }
+    let mut written_to = planned.clone();
+    if args.rig.is_dir() {
+        written_to.push(args.out.join(".")); // the folder itself
+    }
+    refuse_inputs(&written_to, &inputs)?;
     refuse_existing(&planned, args.overwrite)?;
     let written = import::export(&rig, format, &args.out, args.unit)?;
     println!(
@@ -87,6 +100,21 @@ pub fn export(args: &RigExportArgs) -> anyhow::Result<()> {
             ""
         }
     );
+    Ok(())
+}
+
+/// Refuses outputs `files` that are one of `inputs` or lie inside one (by path or by file
+/// identity: a hard link is its target).
+pub(crate) fn refuse_inputs(files: &[PathBuf], inputs: &[PathBuf]) -> anyhow::Result<()> {
+    for file in files {
+        if let Some(input) = inputs.iter().find(|i| super::frames::within(file, i)) {
+            bail!(
+                "{} would replace or join the input {}: write to another --out folder",
+                file.display(),
+                input.display()
+            );
+        }
+    }
     Ok(())
 }
 

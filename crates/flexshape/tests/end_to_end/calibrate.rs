@@ -44,6 +44,23 @@ fn stereo_photographs_calibrate_into_a_rig() {
     std::fs::write(dir.path().join("left/99.jpg"), b"not a jpeg").unwrap();
     let out = dir.path().join("calibration");
     let arg = |cam: &str| format!("{cam}={}", dir.path().join(cam).display());
+    // Never among the images: the next calibration would read its plots as views.
+    let inside = dir.path().join("left/calibration");
+    let e = common::fails(&[
+        "calibrate",
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--images",
+        &arg("left"),
+        "--images",
+        &arg("right"),
+        "--out",
+        inside.to_str().unwrap(),
+    ]);
+    assert!(e.contains("would replace or join the input"), "{e}");
+    assert!(!inside.exists());
     let text = run(&[
         "calibrate",
         "--board",

@@ -682,6 +682,40 @@ fn rig_import_and_export_round_trip_other_tools_calibrations() {
         "mm",
     ]);
     assert!(other.join("cam0_P.yml").is_file());
+    // Never over its own input: a matrix saved as cam0_P.yml, imported into its own folder.
+    let same = dir.path().join("same");
+    std::fs::create_dir_all(&same).unwrap();
+    let input = same.join("cam0_P.yml");
+    std::fs::copy(&p, &input).unwrap();
+    let matrix = std::fs::read(&input).unwrap();
+    let e = common::fails(&[
+        "rig",
+        "import",
+        "projection",
+        input.to_str().unwrap(),
+        "-o",
+        same.to_str().unwrap(),
+        "--size",
+        "640x480",
+        "--unit",
+        "mm",
+        "--overwrite",
+    ]);
+    assert!(e.contains("would replace or join the input"), "{e}");
+    assert_eq!(std::fs::read(&input).unwrap(), matrix);
+    // Nor an export into the folder of camera files it reads.
+    let e = common::fails(&[
+        "rig",
+        "export",
+        o,
+        "--format",
+        "camera-info",
+        "-o",
+        o,
+        "--overwrite",
+    ]);
+    assert!(e.contains("would replace or join the input"), "{e}");
+    assert!(!out.join("cam0.yaml").exists());
     // Out again as COLMAP, and back in.
     let colmap = dir.path().join("colmap");
     common::run(&[
