@@ -138,6 +138,26 @@ fn links(_path: &Path) -> u64 {
     1
 }
 
+/// Refuses output files (`-`, standard output, excepted) that exist, unless `overwrite`.
+pub fn refuse_existing<'a>(
+    paths: impl IntoIterator<Item = &'a PathBuf>,
+    overwrite: bool,
+) -> Result<(), TrackError> {
+    if overwrite {
+        return Ok(());
+    }
+    match paths
+        .into_iter()
+        .find(|p| p.as_path() != Path::new("-") && p.exists())
+    {
+        Some(p) => Err(out_err!(
+            "{} already exists: give --overwrite to replace it, or another file",
+            p.display()
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Refuses two outputs of one run (`(option, path)`) that name one file (by path or, both
 /// existing, by identity): one would overwrite the other's lines.
 pub fn refuse_shared(outputs: &[(&str, &Path)]) -> Result<(), TrackError> {
@@ -198,6 +218,10 @@ impl Sinks {
         named.extend(args.csv.as_deref().map(|p| ("--csv", p)));
         named.extend(args.ply.as_deref().map(|p| ("--ply", p)));
         refuse_shared(&named)?;
+        // Every file refused before any is created: a refused run leaves nothing behind to
+        // block the next.
+        let files = [Some(&args.out), args.csv.as_ref()];
+        refuse_existing(files.into_iter().flatten(), args.overwrite)?;
         let out = Output::open(&args.out, args.overwrite)?;
         let csv = match &args.csv {
             Some(path) => {

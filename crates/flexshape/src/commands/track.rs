@@ -12,7 +12,7 @@ use std::ops::ControlFlow;
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
 use flexshape_mcap::{McapOptions, McapSink};
-use flexshape_track::output::{SinkSpec, Sinks, refuse_inputs, refuse_shared};
+use flexshape_track::output::{SinkSpec, Sinks, refuse_existing, refuse_inputs, refuse_shared};
 use flexshape_track::{
     Input, ModelFrame, Pipeline, Processed, RecordStatus, SummaryLine, Tally, TrackRecord,
     TrackSummary,
@@ -35,15 +35,19 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         ply_encoding: super::ply_encoding(args.ascii_ply),
         overwrite: args.overwrite,
     };
+    // What can be refused first, the outputs last (the MCAP's refusals were asked above).
+    let model_frame = args
+        .model_frame
+        .as_deref()
+        .map(super::model::load_frame)
+        .transpose()?;
+    let viewer = super::viewer::start(&args.viewer, &pipeline)?;
+    let sinks = Sinks::open(&spec, &input.files)?;
     let mut frames = Frames {
-        model_frame: args
-            .model_frame
-            .as_deref()
-            .map(super::model::load_frame)
-            .transpose()?,
-        sinks: Sinks::open(&spec, &input.files)?,
+        model_frame,
+        sinks,
         mcap: open_mcap(args, &input)?,
-        viewer: super::viewer::start(&args.viewer, &pipeline)?,
+        viewer,
         bar: progress(input.source.as_ref()),
         tally: Tally::new(),
         warned: HashSet::new(),
@@ -124,6 +128,7 @@ fn refuse_mcap(args: &TrackArgs, input: &Input) -> anyhow::Result<()> {
     for (option, other) in others {
         refuse_shared(&[("--mcap", path), (option, other)])?;
     }
+    refuse_existing([path], args.overwrite).context("--mcap")?;
     Ok(())
 }
 

@@ -683,6 +683,23 @@ fn outputs_never_alias_inputs_or_each_other() {
         assert!(e.contains("name the same file"), "{args:?}: {e}");
         assert!(!shared.exists(), "{args:?}: an output was created");
     }
+    // A run refused for an existing output leaves no other output behind to block the next.
+    let taken = dir.path().join("taken");
+    std::fs::write(&taken, "kept").unwrap();
+    let fresh = dir.path().join("fresh.jsonl");
+    for option in ["--csv", "--mcap"] {
+        let e = common::fails(&[
+            "track",
+            r,
+            "--out",
+            fresh.to_str().unwrap(),
+            option,
+            taken.to_str().unwrap(),
+        ]);
+        assert!(e.contains("already exists"), "{option}: {e}");
+        assert!(!fresh.exists(), "{option}: --out was created");
+        assert_eq!(std::fs::read_to_string(&taken).unwrap(), "kept");
+    }
     // A rig file's camera files are inputs, wherever they lie.
     let rig_dir = dir.path().join("rig");
     std::fs::create_dir_all(rig_dir.join("calibration")).unwrap();
