@@ -36,7 +36,7 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut out = std::fs::File::create(&records)
         .with_context(|| format!("cannot create {}", records.display()))?;
-    let (mut frames_done, mut carved) = (0usize, 0usize);
+    let (mut frames_done, mut carved, mut failed) = (0usize, 0usize, 0usize);
     while let Some(next) = input.source.next_frame() {
         if stop.requested() {
             break;
@@ -59,6 +59,7 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
             );
         }
         carved += usize::from(record.status == "ok");
+        failed += usize::from(record.status == "error");
         let line = serde_json::to_string(&record).context("cannot encode a record")?;
         writeln!(out, "{line}")
             .and_then(|_| out.flush())
@@ -69,5 +70,13 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
         "{frames_done} frames ({carved} carved) into {}: NNNNNN.ply (voxel centres), NNNNNN.surface.ply (hull surface), hull.jsonl",
         args.out.display()
     );
+    // As `track`: an interrupted run, or one in which every frame failed, did not do what was
+    // asked.
+    if stop.requested() {
+        bail!("interrupted after {frames_done} frames (every record written is whole)");
+    }
+    if frames_done > 0 && failed == frames_done {
+        bail!("every one of the {frames_done} frames failed (see hull.jsonl's `reason`)");
+    }
     Ok(())
 }

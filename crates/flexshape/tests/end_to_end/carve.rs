@@ -86,3 +86,25 @@ fn carve_writes_the_hull_cloud_surface_and_figures_of_every_frame() {
     let v: Value = serde_json::from_str(first.lines().next().unwrap()).unwrap();
     assert_eq!(v["status"], "no_object", "{v}");
 }
+
+/// A run in which every frame failed did not do what was asked: `carve` exits with an error,
+/// as `track` does, its records kept.
+#[test]
+fn carve_fails_when_every_frame_failed() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let r = rec.to_str().unwrap();
+    common::run(&["simulate", "--out", r, "--frames", "2"]);
+    for n in 0..2 {
+        std::fs::write(rec.join(format!("frames/cam1/{n:06}.png")), b"not a png").unwrap();
+    }
+    let out = dir.path().join("hull");
+    let e = common::fails(&["carve", r, "-o", out.to_str().unwrap()]);
+    assert!(e.contains("every one of the 2 frames failed"), "{e}");
+    let records = std::fs::read_to_string(out.join("hull.jsonl")).unwrap();
+    assert_eq!(records.lines().count(), 2, "{records}");
+    assert!(
+        records.lines().all(|l| l.contains("\"error\"")),
+        "{records}"
+    );
+}
