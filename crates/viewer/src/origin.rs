@@ -31,9 +31,19 @@ impl Guard {
                     || (self.loopback
                         && origin
                             .strip_prefix("http://")
-                            .is_some_and(|h| self.is_loopback_host(h)))
+                            .is_some_and(|h| self.is_loopback_origin(h)))
             }
         }
+    }
+
+    /// An origin's `name:port` naming the viewer on loopback: a loopback name with the
+    /// viewer's port (written out, or left implicit when the viewer serves on 80). A page on
+    /// another port of the same machine is another origin.
+    fn is_loopback_origin(&self, host: &str) -> bool {
+        let explicit = host
+            .rsplit_once(':')
+            .is_some_and(|(_, port)| !port.ends_with(']'));
+        (explicit || self.port == 80) && self.is_loopback_host(host)
     }
 
     /// `name` or `name:port` with the viewer's port, `name` a loopback name.
@@ -72,6 +82,16 @@ mod tests {
         assert!(!g.allows(Some("127.0.0.1:8080"), Some("null")));
         // Another port on the same machine is another origin.
         assert!(!g.allows(Some("127.0.0.1:8080"), Some("http://127.0.0.1:9999")));
+        // …and so is the default port (80) an origin without one stands for.
+        assert!(!g.allows(Some("127.0.0.1:8080"), Some("http://localhost")));
+        assert!(!g.allows(Some("127.0.0.1:8080"), Some("http://127.0.0.1")));
+        assert!(!g.allows(Some("127.0.0.1:8080"), Some("http://[::1]")));
+        assert!(g.allows(Some("127.0.0.1:8080"), Some("http://localhost:8080")));
+        let on_80 = Guard {
+            port: 80,
+            loopback: true,
+        };
+        assert!(on_80.allows(Some("localhost"), Some("http://127.0.0.1")));
         assert!(!g.allows(Some("127.0.0.1:9999"), None));
         assert!(!g.allows(None, None));
     }
