@@ -44,36 +44,32 @@ fn stereo_photographs_calibrate_into_a_rig() {
     std::fs::write(dir.path().join("left/99.jpg"), b"not a jpeg").unwrap();
     let out = dir.path().join("calibration");
     let arg = |cam: &str| format!("{cam}={}", dir.path().join(cam).display());
+    let (left, right) = (arg("left"), arg("right"));
+    let calibrate = |out: &Path| {
+        [
+            "calibrate",
+            "--board",
+            "9x6",
+            "--square",
+            "25",
+            "--images",
+            left.as_str(),
+            "--images",
+            right.as_str(),
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .map(String::from)
+    };
+    fn strs(a: &[String]) -> Vec<&str> {
+        a.iter().map(String::as_str).collect()
+    }
     // Never among the images: the next calibration would read its plots as views.
     let inside = dir.path().join("left/calibration");
-    let e = common::fails(&[
-        "calibrate",
-        "--board",
-        "9x6",
-        "--square",
-        "25",
-        "--images",
-        &arg("left"),
-        "--images",
-        &arg("right"),
-        "--out",
-        inside.to_str().unwrap(),
-    ]);
+    let e = common::fails(&strs(&calibrate(&inside)));
     assert!(e.contains("would replace or join the input"), "{e}");
     assert!(!inside.exists());
-    let text = run(&[
-        "calibrate",
-        "--board",
-        "9x6",
-        "--square",
-        "25",
-        "--images",
-        &arg("left"),
-        "--images",
-        &arg("right"),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let text = run(&strs(&calibrate(&out)));
     assert!(
         text.contains("rejected 99.jpg: cannot read the image"),
         "{text}"
