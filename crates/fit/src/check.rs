@@ -47,6 +47,14 @@ pub struct CameraCheck {
     /// `(w − 1)/(w + 1)`, when that is less (a pixel's disagreement at its edges costs more).
     #[serde(default)]
     pub iou_limit: f64,
+    /// Asked only when `iou` is below `iou_limit`: the IoU with the silhouette completed by
+    /// the tube's pixels where the outline found the image's boundary on both sides of the
+    /// tube (each within `max_residual_px`). Where the tube's colour is close to the
+    /// backdrop's, the silhouette's classifier leaves out what the boundary search, reading
+    /// the colour along whole lines, still finds; there the image shows the tube although
+    /// the silhouette does not, and the check holds this IoU against the limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iou_outlined: Option<f64>,
     /// Silhouette pixels farther than the check's distance from the re-rendered tube.
     pub unexplained_px: usize,
     /// Shadow-coloured silhouette pixels that far from it, left out of `iou` and
@@ -70,6 +78,11 @@ pub struct CameraCheck {
     /// folded over the shaft, or seen end-on) has none or few.
     #[serde(default)]
     pub cap_found: [usize; 2],
+    /// Per capped end (proximal end, tip): whether the image shows the tube going on straight
+    /// beyond it, where the fit capped it — its silhouette lost there, the tube too close to
+    /// the backdrop's colour ([`crate::TubeFitter`]'s `goes_on`). False for an open end.
+    #[serde(default)]
+    pub goes_on: [bool; 2],
     /// 90th percentile of the boundaries' ¼–¾ rise, pixels (over those found): up to about 1
     /// for a still tube in focus ([`STILL_RAMP_PX`]), wider where it moved while the shutter
     /// was open (its fastest part, often the tip, first) or is out of focus.
@@ -332,10 +345,51 @@ pub(crate) fn iou_limit(min_iou: f64, spheres: &Spheres) -> f64 {
     min_iou.min((width - 1.0) / (width + 1.0)).max(0.0)
 }
 
+/// The discs of the tube's spheres in `spheres` (its image in one camera, each `widths`
+/// narrower as [`render`] draws them) on both sides of which `measured` found the image's
+/// boundary within `max_px` of the predicted outline: a side sample within 3 px of the
+/// sphere's image found, and another whose normal points the other way (the samples lie
+/// `spacing_mm` apart along the tube, a few pixels).
+pub(crate) fn outlined(
+    (w, h): (usize, usize),
+    spheres: &Spheres,
+    widths: &WidthProfile,
+    measured: &[Measured],
+    max_px: f64,
+) -> BitMask {
+    let found: Vec<_> = measured
+        .iter()
+        .filter(|m| matches!(m.point.part, crate::outline::Part::Side(_)))
+        .filter(|m| m.residual.is_some_and(|r| r.abs() <= max_px))
+        .map(|m| (m.point.pixel, m.point.normal))
+        .collect();
+    let mut mask = BitMask::new(w, h);
+    let (us, _) = spheres.parameters();
+    for (&(c, px, r), &u) in spheres.tube().iter().zip(us) {
+        let mut first: Option<nalgebra::Vector2<f64>> = None;
+        let both = found
+            .iter()
+            .filter(|(p, _)| (p - px).norm() <= r + 3.0)
+            .any(|&(_, n)| match first {
+                None => {
+                    first = Some(n);
+                    false
+                }
+                Some(n0) => n0.dot(&n) < -0.5,
+            });
+        if both {
+            disc(&mut mask, (c, px, (r - widths.at(u)).max(0.5)));
+        }
+    }
+    mask
+}
+
 /// How a view's silhouette overlaps the rendered tube.
 pub(crate) struct Overlap {
     /// [`CameraCheck::iou`].
     pub iou: f64,
+    /// [`CameraCheck::iou_outlined`].
+    pub iou_outlined: Option<f64>,
     /// [`CameraCheck::unexplained_px`].
     pub unexplained_px: usize,
     /// [`CameraCheck::shadow_px`].
@@ -346,12 +400,14 @@ pub(crate) struct Overlap {
 /// ends' continuations cover), and the silhouette pixels farther than `explain_px` from both;
 /// shadow-coloured silhouette pixels that far are counted apart, in neither — unless
 /// `continuations` takes them for the tube's continuing beyond a capped end: a grey distal
-/// part the fit missed looks so.
+/// part the fit missed looks so. Below `limit`, the IoU again with the silhouette completed
+/// by the tube's pixels that `outlined` gives (see [`CameraCheck::iou_outlined`]).
 pub(crate) fn overlap(
     (tube, beyond): &(BitMask, BitMask),
     view: &crate::View<'_>,
     explain_px: usize,
     continuations: impl FnOnce(&BitMask) -> BitMask,
+    (limit, outlined): (f64, impl FnOnce() -> BitMask),
 ) -> Overlap {
     let near = tube.or(beyond).dilate(explain_px);
     let shadow = view
@@ -370,8 +426,22 @@ pub(crate) fn overlap(
         }
         _ => view.silhouette,
     };
-    // Word by word: the silhouette where the continuations alone do not reach, against the
-    // tube (all of which is such a place).
+    let iou = tube_iou(tube, beyond, silhouette);
+    let iou_outlined = (iou < limit).then(|| {
+        let completed = silhouette.or(&tube.and(&outlined()));
+        tube_iou(tube, beyond, &completed)
+    });
+    Overlap {
+        iou,
+        iou_outlined,
+        unexplained_px: silhouette.and_not(&near).count(),
+        shadow_px: shadow.map_or(0, |s| s.count()),
+    }
+}
+
+/// IoU of `tube` with `silhouette` where the continuations (`beyond`) alone do not reach (all
+/// of the tube is such a place), word by word.
+fn tube_iou(tube: &BitMask, beyond: &BitMask, silhouette: &BitMask) -> f64 {
     let (mut inter, mut union) = (0u64, 0u64);
     for ((&t, &b), &s) in tube
         .words()
@@ -383,15 +453,10 @@ pub(crate) fn overlap(
         inter += u64::from((t & seen).count_ones());
         union += u64::from((t | seen).count_ones());
     }
-    let iou = if union == 0 {
+    if union == 0 {
         1.0
     } else {
         inter as f64 / union as f64
-    };
-    Overlap {
-        iou,
-        unexplained_px: silhouette.and_not(&near).count(),
-        shadow_px: shadow.map_or(0, |s| s.count()),
     }
 }
 
@@ -683,13 +748,25 @@ mod tests {
             // definition with whole masks, `left_out` the shadow pixels it should leave out.
             let agrees = |shadow: Option<&BitMask>, zones: &BitMask, left_out: &BitMask| {
                 let (iou, unexplained) = expect(&silhouette.and(&left_out.not()));
+                // Where the outline shows the tube, its pixels count as seen; asked only below
+                // the limit (2: always; 0: never).
+                let outlined = blobs(seed + 500, 4);
+                let completed = silhouette.and(&left_out.not()).or(&tube.and(&outlined));
+                let (iou_outlined, _) = expect(&completed);
                 view(&silhouette, shadow, &|v| {
-                    let got = overlap(&drawn, v, 2, |away| {
-                        flexshape_silhouette::components::touching(away, zones)
-                    });
+                    let touching =
+                        |away: &BitMask| flexshape_silhouette::components::touching(away, zones);
+                    let got = overlap(&drawn, v, 2, touching, (2.0, || outlined.clone()));
                     assert!((got.iou - iou).abs() < 1e-12, "seed {seed}: {}", got.iou);
+                    assert!(
+                        (got.iou_outlined.unwrap() - iou_outlined).abs() < 1e-12,
+                        "seed {seed}"
+                    );
+                    assert!(iou_outlined >= iou, "seed {seed}");
                     assert_eq!(got.unexplained_px, unexplained, "seed {seed}");
                     assert_eq!(got.shadow_px, left_out.count(), "seed {seed}");
+                    let unasked = overlap(&drawn, v, 2, touching, (0.0, || unreachable!()));
+                    assert_eq!(unasked.iou_outlined, None);
                 });
             };
             let none = BitMask::new(150, 40);
@@ -705,7 +782,13 @@ mod tests {
         }
         let empty = BitMask::new(150, 40);
         view(&empty, None, &|v| {
-            let got = overlap(&(empty.clone(), empty.clone()), v, 2, |_| empty.clone());
+            let got = overlap(
+                &(empty.clone(), empty.clone()),
+                v,
+                2,
+                |_| empty.clone(),
+                (0.75, || empty.clone()),
+            );
             assert_eq!((got.iou, got.unexplained_px), (1.0, 0));
         });
     }

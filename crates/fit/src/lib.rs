@@ -403,7 +403,8 @@ impl TubeFitter {
             .zip(views)
             .zip(&measured)
             .zip(&spheres)
-            .map(|((((cam, name), view), m), spheres)| {
+            .zip(&images)
+            .map(|(((((cam, name), view), m), spheres), img)| {
                 let res = check::residual_stats(m);
                 let ends = check::end_stats(m, &tube, length);
                 let widths = if s.free_width() {
@@ -413,7 +414,11 @@ impl TubeFitter {
                 };
                 let rendered = check::render(cam, spheres, &widths);
                 let missed = |away: &BitMask| self.continuations(cam, &tube, away);
-                let overlap = check::overlap(&rendered, view, s.explain_px, missed);
+                let iou_limit = check::iou_limit(s.min_iou, spheres);
+                let size = (rendered.0.width(), rendered.0.height());
+                let outlined = || check::outlined(size, spheres, &widths, m, s.max_residual_px);
+                let overlap =
+                    check::overlap(&rendered, view, s.explain_px, missed, (iou_limit, outlined));
                 CameraCheck {
                     camera: name.clone(),
                     samples: res.samples,
@@ -423,13 +428,15 @@ impl TubeFitter {
                     shift_px: res.shift,
                     p90_px: res.p90,
                     iou: overlap.iou,
-                    iou_limit: check::iou_limit(s.min_iou, spheres),
+                    iou_limit,
+                    iou_outlined: overlap.iou_outlined,
                     unexplained_px: overlap.unexplained_px,
                     shadow_px: overlap.shadow_px,
                     end_samples: ends.samples,
                     end_found: ends.found,
                     end_residual_px: ends.rms,
                     cap_found: check::cap_found(m),
+                    goes_on: self.goes_on(cam, img, &tube, &rendered.0),
                     // A mask's object is white on black: no colour to speak of.
                     lighter_share: if s.masks { 0.0 } else { res.lighter },
                     // (From +0: a negated zero would be written "-0.0".)

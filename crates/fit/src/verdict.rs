@@ -8,8 +8,10 @@ use flexshape_silhouette::BitMask;
 use flexshape_silhouette::components::touching;
 
 use crate::check::{self, CameraCheck, OutlineResiduals, STILL_RAMP_PX};
+use crate::edges::EdgeImage;
 use crate::outline;
 use crate::{Fit, Tube, TubeFitter};
+use nalgebra::Vector2;
 
 /// Samples around a free end needed in a camera before its end is checked apart.
 const END_SAMPLES: usize = 4;
@@ -36,6 +38,11 @@ const MIN_END_VIEW: f64 = 15.0 * std::f64::consts::PI / 180.0;
 /// one camera saw at 0–2 samples, folded over the shaft, were fitted up to 2.7 mm off along
 /// the other camera's rays, every outline explained.)
 const MIN_CAP_FOUND: usize = 3;
+
+/// Stretches beyond a capped end's apex, along its tangent, mm, each of which must show the
+/// tube for [`TubeFitter::goes_on`] to say it goes on: a sliver of a real end's cap, or blur,
+/// at the start of the first cannot pass both.
+const GOES_ON_STRETCHES_MM: [(f64, f64); 2] = [(4.0, 9.0), (9.0, 14.0)];
 
 impl TubeFitter {
     /// Why a capped end's place is not seen, if it is not: fewer than two cameras see it —
@@ -88,6 +95,122 @@ impl TubeFitter {
         None
     }
 
+    /// Per capped end of `tube` (proximal end, tip): whether `img` (camera `cam`'s) shows the
+    /// tube going on straight beyond it ([`TubeFitter::shows_tube`] along each of
+    /// [`GOES_ON_STRETCHES_MM`]) — a tube whose silhouette was lost there (too little contrast
+    /// against the backdrop) and that the fit capped short. Beyond a real end the profile is
+    /// the backdrop's, or whatever lies there at another width.
+    pub(crate) fn goes_on(
+        &self,
+        cam: &Camera,
+        img: &EdgeImage<'_>,
+        tube: &Tube,
+        own: &BitMask,
+    ) -> [bool; 2] {
+        let mut out = [false; 2];
+        for end in [0, 1].into_iter().filter(|&e| tube.capped[e]) {
+            // Along the end's own tangent (the chord over the last 20 mm takes in a bend
+            // just before the end and points off a straight part lost beyond it).
+            let (at, tangent) = tube.frame(end as f64);
+            let dir = if end == 0 { -tangent } else { tangent };
+            let r = tube.radius_at(end as f64, tube.length());
+            out[end] = GOES_ON_STRETCHES_MM.iter().all(|&(from, to)| {
+                self.shows_tube(
+                    cam,
+                    (img, own),
+                    at + dir * (r + from),
+                    at + dir * (r + to),
+                    r,
+                )
+            });
+        }
+        out
+    }
+
+    /// Whether `img` (camera `cam`'s) shows a tube of radius `r` mm along the segment
+    /// `a → b`: `I − E` across it, averaged along it (the noise falls as the root of the
+    /// samples, a faint tube's limbs stand out of it), rises above four times what the average
+    /// leaves of the backdrop beside it (and half `min_contrast`) over a band as wide as the
+    /// tube's image (within 30 % or 2 px), with backdrop on both sides — backdrop that reads
+    /// within a quarter of `min_contrast` of the background (a changed backdrop beside the
+    /// probe leaves it silent). Never where the
+    /// profile meets `own`, the fitted tube's image, within [`OWN_CLEARANCE_PX`]: a part of
+    /// the tube lying on past its own end is the tube, not a lost continuation.
+    fn shows_tube(
+        &self,
+        cam: &Camera,
+        (img, own): (&EdgeImage<'_>, &BitMask),
+        a: nalgebra::Point3<f64>,
+        b: nalgebra::Point3<f64>,
+        r: f64,
+    ) -> bool {
+        let Some((_, p0, rp)) = outline::sphere(cam, a, r) else {
+            return false;
+        };
+        let Ok(far) = cam.project(&b) else {
+            return false;
+        };
+        let along = far.pixel.coords - p0;
+        let length = along.norm();
+        if length < 3.0 {
+            return false; // seen end-on: no profile across it
+        }
+        let d = along / length;
+        let normal = Vector2::new(-d.y, d.x);
+        let reach = rp + 6.0;
+        let offsets: Vec<f64> = (0..=((2.0 * reach) / 0.5) as usize)
+            .map(|k| -reach + 0.5 * k as f64)
+            .collect();
+        let steps = length.ceil() as usize;
+        let mut profile = Vec::with_capacity(offsets.len());
+        for &o in &offsets {
+            let mut sum = [0f64; 3];
+            for k in 0..=steps {
+                let q = p0 + d * (length * k as f64 / steps as f64) + normal * o;
+                if meets(own, q) {
+                    return false;
+                }
+                let Some(v) = img.difference_at(q) else {
+                    return false;
+                };
+                for c in 0..3 {
+                    sum[c] += v[c] as f64;
+                }
+            }
+            let n = (steps + 1) as f64;
+            profile.push(sum.iter().map(|v| (v / n).powi(2)).sum::<f64>().sqrt());
+        }
+        // The backdrop's level beside the band, from the quieter side: a tube going on
+        // along a gentle bend drifts a pixel or two off the end's tangent, into one side.
+        let side = |sign: f64| {
+            let (sum, n) = offsets
+                .iter()
+                .zip(&profile)
+                .filter(|(o, _)| sign * **o > rp + 2.0)
+                .fold((0.0, 0usize), |(s, n), (_, c)| (s + c * c, n + 1));
+            (sum / n.max(1) as f64).sqrt()
+        };
+        let floor = side(-1.0).min(side(1.0));
+        if floor > self.settings.min_contrast / 4.0 {
+            // The backdrop beside reads far from the background (folds that moved, a
+            // shadow, strong noise): nothing tells a tube's band from its changes.
+            return false;
+        }
+        let threshold = (4.0 * floor).max(self.settings.min_contrast / 2.0);
+        let above: Vec<f64> = offsets
+            .iter()
+            .zip(&profile)
+            .filter(|(_, c)| **c > threshold)
+            .map(|(&o, _)| o)
+            .collect();
+        let (Some(&first), Some(&last)) = (above.first(), above.last()) else {
+            return false;
+        };
+        let width = last - first + 0.5;
+        let flanked = first > -reach + 1.5 && last < reach - 1.5;
+        flanked && (width - 2.0 * rp).abs() <= (0.3 * 2.0 * rp).max(2.0)
+    }
+
     /// Why the fit does not explain the images, if it does not (the first failing check).
     /// A camera that fails only for its blur — its residuals within what blur adds to its
     /// edges' rise ([`CameraCheck::beyond_blur`]) — is excused while two other cameras pass
@@ -115,6 +238,7 @@ impl TubeFitter {
                 }
                 Some(why + &blurred(c, within_blur))
             })
+            .or_else(|| goes_on(&fit.cameras))
             .or_else(|| shape_verdict(&fit.tube, volume))
     }
 
@@ -126,7 +250,8 @@ impl TubeFitter {
         fit.cameras.iter().all(|c| {
             let o = Outline::measured(c);
             self.outline_placed(c, o).is_none() && self.end_placed(c, o).is_none()
-        }) && shape_verdict(&fit.tube, volume).is_none()
+        }) && goes_on(&fit.cameras).is_none()
+            && shape_verdict(&fit.tube, volume).is_none()
     }
 
     /// Whether one camera's image passes every check of the fit as measured (no allowance
@@ -241,8 +366,15 @@ impl TubeFitter {
             .or_else(|| self.end_placed(c, o))
             .map(|why| why + &lighter_than_backdrop(c))
             .or_else(|| {
-                (c.iou < c.iou_limit).then(|| format!(
-                    "camera {i}: the fitted tube overlaps the silhouette by IoU {:.2} (at least {:.2} expected)",
+                let iou = c.iou_outlined.unwrap_or(c.iou);
+                let outlined = match c.iou_outlined {
+                    Some(with) => format!(
+                        ", {with:.2} with the tube's pixels between boundaries the outline found"
+                    ),
+                    None => String::new(),
+                };
+                (iou < c.iou_limit).then(|| format!(
+                    "camera {i}: the fitted tube overlaps the silhouette by IoU {:.2}{outlined} (at least {:.2} expected)",
                     c.iou, c.iou_limit
                 ))
             })
@@ -297,6 +429,48 @@ impl TubeFitter {
             s.max_residual_px
         ))
     }
+}
+
+/// How near the profile of [`TubeFitter::shows_tube`] may come to the fitted tube's own
+/// image, pixels: a boundary blurred or merged with the profile's band.
+const OWN_CLEARANCE_PX: f64 = 2.0;
+
+/// Whether pixel `q` lies in `mask`.
+fn inside(mask: &BitMask, q: Vector2<f64>) -> bool {
+    let (x, y) = (q.x.round(), q.y.round());
+    x >= 0.0
+        && y >= 0.0
+        && (x as usize) < mask.width()
+        && (y as usize) < mask.height()
+        && mask.get(x as usize, y as usize)
+}
+
+/// Whether `q` (pixels) lies in `mask` or within [`OWN_CLEARANCE_PX`] of it along x or y.
+fn meets(mask: &BitMask, q: Vector2<f64>) -> bool {
+    let c = OWN_CLEARANCE_PX;
+    [(0.0, 0.0), (c, 0.0), (-c, 0.0), (0.0, c), (0.0, -c)]
+        .iter()
+        .any(|&(dx, dy)| inside(mask, q + Vector2::new(dx, dy)))
+}
+
+/// Why the images show the tube going on beyond an end the fit capped, if they do: at least
+/// two cameras see it there ([`TubeFitter::goes_on`]; one alone may see a stripe of a changed
+/// backdrop that happens to lie on from the end at the tube's width). That end is not where
+/// the images have it, so the fit is not located there either (a background that followed
+/// the frame from it would take the lost part of the tube in).
+fn goes_on(cameras: &[CameraCheck]) -> Option<String> {
+    (0..2).find_map(|end| {
+        let seen: Vec<&str> = cameras
+            .iter()
+            .filter(|c| c.goes_on[end])
+            .map(|c| c.camera.as_str())
+            .collect();
+        let which = if end == 1 { "tip" } else { "proximal end" };
+        (seen.len() >= 2).then(|| format!(
+            "cameras {}: the tube goes on beyond its {which}: the images show it 4–14 mm straight on from where the fit capped it; the silhouettes lost the rest (too little contrast between the tube and the backdrop?)",
+            seen.join(", ")
+        ))
+    })
 }
 
 /// The outline residuals a camera is judged on, pixels: as measured, or beyond its blur.
@@ -375,6 +549,9 @@ fn lighter_than_backdrop(c: &CameraCheck) -> String {
 /// Why `tube` is no shape a tube can take, if it is not (within `volume`: outside it nothing
 /// holds the tube, and the record does not report it).
 fn shape_verdict(tube: &Tube, volume: &Volume) -> Option<String> {
+    if let Some(why) = open_end_inside(tube, volume) {
+        return Some(why);
+    }
     let stations = check::stations(tube, tube.length(), |p| volume.contains(p));
     if let Some(t) = check::tightest_bend(&stations).filter(|t| t.bend >= 1.0) {
         return Some(format!(
@@ -389,6 +566,30 @@ fn shape_verdict(tube: &Tube, volume: &Volume) -> Option<String> {
         c.at_mm[1],
         tube.largest_radius()
     ))
+}
+
+/// Why an open end of `tube` is not where the tube runs out of the volume, if it is not. The
+/// record runs an open end on to the volume's boundary (`record_from_curve`); a fitted end
+/// that stopped more than a radius and two voxels inside — the start's own tolerance for an
+/// end on the boundary — leaves that stretch to the curve's extrapolation, not to the
+/// images (a two-view start on silhouettes that lost the tube's proximal part: 3.8 mm off at
+/// the boundary, 29 mm beyond the fitted end).
+fn open_end_inside(tube: &Tube, volume: &Volume) -> Option<String> {
+    let voxel = volume
+        .voxel_size
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let length = tube.length();
+    (0..2).filter(|&e| !tube.capped[e]).find_map(|e| {
+        let u = e as f64;
+        let depth = volume.depth(&tube.frame(u).0);
+        let tolerance = tube.radius_at(u, length) + 2.0 * voxel;
+        let which = if e == 1 { "tip" } else { "proximal end" };
+        (depth > tolerance).then(|| format!(
+            "the tube runs on out of the volume at its {which}, but the fitted shape stops {depth:.0} mm inside it (at most {tolerance:.1}): the stretch between was not measured (the silhouettes lost the tube there?)"
+        ))
+    })
 }
 
 #[cfg(test)]
@@ -440,5 +641,36 @@ mod tests {
         // Both at once: each judged as its own part.
         let both = more.or(&beside);
         assert_eq!(fitter.continuations(cam, &fitted, &both), more);
+    }
+
+    /// An open proximal end on the volume's boundary, or within a radius and two voxels of
+    /// it, is where the tube runs out; one stopped farther inside leaves the record's stretch
+    /// to the boundary unmeasured.
+    #[test]
+    fn an_open_end_stopped_inside_the_volume_is_not_measured_to_its_boundary() {
+        let sim = Simulator::new(SimConfig::default()).unwrap();
+        let volume = sim.rig().volume;
+        // The volume runs 128 mm below its centre; the tube's radius is 3 mm, its voxels 1 mm.
+        for (z0, inside) in [
+            (-135.0, false),
+            (-128.0, false),
+            (-124.0, false),
+            (-120.0, true),
+            (-60.0, true),
+        ] {
+            let t = tube(&sim, 0.0, z0, 40.0);
+            let why = open_end_inside(&t, &volume);
+            assert_eq!(why.is_some(), inside, "from {z0} mm: {why:?}");
+            assert_eq!(shape_verdict(&t, &volume), why, "from {z0} mm");
+        }
+        let why = open_end_inside(&tube(&sim, 0.0, -60.0, 40.0), &volume).unwrap();
+        assert!(
+            why.contains("proximal end") && why.contains("68 mm inside"),
+            "{why}"
+        );
+        // A capped end is where the fit put it: nothing runs on.
+        let mut capped = tube(&sim, 0.0, -60.0, 40.0);
+        capped.capped = [true, true];
+        assert_eq!(open_end_inside(&capped, &volume), None);
     }
 }

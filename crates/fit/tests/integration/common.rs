@@ -136,6 +136,17 @@ impl Chain {
     /// As `run`, with the hull's record changed by `edit` before the fit starts from it.
     pub fn run_from(&self, frame: SimFrame, edit: impl Fn(&mut ShapeRecord)) -> Both {
         let sil = self.silhouettes(&frame);
+        self.run_with(frame, sil, edit)
+    }
+
+    /// As `run_from`, from silhouettes `sil` (the frame's own, edited: a segmentation that
+    /// lost part of the tube).
+    pub fn run_with(
+        &self,
+        frame: SimFrame,
+        sil: Vec<Silhouette>,
+        edit: impl Fn(&mut ShapeRecord),
+    ) -> Both {
         let objects: Vec<_> = sil.iter().map(|s| &s.object).collect();
         let markers: Vec<_> = sil.iter().map(|s| &s.markers).collect();
         let occ = self.carver.carve(&objects, OutsideImage::Carve).unwrap();

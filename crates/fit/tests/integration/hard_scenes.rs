@@ -4,8 +4,9 @@
 use crate::common;
 
 use common::*;
-use flexshape_shape::Status;
+use flexshape_shape::{ShapeEstimator, ShapeSettings, Status};
 use flexshape_sim::{RenderSettings, SimConfig, SimRigConfig};
+use nalgebra::Point3;
 
 #[test]
 fn shadows_occluders_and_strong_distortion_never_give_a_wrong_ok() {
@@ -128,5 +129,165 @@ fn a_tube_whose_limbs_fade_into_a_dark_backdrop_is_placed_by_its_hue() {
     assert!(
         median <= 0.06 && worst <= 0.1,
         "median {median:.3} mm, worst {worst:.3}"
+    );
+}
+
+/// A blue tube on a lighter cloth of nearly its hue (7° apart): where the lit tube is as
+/// bright as the cloth the silhouette leaves it out — a stripe down its middle, or all of it
+/// but a dark limb — while the boundary search, reading the colour along whole lines, still
+/// finds both sides. Across 3 seeds every `ok` is right; a camera turned by 0.2° is still
+/// refused on every frame.
+#[test]
+fn a_tube_on_a_backdrop_of_its_hue_is_placed_by_its_outline() {
+    let scene = |seed: u64| SimConfig {
+        render: RenderSettings {
+            backdrop_albedo: [0.22, 0.28, 0.45],
+            ..RenderSettings::default()
+        },
+        seed,
+        ..SimConfig::default()
+    };
+    let (mut ok, mut refused, mut completed) = (0, 0, 0);
+    for seed in [1, 2, 3] {
+        let chain = Chain::new(scene(seed));
+        let sim = &chain.sim;
+        for (n, pose) in sim.sweep(8).iter().enumerate() {
+            let b = chain.run(sim.render(n as u64, pose).unwrap());
+            let (rms, tip) = b.fitted_errors(sim);
+            let right = rms <= 0.15 && tip <= 0.3;
+            let fit = b.fit.as_ref();
+            let iou: Vec<_> = fit
+                .map(|f| f.cameras.iter().map(|c| (c.iou, c.iou_outlined)).collect())
+                .unwrap_or_default();
+            println!(
+                "seed {seed} frame {n}: {:?}, rms {rms:.3} mm, tip {tip:.2} mm, IoU {iou:.2?}",
+                b.fitted.status
+            );
+            completed += usize::from(iou.iter().any(|(_, o)| o.is_some()));
+            if b.fitted.status == Status::Ok {
+                ok += 1;
+                assert!(
+                    right,
+                    "seed {seed} frame {n}: ok with rms {rms:.3}, tip {tip:.2}"
+                );
+            } else {
+                refused += usize::from(right);
+            }
+        }
+    }
+    println!("{ok} of 24 ok, {refused} right but refused, {completed} with a silhouette completed");
+    // Measured: 21 of 24 ok, 1 right but refused (the outline's 90th percentile 0.28 px),
+    // the tips 0.12–0.22 mm off; 13 frames had a camera's silhouette missing part of the
+    // tube the outline found (IoU 0.64–0.74, 0.97–0.98 completed). Before, read against the
+    // colour inside, the boundary lay 0.2 px outside the dark rim (the radius 5 % large, the
+    // tips 0.22–0.36 mm short) and an `ok` frame's tip was off by more than 0.3 mm; those
+    // silhouettes failed the IoU limit of 0.75.
+    assert!(
+        ok >= 18 && refused <= 3,
+        "{ok} ok, {refused} right but refused"
+    );
+    assert!(completed >= 8, "{completed}");
+
+    let chain = Chain::with_camera_turned(scene(1), 1, 0.2);
+    let sim = &chain.sim;
+    for (n, pose) in sim.sweep(8).iter().enumerate() {
+        let b = chain.run(sim.render(n as u64, pose).unwrap());
+        println!("turned camera, frame {n}: {:?}", b.fitted.status);
+        assert_ne!(b.fitted.status, Status::Ok, "frame {n}");
+    }
+}
+
+/// The same cloth, where the silhouettes lost the tube's proximal 60 mm in every camera (as
+/// sensor noise makes them lose a lit stretch as bright as the cloth), on a rig without bands
+/// (a lost band would say so by itself): the fit from what is left caps the tube there, a
+/// shape that explains every silhouette. The images still show the tube's two sides going on
+/// from that cap, so no such frame is `ok`; with the whole silhouettes no end of a right fit
+/// is taken for one that goes on. Measured: two cameras see the cut fit going on in 5 of 6
+/// frames (the sixth fails its free end's outline); without the probe frame 0 was `ok` with
+/// its centerline 26.7 mm RMS off.
+#[test]
+fn a_tube_its_silhouettes_cut_short_is_not_ok() {
+    let mut chain = Chain::new(SimConfig {
+        render: RenderSettings {
+            backdrop_albedo: [0.22, 0.28, 0.45],
+            ..RenderSettings::default()
+        },
+        seed: 2,
+        ..SimConfig::default()
+    });
+    // No bands to count (a lost band would say so by itself); the base's place tells the
+    // tube's direction.
+    chain.estimator = ShapeEstimator::new(ShapeSettings {
+        expected_bands: 0,
+        tip_band: false,
+        sections: Vec::new(),
+        proximal_hint: Some([0.0, 0.0, -128.0]),
+        ..chain.estimator.settings().clone()
+    })
+    .unwrap();
+    let sim = &chain.sim;
+    let volume = &sim.rig().volume;
+    let (mut goes_on, mut frames) = (0, 0);
+    for (n, pose) in sim.sweep(6).iter().enumerate() {
+        let frame = sim.render(n as u64, pose).unwrap();
+        let whole = chain.run(frame.clone());
+        let fit = whole
+            .fit
+            .as_ref()
+            .expect("a fit from the whole silhouettes");
+        for c in &fit.cameras {
+            assert_eq!(c.goes_on, [false, false], "frame {n}, camera {}", c.camera);
+        }
+        // The tube up to 60 mm into the volume (and outside it, towards its base), cut out
+        // of every silhouette with a margin of 12 px (the tube is about 6 px wide).
+        let line: Vec<Point3<f64>> = frame
+            .truth
+            .centerline
+            .iter()
+            .map(|p| Point3::from(*p))
+            .collect();
+        let entry = line.iter().position(|p| volume.contains(p)).unwrap();
+        let mut arc = 0.0;
+        let end = entry
+            + line[entry..]
+                .windows(2)
+                .take_while(|w| {
+                    arc += (w[1] - w[0]).norm();
+                    arc < 60.0
+                })
+                .count();
+        let mut sil = chain.silhouettes(&frame);
+        for (s, cam) in sil.iter_mut().zip(&chain.cameras) {
+            let (w, h) = (s.object.width() as i64, s.object.height() as i64);
+            for p in &line[..=end] {
+                let c = cam.project(p).unwrap().pixel;
+                let (cx, cy) = (c.x.round() as i64, c.y.round() as i64);
+                for y in (cy - 12).max(0)..(cy + 13).min(h) {
+                    for x in (cx - 12).max(0)..(cx + 13).min(w) {
+                        if (x - cx).pow(2) + (y - cy).pow(2) <= 144 {
+                            s.object.set(x as usize, y as usize, false);
+                        }
+                    }
+                }
+            }
+        }
+        let cut = chain.run_with(frame, sil, |_| {});
+        let (rms, tip) = cut.fitted_errors(sim);
+        println!(
+            "frame {n}: {:?}, rms {rms:.2} mm, tip {tip:.2} mm",
+            cut.fitted.status
+        );
+        assert_ne!(cut.fitted.status, Status::Ok, "frame {n}: rms {rms:.2}");
+        if let Some(fit) = &cut.fit {
+            frames += 1;
+            goes_on += usize::from(fit.cameras.iter().filter(|c| c.goes_on[0]).count() >= 2);
+        }
+    }
+    println!(
+        "{goes_on} of {frames} cut fits seen by two cameras going on beyond their proximal cap"
+    );
+    assert!(
+        frames >= 4 && goes_on >= frames / 2,
+        "{goes_on} of {frames}"
     );
 }
