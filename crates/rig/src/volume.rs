@@ -4,6 +4,11 @@ use flexshape_camera::nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+/// Smallest and largest voxel edge, mm: a micrometre is finer than any camera resolves (the
+/// stages count slices and cells by it: 1e-300 mm overflowed their indices), a metre coarser
+/// than any instrument.
+pub const VOXEL_MM: (f64, f64) = (0.001, 1000.0);
+
 /// Largest number of voxels a volume may have (2³¹).
 pub const MAX_VOXELS: u64 = 1 << 31;
 
@@ -42,7 +47,7 @@ impl Default for Volume {
 }
 
 impl Volume {
-    /// Validated constructor: finite origin, positive finite voxel sizes, at least one voxel per
+    /// Validated constructor: finite origin, voxel edges within [`VOXEL_MM`], at least one voxel per
     /// axis and at most [`MAX_VOXELS`] in all.
     pub fn new(
         origin: [f64; 3],
@@ -115,6 +120,19 @@ impl Volume {
             return Err(VolumeError {
                 field: "voxel_size",
                 problem: format!("{s} mm is not a positive voxel size"),
+            });
+        }
+        if let Some(s) = self
+            .voxel_size
+            .iter()
+            .find(|s| !(VOXEL_MM.0..=VOXEL_MM.1).contains(*s))
+        {
+            return Err(VolumeError {
+                field: "voxel_size",
+                problem: format!(
+                    "{s:e} mm is outside {}–{} mm: give each voxel edge in millimetres",
+                    VOXEL_MM.0, VOXEL_MM.1
+                ),
             });
         }
         if self.dims.contains(&0) {
@@ -222,6 +240,14 @@ mod tests {
             "dims"
         );
         assert!(Volume::from_bounds([0.0; 3], [1e6; 3], 0.001).is_err());
+        // Edges a stage cannot count slices by, or no camera resolves; the bounds themselves
+        // are edges.
+        for edge in [1e-300, 1e-9, 0.0009, 1000.1, 1e300] {
+            let e = Volume::new([0.0; 3], [1.0, 1.0, edge], [1; 3]).unwrap_err();
+            assert_eq!(e.field, "voxel_size", "{edge}");
+            assert!(e.problem.contains("0.001–1000 mm"), "{edge}: {}", e.problem);
+        }
+        assert!(Volume::new([0.0; 3], [0.001, 1.0, 1000.0], [1; 3]).is_ok());
     }
 
     #[test]

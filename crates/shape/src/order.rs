@@ -19,7 +19,7 @@ use flexshape_carve::Occupancy;
 
 use crate::graph::{CellGraph, farthest};
 use crate::record::Status;
-use crate::settings::ShapeSettings;
+use crate::settings::{SPACING_MM, ShapeSettings};
 
 /// The cloud cut into slices across the tube, proximal end first.
 #[derive(Debug, Clone)]
@@ -188,10 +188,12 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
     }
     let vs = occ.volume.voxel_size;
     let voxel = vs.iter().copied().fold(f64::INFINITY, f64::min);
+    // The voxel edge is held to the range a given `slice_mm` must keep: a voxel of 1e-300 mm
+    // asked for more slices than an index can count.
     let spacing = if settings.slice_mm > 0.0 {
         settings.slice_mm
     } else {
-        voxel
+        voxel.clamp(SPACING_MM.0, SPACING_MM.1)
     };
     let cell_mm = settings.cell_voxels as f64 * vs.iter().copied().fold(0.0, f64::max);
     let graph = CellGraph::new(occ, settings.cell_voxels);

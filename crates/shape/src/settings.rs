@@ -100,7 +100,7 @@ impl Default for ArcFitSettings {
 pub struct ShapeSettings {
     /// Coarse cell edge for ordering, in voxels.
     pub cell_voxels: u32,
-    /// Slice spacing along the tube, mm (0: the smallest voxel edge).
+    /// Slice spacing along the tube, mm (0: the smallest voxel edge, held within 0.05–20).
     pub slice_mm: f64,
     /// Smoothing method.
     pub smoothing: Smoothing,
@@ -236,12 +236,15 @@ impl ShapeSettings {
             return bad("radius_steps", e.0);
         }
         match self.smoothing {
+            // Beyond about 1e78 mm the spline's weight overflows and every centerline comes
+            // out empty; no instrument is longer than the bound.
             Smoothing::Spline { bandwidth_mm }
-                if !(bandwidth_mm.is_finite() && bandwidth_mm >= 0.0) =>
+                if !(bandwidth_mm.is_finite()
+                    && (0.0..=BANDWIDTH_MAX_MM).contains(&bandwidth_mm)) =>
             {
                 return bad(
                     "smoothing.bandwidth_mm",
-                    format!("{bandwidth_mm} must be ≥ 0"),
+                    format!("{bandwidth_mm:e} must be between 0 and {BANDWIDTH_MAX_MM} mm"),
                 );
             }
             Smoothing::MovingAverage { window }
@@ -285,7 +288,10 @@ impl ShapeSettings {
 }
 
 /// The range of slice and sample spacings, mm.
-const SPACING_MM: (f64, f64) = (0.05, 20.0);
+pub(crate) const SPACING_MM: (f64, f64) = (0.05, 20.0);
+
+/// The longest smoothing bandwidth, mm: longer than any instrument's whole length.
+const BANDWIDTH_MAX_MM: f64 = 10_000.0;
 
 /// The tube radius a rig may give, mm.
 const RADIUS_MM: (f64, f64) = (0.05, 100.0);

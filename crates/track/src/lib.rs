@@ -69,6 +69,15 @@ pub use status::RecordStatus;
 /// Why a frame (or the pipeline's setup) failed.
 #[derive(Debug, Error)]
 pub enum TrackError {
+    /// A table of the rig's `[processing]` that no stage reads, or that names a camera the
+    /// rig does not have.
+    #[error("[{table}]: {problem}")]
+    Processing {
+        /// The table, e.g. `processing.shap`.
+        table: String,
+        /// What is wrong and what to do.
+        problem: String,
+    },
     /// A camera's silhouette stage.
     #[error("camera {camera}: {source}")]
     Silhouette {

@@ -228,6 +228,7 @@ impl Pipeline {
     /// silhouettes' of every camera, the shape's, the fit's), without backgrounds or a
     /// volume: what `rig check` runs.
     pub fn check_settings(rig: &Rig) -> Result<(), TrackError> {
+        check_tables(rig)?;
         for cam in &rig.cameras {
             SilhouetteSettings::from_processing(&rig.processing, &cam.name).map_err(|source| {
                 TrackError::Silhouette {
@@ -284,6 +285,7 @@ impl Pipeline {
         volume: &Volume,
         adapt: impl Fn(SilhouetteSettings) -> SilhouetteSettings,
     ) -> Result<Self, TrackError> {
+        check_tables(rig)?;
         if backgrounds.len() != rig.cameras.len() {
             return Err(TrackError::CameraCount {
                 what: "background models",
@@ -1124,6 +1126,49 @@ const GHOST_MARGIN_PX: usize = 2;
 /// The self-check's 90th percentile of outline residuals for frames that are binary masks,
 /// pixels: their boundary lies on pixel edges, up to half a pixel from the true outline.
 pub const MASK_P90_PX: f64 = 0.5;
+
+/// The stages that read a table of a rig's `[processing]`.
+const STAGES: [&str; 3] = ["silhouette", "shape", "fit"];
+
+/// Whether every table of `rig`'s `[processing]` is a stage's, and every camera a
+/// `[processing.silhouette.per_camera]` table names is the rig's: a misspelled table's
+/// settings would be ignored, values and all (the tables' own keys are checked by each
+/// stage).
+fn check_tables(rig: &Rig) -> Result<(), TrackError> {
+    let wrong = |table: String, problem: String| Err(TrackError::Processing { table, problem });
+    if let Some(key) = rig
+        .processing
+        .keys()
+        .find(|k| !STAGES.contains(&k.as_str()))
+    {
+        return wrong(
+            format!("processing.{key}"),
+            format!(
+                "no stage reads this table (the stages are {}): a typo?",
+                STAGES.join(", ")
+            ),
+        );
+    }
+    let per_camera = match rig.processing.get("silhouette") {
+        Some(toml::Value::Table(t)) => t.get("per_camera"),
+        _ => None,
+    };
+    if let Some(toml::Value::Table(cams)) = per_camera
+        && let Some(name) = cams
+            .keys()
+            .find(|n| !rig.cameras.iter().any(|c| &c.name == *n))
+    {
+        let names: Vec<&str> = rig.cameras.iter().map(|c| c.name.as_str()).collect();
+        return wrong(
+            format!("processing.silhouette.per_camera.{name}"),
+            format!(
+                "the rig has no camera {name:?} (its cameras: {}; names are case-sensitive)",
+                names.join(", ")
+            ),
+        );
+    }
+    Ok(())
+}
 
 fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3

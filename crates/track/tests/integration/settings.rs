@@ -88,3 +88,47 @@ fn every_numeric_setting_at_special_values_is_refused_or_runs() {
     println!("{refused} refused, {ran} ran a frame");
     assert!(refused > 0 && ran > 0);
 }
+
+/// A `[processing]` table no stage reads (a misspelled `[processing.shap]`) and a
+/// `per_camera` table for a camera the rig does not have (`cam9`, `CAM0`) are refused by the
+/// settings check and by the pipeline alike, naming the table; before, their settings were
+/// ignored, invalid values and all. The rig's own camera names are taken.
+#[test]
+fn tables_no_stage_reads_and_cameras_the_rig_lacks_are_refused() {
+    let (sim, _) = common::simulated_chain();
+    let backgrounds: Vec<_> = BackgroundModel::each(&sim.backgrounds()).unwrap();
+    let with = |extra: &str| {
+        let mut rig = sim.rig().clone();
+        let table: toml::Table = extra.parse().unwrap();
+        let toml::Value::Table(processing) = &table["processing"] else {
+            panic!("{extra}");
+        };
+        for (k, v) in processing {
+            rig.processing.insert(k.clone(), v.clone());
+        }
+        rig
+    };
+    for (extra, named) in [
+        ("[processing.shap]\nslice_mm = 1e-300", "[processing.shap]"),
+        (
+            "[processing.silhouette.per_camera.cam9]\nclose_radius = 1",
+            "[processing.silhouette.per_camera.cam9]",
+        ),
+        (
+            "[processing.silhouette.per_camera.CAM0]\nclose_radius = 1",
+            "[processing.silhouette.per_camera.CAM0]",
+        ),
+    ] {
+        let rig = with(extra);
+        let checked = Pipeline::check_settings(&rig).unwrap_err().to_string();
+        assert!(checked.contains(named), "{extra}: {checked}");
+        let built = Pipeline::new(&rig, &backgrounds, &rig.volume)
+            .err()
+            .unwrap()
+            .to_string();
+        assert_eq!(built, checked, "{extra}");
+    }
+    let rig = with("[processing.silhouette.per_camera.cam0]\nclose_radius = 1");
+    Pipeline::check_settings(&rig).unwrap();
+    Pipeline::new(&rig, &backgrounds, &rig.volume).unwrap();
+}
