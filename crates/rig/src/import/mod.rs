@@ -100,6 +100,18 @@ pub fn rig_of(cameras: Vec<Imported>, volume: Volume, source: &Path) -> Result<R
                 format!("two cameras are named `{}`", c.name),
             ));
         }
+        // What the rig's loader would refuse of the file written for it (a principal point
+        // outside the image, an implausible focal length or size), refused here, before a
+        // rig that cannot be loaded is written.
+        let file = PathBuf::from(format!("{}.yml", c.name));
+        let text = crate::camera_file::to_yaml(&c.camera.intrinsics, Some(&c.camera.pose));
+        if let Err(e) = crate::camera_file::parse(&text, false, &file) {
+            return Err(RigError::field(
+                source,
+                "cameras",
+                format!("camera `{}` as imported would not load: {e}", c.name),
+            ));
+        }
     }
     Ok(Rig {
         cameras: cameras
@@ -350,5 +362,41 @@ mod tests {
         assert_eq!(sanitize(""), "cam");
         assert_eq!("m".parse::<Unit>().unwrap().mm(), 1000.0);
         assert!("inch".parse::<Unit>().is_err());
+    }
+
+    /// A camera the loader would refuse (here a principal point outside the image it is
+    /// declared with) is refused by the import, naming the camera and why; the same camera
+    /// with its image is taken.
+    #[test]
+    fn a_camera_the_loader_would_refuse_is_not_imported() {
+        use flexshape_camera::{Camera, Distortion, Intrinsics, Pose};
+        let camera = |width, height| Camera {
+            intrinsics: Intrinsics::new(
+                width,
+                height,
+                800.0,
+                800.0,
+                320.0,
+                240.0,
+                Distortion::default(),
+            )
+            .unwrap(),
+            pose: Pose::identity(),
+        };
+        let imported = |width, height| {
+            vec![Imported {
+                name: "cam0".into(),
+                camera: camera(width, height),
+            }]
+        };
+        let source = Path::new("P0.txt");
+        let e = rig_of(imported(100, 100), Volume::default(), source)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("P0.txt") && e.contains("cam0") && e.contains("principal point"),
+            "{e}"
+        );
+        rig_of(imported(640, 480), Volume::default(), source).unwrap();
     }
 }
