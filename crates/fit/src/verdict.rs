@@ -435,22 +435,12 @@ impl TubeFitter {
 /// image, pixels: a boundary blurred or merged with the profile's band.
 const OWN_CLEARANCE_PX: f64 = 2.0;
 
-/// Whether pixel `q` lies in `mask`.
-fn inside(mask: &BitMask, q: Vector2<f64>) -> bool {
-    let (x, y) = (q.x.round(), q.y.round());
-    x >= 0.0
-        && y >= 0.0
-        && (x as usize) < mask.width()
-        && (y as usize) < mask.height()
-        && mask.get(x as usize, y as usize)
-}
-
 /// Whether `q` (pixels) lies in `mask` or within [`OWN_CLEARANCE_PX`] of it along x or y.
 fn meets(mask: &BitMask, q: Vector2<f64>) -> bool {
     let c = OWN_CLEARANCE_PX;
     [(0.0, 0.0), (c, 0.0), (-c, 0.0), (0.0, c), (0.0, -c)]
         .iter()
-        .any(|&(dx, dy)| inside(mask, q + Vector2::new(dx, dy)))
+        .any(|&(dx, dy)| mask.at(q.x + dx, q.y + dy))
 }
 
 /// Why the images show the tube going on beyond an end the fit capped, if they do: at least

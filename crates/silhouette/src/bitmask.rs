@@ -65,6 +65,17 @@ impl BitMask {
         self.words[y * self.stride + x / 64] >> (x % 64) & 1 == 1
     }
 
+    /// The value of the pixel whose centre is nearest the point `(x, y)`, pixels ((0, 0) is
+    /// the centre of the top-left pixel); `false` outside the mask (or for a NaN).
+    pub fn at(&self, x: f64, y: f64) -> bool {
+        let (x, y) = (x.round(), y.round());
+        x >= 0.0
+            && y >= 0.0
+            && (x as usize) < self.width
+            && (y as usize) < self.height
+            && self.get(x as usize, y as usize)
+    }
+
     /// Sets a pixel.
     pub fn set(&mut self, x: usize, y: usize, v: bool) {
         let w = &mut self.words[y * self.stride + x / 64];
@@ -382,6 +393,24 @@ mod tests {
             }
             prop_assert_eq!(m.dilate(r), naive_dilate(&m, r));
             prop_assert_eq!(m.erode(r).not(), naive_dilate(&m.not(), r));
+        }
+    }
+
+    #[test]
+    fn a_point_reads_the_pixel_whose_centre_is_nearest() {
+        let mut m = BitMask::new(3, 2);
+        m.set(2, 1, true);
+        assert!(m.at(2.0, 1.0) && m.at(1.6, 0.6) && m.at(2.49, 1.49));
+        assert!(!m.at(1.4, 1.0) && !m.at(2.0, 0.4));
+        // Outside the mask, or no point at all.
+        for (x, y) in [
+            (2.6, 1.0),
+            (2.0, 1.6),
+            (-0.6, 0.0),
+            (f64::NAN, 1.0),
+            (f64::INFINITY, 1.0),
+        ] {
+            assert!(!m.at(x, y), "({x}, {y})");
         }
     }
 

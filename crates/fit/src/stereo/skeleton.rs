@@ -220,14 +220,7 @@ fn recentre(
     spacing: f64,
 ) -> (Vec<Vector2<f64>>, Vec<f64>) {
     let reach = ((6.0 / spacing).ceil() as usize).max(1);
-    let inside = |p: Vector2<f64>| {
-        let (x, y) = (p.x.round(), p.y.round());
-        x >= 0.0
-            && y >= 0.0
-            && (x as usize) < mask.width()
-            && (y as usize) < mask.height()
-            && mask.get(x as usize, y as usize)
-    };
+    let inside = |p: Vector2<f64>| mask.at(p.x, p.y);
     // Distance from `p` along `d` to the last object sample, in 0.5-px steps.
     let extent = |p: Vector2<f64>, d: Vector2<f64>| {
         let mut s = 0.0;
