@@ -366,17 +366,14 @@ pub(crate) fn outlined(
     let mut mask = BitMask::new(w, h);
     let (us, _) = spheres.parameters();
     for (&(c, px, r), &u) in spheres.tube().iter().zip(us) {
-        let mut first: Option<nalgebra::Vector2<f64>> = None;
-        let both = found
+        // Both sides: a nearby sample whose normal opposes the first nearby one's.
+        let mut near = found
             .iter()
             .filter(|(p, _)| (p - px).norm() <= r + 3.0)
-            .any(|&(_, n)| match first {
-                None => {
-                    first = Some(n);
-                    false
-                }
-                Some(n0) => n0.dot(&n) < -0.5,
-            });
+            .map(|&(_, n)| n);
+        let both = near
+            .next()
+            .is_some_and(|n0| near.any(|n| n0.dot(&n) < -0.5));
         if both {
             disc(&mut mask, (c, px, (r - widths.at(u)).max(0.5)));
         }

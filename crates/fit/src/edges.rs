@@ -128,12 +128,7 @@ impl<'a> EdgeImage<'a> {
     }
 
     /// `I − E` at a sub-pixel position (bilinear), or `None` outside the image.
-    pub(crate) fn difference_at(&self, p: Vector2<f64>) -> Option<[f32; 3]> {
-        self.difference(p)
-    }
-
-    /// `I − E` at a sub-pixel position (bilinear), or `None` outside the image.
-    fn difference(&self, p: Vector2<f64>) -> Option<[f32; 3]> {
+    pub(crate) fn difference(&self, p: Vector2<f64>) -> Option<[f32; 3]> {
         let mut d = [0f32; 3];
         for (k, w) in self.corners(p)? {
             let bg = self.background[k];

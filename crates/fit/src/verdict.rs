@@ -170,7 +170,7 @@ impl TubeFitter {
                 if meets(own, q) {
                     return false;
                 }
-                let Some(v) = img.difference_at(q) else {
+                let Some(v) = img.difference(q) else {
                     return false;
                 };
                 for c in 0..3 {

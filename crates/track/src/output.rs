@@ -26,8 +26,22 @@ pub struct SinkSpec {
     pub ply: Option<PathBuf>,
     /// How the clouds are encoded.
     pub ply_encoding: PlyEncoding,
+    /// The MCAP file (written by its own sink; named here so that it is refused with the
+    /// rest, before any output is created).
+    pub mcap: Option<PathBuf>,
     /// Replace existing outputs.
     pub overwrite: bool,
+}
+
+impl SinkSpec {
+    /// Every output with the option that names it.
+    pub fn named(&self) -> Vec<(&'static str, &Path)> {
+        let mut named = vec![("--out", self.out.as_path())];
+        named.extend(self.csv.as_deref().map(|p| ("--csv", p)));
+        named.extend(self.ply.as_deref().map(|p| ("--ply", p)));
+        named.extend(self.mcap.as_deref().map(|p| ("--mcap", p)));
+        named
+    }
 }
 
 /// Whether output `path` is `input` or lies inside it: compared as canonical paths (an
@@ -138,24 +152,33 @@ fn links(_path: &Path) -> u64 {
     1
 }
 
-/// Refuses output files (`-`, standard output, excepted) that exist, unless `overwrite`.
-pub fn refuse_existing<'a>(
-    paths: impl IntoIterator<Item = &'a PathBuf>,
+/// Refuses outputs (`-`, standard output, excepted) that exist, unless `overwrite`, naming
+/// up to three of them.
+pub fn refuse_existing<P: AsRef<Path>>(
+    outputs: impl IntoIterator<Item = P>,
     overwrite: bool,
 ) -> Result<(), TrackError> {
     if overwrite {
         return Ok(());
     }
-    match paths
+    let existing: Vec<String> = outputs
         .into_iter()
-        .find(|p| p.as_path() != Path::new("-") && p.exists())
-    {
-        Some(p) => Err(out_err!(
-            "{} already exists: give --overwrite to replace it, or another file",
-            p.display()
-        )),
-        None => Ok(()),
-    }
+        .filter(|p| p.as_ref() != Path::new("-") && p.as_ref().exists())
+        .map(|p| p.as_ref().display().to_string())
+        .collect();
+    let (it, verb) = match existing.len() {
+        0 => return Ok(()),
+        1 => ("it", "exists"),
+        _ => ("them", "exist"),
+    };
+    let more = match existing.len() {
+        n if n > 3 => format!(" and {} more", n - 3),
+        _ => String::new(),
+    };
+    Err(out_err!(
+        "{}{more} already {verb}: give --overwrite to replace {it}, or write elsewhere",
+        existing[..existing.len().min(3)].join(", ")
+    ))
 }
 
 /// Refuses two outputs of one run (`(option, path)`) that name one file (by path or, both
@@ -179,21 +202,28 @@ pub fn refuse_shared(outputs: &[(&str, &Path)]) -> Result<(), TrackError> {
     Ok(())
 }
 
-/// Refuses output `path` when it is one of `inputs` or lies inside one.
-pub fn refuse_inputs(path: &Path, inputs: &[PathBuf]) -> Result<(), TrackError> {
-    match inputs.iter().find(|i| within(path, i)) {
-        Some(input) => Err(out_err!(
-            "{} is {} {}: write the output elsewhere",
-            path.display(),
-            if input.is_dir() {
-                "inside the input folder"
-            } else {
-                "the input"
-            },
-            input.display()
-        )),
-        None => Ok(()),
+/// Refuses any of `outputs` that is one of `inputs` or lies inside one (by path or by file
+/// identity: a hard link is its target, see [`within`]).
+pub fn refuse_inputs<P: AsRef<Path>>(
+    outputs: impl IntoIterator<Item = P>,
+    inputs: &[PathBuf],
+) -> Result<(), TrackError> {
+    for output in outputs {
+        let output = output.as_ref();
+        if let Some(input) = inputs.iter().find(|i| within(output, i)) {
+            return Err(out_err!(
+                "{} {} {}: write the output elsewhere",
+                output.display(),
+                if input.is_dir() {
+                    "is inside the input folder"
+                } else {
+                    "is the input"
+                },
+                input.display()
+            ));
+        }
     }
+    Ok(())
 }
 
 /// Where records go: the JSON Lines stream, and optionally CSV rows and PLY clouds.
@@ -207,21 +237,17 @@ pub struct Sinks {
 pub const CSV_HEADER: &str = "frame,image,status,tip_x,tip_y,tip_z,tip_dx,tip_dy,tip_dz,arc_length_mm,curvature_per_mm,bands,voxels,latency_ms,silhouettes_ms,carve_ms,bands_ms,shape_ms";
 
 impl Sinks {
-    /// Opens the outputs, refusing any that is (or lies in) one of `inputs`, and existing ones
-    /// without `overwrite`.
+    /// Opens the outputs, refusing first any that is (or lies in) one of `inputs`, two that
+    /// name one file, and existing ones without `overwrite` — the MCAP file too, which its own
+    /// sink then creates.
     pub fn open(args: &SinkSpec, inputs: &[PathBuf]) -> Result<Self, TrackError> {
-        let outputs = [Some(&args.out), args.csv.as_ref(), args.ply.as_ref()];
-        for path in outputs.into_iter().flatten() {
-            refuse_inputs(path, inputs)?;
-        }
-        let mut named = vec![("--out", args.out.as_path())];
-        named.extend(args.csv.as_deref().map(|p| ("--csv", p)));
-        named.extend(args.ply.as_deref().map(|p| ("--ply", p)));
+        let named = args.named();
+        refuse_inputs(named.iter().map(|(_, p)| p), inputs)?;
         refuse_shared(&named)?;
         // Every file refused before any is created: a refused run leaves nothing behind to
-        // block the next.
-        let files = [Some(&args.out), args.csv.as_ref()];
-        refuse_existing(files.into_iter().flatten(), args.overwrite)?;
+        // block the next. (The PLY folder may exist; its clouds are asked about below.)
+        let files = named.iter().filter(|(o, _)| *o != "--ply").map(|(_, p)| p);
+        refuse_existing(files, args.overwrite)?;
         let out = Output::open(&args.out, args.overwrite)?;
         let csv = match &args.csv {
             Some(path) => {

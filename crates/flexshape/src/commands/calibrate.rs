@@ -15,7 +15,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     // The calibration's files (camera files, rig, residual plots) never go among the images:
     // the next calibration from that folder would read them as views.
     let image_folders: Vec<_> = args.images.iter().map(|(_, p)| p.clone()).collect();
-    super::rig_import::refuse_inputs(&[args.out.join("rig.toml")], &image_folders)
+    flexshape_track::output::refuse_inputs([args.out.join("rig.toml")], &image_folders)
         .context("--out")?;
     let world = match &args.world {
         None => WorldFrame::Reference,

@@ -5,6 +5,7 @@
 use std::io::Write;
 
 use anyhow::{Context, bail};
+use flexshape_track::output::{refuse_existing, refuse_inputs};
 use flexshape_track::{HullRecord, carve_frame};
 
 use super::frames;
@@ -16,22 +17,12 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
     let mut input = frames::open_input(&args.frames)?;
     let volume = frames::volume(&input.rig.volume, &args.frames)?;
     frames::warn_unseen(&input.rig, &volume);
-    if input.files.iter().any(|f| frames::within(&args.out, f)) {
-        bail!(
-            "{} is or lies inside an input: write the output elsewhere",
-            args.out.display()
-        );
-    }
+    refuse_inputs([&args.out], &input.files)?;
     let pipeline = input
         .pipeline(&volume)
         .with_context(|| format!("cannot set up carving for {}", input.rig_name))?;
     let records = args.out.join("hull.jsonl");
-    if records.exists() && !args.overwrite {
-        bail!(
-            "{} already exists: give --overwrite to replace it, or another --out",
-            records.display()
-        );
-    }
+    refuse_existing([&records], args.overwrite)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut out = std::fs::File::create(&records)

@@ -26,8 +26,6 @@ pub fn open_input(args: &FramesArgs) -> anyhow::Result<Input> {
     Ok(input)
 }
 
-pub use flexshape_track::output::within;
-
 /// Warns when most of the volume's corners are seen by no camera: the rig's volume is likely
 /// not where the cameras look (an imported calibration with the default volume).
 pub fn warn_unseen(rig: &Rig, volume: &Volume) {

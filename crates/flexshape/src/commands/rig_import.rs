@@ -2,10 +2,11 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use flexshape_rig::Volume;
 use flexshape_rig::coverage;
 use flexshape_rig::import::{self, ImportOptions};
+use flexshape_track::output::{refuse_existing, refuse_inputs};
 
 use crate::cli::{RigExportArgs, RigImportArgs};
 
@@ -100,44 +101,5 @@ pub fn export(args: &RigExportArgs) -> anyhow::Result<()> {
             ""
         }
     );
-    Ok(())
-}
-
-/// Refuses outputs `files` that are one of `inputs` or lie inside one (by path or by file
-/// identity: a hard link is its target).
-pub(crate) fn refuse_inputs(files: &[PathBuf], inputs: &[PathBuf]) -> anyhow::Result<()> {
-    for file in files {
-        if let Some(input) = inputs.iter().find(|i| super::frames::within(file, i)) {
-            bail!(
-                "{} would replace or join the input {}: write to another --out folder",
-                file.display(),
-                input.display()
-            );
-        }
-    }
-    Ok(())
-}
-
-/// Refuses to replace any of `files` unless `overwrite`.
-pub(crate) fn refuse_existing(files: &[PathBuf], overwrite: bool) -> anyhow::Result<()> {
-    if overwrite {
-        return Ok(());
-    }
-    let existing: Vec<String> = files
-        .iter()
-        .filter(|f| f.exists())
-        .map(|f| f.display().to_string())
-        .collect();
-    if !existing.is_empty() {
-        let more = match existing.len() {
-            n if n > 3 => format!(" and {} more", n - 3),
-            _ => String::new(),
-        };
-        bail!(
-            "{}{more} already exist{}: give --overwrite to replace, or another --out",
-            existing[..existing.len().min(3)].join(", "),
-            if existing.len() == 1 { "s" } else { "" }
-        );
-    }
     Ok(())
 }

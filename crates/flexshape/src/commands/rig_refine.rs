@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flexshape_rig::Rig;
+use flexshape_track::output::{refuse_existing, refuse_inputs};
 use flexshape_track::{refine_cameras, refined_camera_file, sample_frames};
 
 use super::frames;
@@ -94,16 +95,8 @@ fn refuse_outputs(input: &flexshape_track::Input, args: &RigRefineArgs) -> anyho
         .collect();
     planned.push(args.out.join("rig.toml"));
     planned.push(args.out.clone());
-    if let Some(p) = planned
-        .iter()
-        .find(|p| input.files.iter().any(|f| frames::within(p, f)))
-    {
-        bail!(
-            "{} is or lies inside an input: write the refined rig elsewhere",
-            p.display()
-        );
-    }
-    super::rig_import::refuse_existing(&planned, args.overwrite)
+    refuse_inputs(&planned, &input.files)?;
+    Ok(refuse_existing(&planned, args.overwrite)?)
 }
 
 fn camera_names(rig: &Rig) -> String {

@@ -12,7 +12,7 @@ use std::ops::ControlFlow;
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
 use flexshape_mcap::{McapOptions, McapSink};
-use flexshape_track::output::{SinkSpec, Sinks, refuse_existing, refuse_inputs, refuse_shared};
+use flexshape_track::output::{SinkSpec, Sinks};
 use flexshape_track::{
     Input, ModelFrame, Pipeline, Processed, RecordStatus, SummaryLine, Tally, TrackRecord,
     TrackSummary,
@@ -27,15 +27,15 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let stop = Interrupt::install();
     let (mut input, pipeline) = open(args)?;
-    refuse_mcap(args, &input)?;
     let spec = SinkSpec {
         out: args.out.clone(),
         csv: args.csv.clone(),
         ply: args.ply.clone(),
         ply_encoding: super::ply_encoding(args.ascii_ply),
+        mcap: args.mcap.clone(),
         overwrite: args.overwrite,
     };
-    // What can be refused first, the outputs last (the MCAP's refusals were asked above).
+    // What can be refused first, the outputs last.
     let model_frame = args
         .model_frame
         .as_deref()
@@ -115,24 +115,7 @@ fn open(args: &TrackArgs) -> anyhow::Result<(Input, Pipeline)> {
     Ok((input, pipeline))
 }
 
-/// Refuses an `--mcap` file that is one of the inputs or another output, before any output
-/// is created.
-fn refuse_mcap(args: &TrackArgs, input: &Input) -> anyhow::Result<()> {
-    let Some(path) = &args.mcap else {
-        return Ok(());
-    };
-    refuse_inputs(path, &input.files).context("--mcap")?;
-    let mut others = vec![("--out", args.out.as_path())];
-    others.extend(args.csv.as_deref().map(|p| ("--csv", p)));
-    others.extend(args.ply.as_deref().map(|p| ("--ply", p)));
-    for (option, other) in others {
-        refuse_shared(&[("--mcap", path), (option, other)])?;
-    }
-    refuse_existing([path], args.overwrite).context("--mcap")?;
-    Ok(())
-}
-
-/// The MCAP file `--mcap` asks for ([`refuse_mcap`] asked first).
+/// The MCAP file `--mcap` asks for ([`Sinks::open`] refused what it must not replace).
 fn open_mcap(args: &TrackArgs, input: &Input) -> anyhow::Result<Option<McapSink>> {
     let Some(path) = &args.mcap else {
         return Ok(None);

@@ -62,10 +62,10 @@ fn a_turned_camera_is_found_and_its_frames_are_ok_again() {
     let again = fails(&["rig", "refine", r, "--rig", b, "-o", o]);
     assert!(again.contains("--overwrite"), "{again}");
     let inside = fails(&["rig", "refine", r, "-o", r, "--overwrite"]);
-    assert!(inside.contains("inside an input"), "{inside}");
+    assert!(inside.contains("inside the input folder"), "{inside}");
     let calibration = rec.join("calibration");
     let inside = fails(&["rig", "refine", r, "-o", calibration.to_str().unwrap()]);
-    assert!(inside.contains("inside an input"), "{inside}");
+    assert!(inside.contains("inside the input folder"), "{inside}");
     let hold = fails(&["rig", "refine", r, "--hold", "cam9", "-o", o, "--overwrite"]);
     assert!(hold.contains("cam0, cam1, cam2"), "{hold}");
 }
