@@ -40,6 +40,9 @@ pub(crate) struct EdgeImage<'a> {
     /// Where the silhouette holds shadow-coloured pixels (a sharp shadow on the backdrop);
     /// only lines reaching into them are read for a shadow beside the boundary.
     shade: Option<&'a BitMask>,
+    /// Whether the image is a camera's, of a shaded tube (a mask's flat colours are not):
+    /// only then is a boundary read against the tube's rim.
+    shaded: bool,
 }
 
 /// A boundary found along a search line.
@@ -78,6 +81,16 @@ impl<'a> EdgeImage<'a> {
             width: w as usize,
             height: h as usize,
             shade: None,
+            shaded: true,
+        }
+    }
+
+    /// The same for a mask (white on black, no shading): its boundaries are the ½ crossings
+    /// against the colour inside, not against a rim.
+    pub fn of_mask(self) -> Self {
+        EdgeImage {
+            shaded: false,
+            ..self
         }
     }
 
@@ -281,8 +294,10 @@ impl<'a> EdgeImage<'a> {
                 // the backdrop is the lighter (a lit tube's rim is its darkest part): read
                 // against the strongest colour between the crossing and the sample read as
                 // the surface, not against that one.
+                // A mask has no shading and no rim: its boundary is read as it is.
                 let (near, _) = crossing(count, &projected)?;
                 let rim = (near..=local)
+                    .filter(|_| self.shaded)
                     .max_by(|&a, &b| norm2(&diffs[a]).total_cmp(&norm2(&diffs[b])))
                     .unwrap_or(surface);
                 let projected = projection(diffs, &diffs[rim], min_contrast)?;

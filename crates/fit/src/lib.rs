@@ -765,7 +765,12 @@ impl TubeFitter {
                         ),
                     });
                 }
-                Ok(EdgeImage::new(v.image, v.background).with_shade(v.shadow_like))
+                let edges = EdgeImage::new(v.image, v.background).with_shade(v.shadow_like);
+                Ok(if self.settings.masks {
+                    edges.of_mask()
+                } else {
+                    edges
+                })
             })
             .collect()
     }
