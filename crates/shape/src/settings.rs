@@ -260,15 +260,62 @@ impl ShapeSettings {
             }
             _ => {}
         }
+        if let Some(h) = self.proximal_hint
+            && h.iter().any(|v| !v.is_finite())
+        {
+            return bad(
+                "proximal_hint",
+                format!("{h:?} must be a point, three finite numbers in world mm"),
+            );
+        }
         for s in &self.sections {
-            if !(s.nominal_mm.is_finite() && s.nominal_mm > 0.0) {
+            // A strain is measured against this length: 1e-300 reported -1.5e302 as `ok`.
+            if !(s.nominal_mm.is_finite() && (SECTION_MM.0..=SECTION_MM.1).contains(&s.nominal_mm))
+            {
                 return bad(
                     "sections.nominal_mm",
-                    format!("{}: {} must be > 0", s.name, s.nominal_mm),
+                    format!(
+                        "{}: {:e} must be between {} and {} mm",
+                        s.name, s.nominal_mm, SECTION_MM.0, SECTION_MM.1
+                    ),
+                );
+            }
+            // A band the tube does not carry is never found, and the section's strain was
+            // left out of every record without a word.
+            let bands = self.expected_bands;
+            for (field, band) in [("from_band", Some(s.from_band)), ("to_band", s.to_band)] {
+                if let Some(b) = band
+                    && b >= bands
+                {
+                    return bad(
+                        "sections",
+                        format!(
+                            "{}: {field} = {b}, but expected_bands = {bands} (bands are numbered from 0 at the proximal end): declare the bands the tube carries, or name one of them",
+                            s.name
+                        ),
+                    );
+                }
+            }
+            if s.to_band.is_some_and(|to| to <= s.from_band) {
+                return bad(
+                    "sections",
+                    format!(
+                        "{}: to_band must lie beyond from_band (or be left out: the tip)",
+                        s.name
+                    ),
                 );
             }
         }
         let a = &self.arc_fit;
+        if !(a.start_arc_mm.is_finite() && (0.0..=SECTION_MM.1).contains(&a.start_arc_mm)) {
+            return bad(
+                "arc_fit.start_arc_mm",
+                format!(
+                    "{:e} must be between 0 and {} mm from the proximal end",
+                    a.start_arc_mm, SECTION_MM.1
+                ),
+            );
+        }
         if !(a.two_section_split > 0.05 && a.two_section_split < 0.95) {
             return bad(
                 "arc_fit.two_section_split",
@@ -292,6 +339,9 @@ pub(crate) const SPACING_MM: (f64, f64) = (0.05, 20.0);
 
 /// The longest smoothing bandwidth, mm: longer than any instrument's whole length.
 const BANDWIDTH_MAX_MM: f64 = 10_000.0;
+
+/// The lengths a section's nominal length and the arc fit's start may have, mm.
+const SECTION_MM: (f64, f64) = (0.1, 10_000.0);
 
 /// The tube radius a rig may give, mm.
 const RADIUS_MM: (f64, f64) = (0.05, 100.0);
@@ -326,6 +376,66 @@ mod tests {
             "slice_mm = 0.5",
             "slice_mm = 20.0",
             "sample_mm = 0.05",
+        ] {
+            let table: toml::Table = toml::from_str(&format!("[shape]\n{ok}\n")).unwrap();
+            assert!(ShapeSettings::from_processing(&table).is_ok(), "{ok}");
+        }
+    }
+
+    /// Values that were taken without a check — a NaN hint, a start of the arc fit at NaN, a
+    /// section 1e-300 mm long (strain -1.5e302 reported `ok`), a section between bands the
+    /// tube does not carry (its strain left out without a word) — are refused, naming them.
+    #[test]
+    fn points_lengths_and_bands_out_of_range_are_refused() {
+        let section = |bands: usize, s: &str| {
+            format!("expected_bands = {bands}\nsections = [ {{ name = \"d\", {s} }} ]")
+        };
+        for (setting, says) in [
+            (
+                "proximal_hint = [0.0, nan, 0.0]".to_string(),
+                "proximal_hint",
+            ),
+            ("proximal_hint = [inf, 0.0, 0.0]".into(), "proximal_hint"),
+            (
+                "arc_fit = { start_arc_mm = nan }".into(),
+                "arc_fit.start_arc_mm",
+            ),
+            (
+                "arc_fit = { start_arc_mm = -1.0 }".into(),
+                "arc_fit.start_arc_mm",
+            ),
+            (
+                section(2, "from_band = 0, nominal_mm = 1e-300"),
+                "sections.nominal_mm",
+            ),
+            (
+                section(2, "from_band = 0, nominal_mm = inf"),
+                "sections.nominal_mm",
+            ),
+            (
+                section(2, "from_band = 0, to_band = 2, nominal_mm = 100.0"),
+                "d: to_band = 2, but expected_bands = 2",
+            ),
+            (
+                section(0, "from_band = 0, nominal_mm = 100.0"),
+                "d: from_band = 0, but expected_bands = 0",
+            ),
+            (
+                section(2, "from_band = 1, to_band = 1, nominal_mm = 100.0"),
+                "to_band must lie beyond from_band",
+            ),
+        ] {
+            let table: toml::Table = toml::from_str(&format!("[shape]\n{setting}\n")).unwrap();
+            let e = ShapeSettings::from_processing(&table)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(says), "{setting}: {e}");
+        }
+        for ok in [
+            "proximal_hint = [0.0, 0.0, -128.0]".to_string(),
+            "arc_fit = { start_arc_mm = 40.0 }".into(),
+            section(2, "from_band = 0, to_band = 1, nominal_mm = 157.5"),
+            section(2, "from_band = 1, nominal_mm = 20.0"),
         ] {
             let table: toml::Table = toml::from_str(&format!("[shape]\n{ok}\n")).unwrap();
             assert!(ShapeSettings::from_processing(&table).is_ok(), "{ok}");

@@ -42,6 +42,16 @@ impl MarkerSettings {
                 problem: "must be three non-negative numbers, not all zero".into(),
             });
         }
+        // A sum of three 8-bit channels; NaN left every band unfound.
+        if !(0.0..=765.0).contains(&self.min_level) {
+            return Err(SilhouetteError::Setting {
+                field: "markers.min_level",
+                problem: format!(
+                    "{} must lie in [0, 765] (the sum of R, G and B)",
+                    self.min_level
+                ),
+            });
+        }
         if !(self.max_angle_deg > 0.0 && self.max_angle_deg < 90.0) {
             return Err(SilhouetteError::Setting {
                 field: "markers.max_angle_deg",
@@ -125,6 +135,26 @@ fn voted_tape(interior: &BitMask, tape: &BitMask, x: usize, y: usize) -> bool {
 mod tests {
     use super::*;
     use crate::bitmask::random_mask;
+
+    /// A NaN level left every band unfound (`bands_missing` on every frame) without a word.
+    #[test]
+    fn a_level_outside_the_channels_sum_is_refused() {
+        for level in [f32::NAN, -1.0, 766.0, f32::INFINITY] {
+            let s = MarkerSettings {
+                min_level: level,
+                ..MarkerSettings::default()
+            };
+            let e = s.validate().unwrap_err().to_string();
+            assert!(e.contains("markers.min_level"), "{level}: {e}");
+        }
+        for level in [0.0, 40.0, 765.0] {
+            let s = MarkerSettings {
+                min_level: level,
+                ..MarkerSettings::default()
+            };
+            assert!(s.validate().is_ok(), "{level}");
+        }
+    }
 
     /// Every edge pixel voted on (the reference for the rule that skips those far from tape).
     fn every_edge_voted(frame: &RgbImage, object: &BitMask, s: &MarkerSettings) -> BitMask {

@@ -32,6 +32,8 @@ pub fn read(dir: &Path, unit: Unit) -> Result<Vec<Imported>, RigError> {
     let text = read_text(&images_path)?;
     let p = images_path.as_path();
     let mut images = Vec::new();
+    // Image ids and the lines that defined them.
+    let mut ids = BTreeMap::new();
     let mut lines = text
         .lines()
         .enumerate()
@@ -47,6 +49,18 @@ pub fn read(dir: &Path, unit: Unit) -> Result<Vec<Imported>, RigError> {
                 p,
                 field,
                 "expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME",
+            ));
+        }
+        let image_id: u64 = t[0]
+            .parse()
+            .map_err(|_| RigError::field(p, &field, format!("`{}` is not an image id", t[0])))?;
+        if let Some(first) = ids.insert(image_id, n + 1) {
+            return Err(RigError::field(
+                p,
+                field,
+                format!(
+                    "image id {image_id} is defined twice (first on line {first}): give each image its own id"
+                ),
             ));
         }
         let v = t[1..8]
@@ -183,9 +197,18 @@ fn read_cameras(path: &Path, text: &str) -> Result<BTreeMap<u64, Intrinsics>, Ri
             distortion,
         )
         .map_err(|e| camera_error(path, &field, e))?;
-        out.insert(id, i);
+        // COLMAP keeps the later of two lines with one id: which one was meant is not known.
+        if let Some((_, first)) = out.insert(id, (i, n + 1)) {
+            return Err(RigError::field(
+                path,
+                field,
+                format!(
+                    "camera id {id} is defined twice (first on line {first}): give each camera its own id"
+                ),
+            ));
+        }
     }
-    Ok(out)
+    Ok(out.into_iter().map(|(id, (i, _))| (id, i)).collect())
 }
 
 /// Writes `cameras` (name, camera) as a COLMAP text model into `dir` (created if needed),
@@ -359,5 +382,47 @@ mod tests {
         .unwrap();
         let e = read(dir.path(), Unit::Metre).unwrap_err().to_string();
         assert!(e.contains("PINHOLE has 4 parameters"), "{e}");
+    }
+
+    /// COLMAP keeps the later of two definitions of one id; which was meant is not known, so
+    /// neither is taken.
+    #[test]
+    fn an_id_defined_twice_is_refused_naming_both_lines() {
+        let dir = tempfile::tempdir().unwrap();
+        let cameras = "1 PINHOLE 640 480 800 800 320 240
+";
+        let images = "1 1 0 0 0 0 0 1 1 a.png
+
+2 1 0 0 0 0.1 0 1 1 b.png
+
+";
+        for (cams, imgs, says) in [
+            (
+                format!("{cameras}# again\n1 PINHOLE 640 480 900 900 320 240\n"),
+                images.to_string(),
+                [
+                    "cameras.txt",
+                    "`line 3`",
+                    "camera id 1 is defined twice (first on line 1)",
+                ],
+            ),
+            (
+                cameras.to_string(),
+                format!("{images}1 1 0 0 0 0.2 0 1 1 c.png\n\n"),
+                [
+                    "images.txt",
+                    "`line 5`",
+                    "image id 1 is defined twice (first on line 1)",
+                ],
+            ),
+        ] {
+            std::fs::write(dir.path().join("cameras.txt"), cams).unwrap();
+            std::fs::write(dir.path().join("images.txt"), imgs).unwrap();
+            let e = read(dir.path(), Unit::Metre).unwrap_err().to_string();
+            assert!(says.iter().all(|s| e.contains(s)), "{e}");
+        }
+        std::fs::write(dir.path().join("cameras.txt"), cameras).unwrap();
+        std::fs::write(dir.path().join("images.txt"), images).unwrap();
+        assert_eq!(read(dir.path(), Unit::Metre).unwrap().len(), 2);
     }
 }
