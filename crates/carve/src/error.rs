@@ -59,6 +59,10 @@ pub enum CarveError {
         /// Cameras in the rig.
         cameras: usize,
     },
+    /// The volume breaks [`flexshape_rig::Volume::new`]'s invariants (a literal built
+    /// without it, e.g. voxels 1e-300 mm deep).
+    #[error("the volume: {0}")]
+    Volume(#[from] flexshape_rig::VolumeError),
     /// Writing a PLY file failed.
     #[error("{path}: {source}")]
     Write {

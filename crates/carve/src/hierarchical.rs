@@ -101,6 +101,7 @@ enum Verdict {
 impl HierarchicalCarver {
     /// A carver for these cameras and volume (at least two cameras).
     pub fn new(cameras: &[Camera], volume: &Volume) -> Result<Self, CarveError> {
+        volume.validate()?;
         if cameras.len() < 2 {
             return Err(CarveError::TooFewCameras {
                 cameras: cameras.len(),

@@ -49,6 +49,7 @@ impl LookupTable {
     /// Projects every voxel centre into every camera (Algorithm 1). Needs at least two
     /// cameras, every one of which must see some voxel.
     pub fn new(cameras: &[Camera], volume: &Volume) -> Result<Self, CarveError> {
+        volume.validate()?;
         if cameras.len() < 2 {
             return Err(CarveError::TooFewCameras {
                 cameras: cameras.len(),

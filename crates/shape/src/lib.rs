@@ -118,6 +118,13 @@ impl ShapeEstimator {
     pub fn estimate(&self, occupancy: &Occupancy, bands: &[Band]) -> ShapeRecord {
         let s = &self.settings;
         let t0 = Instant::now();
+        // The carvers refuse such a volume; an occupancy built by hand may still hold one,
+        // and nothing measured in it would mean anything.
+        if let Err(e) = occupancy.volume.validate() {
+            return ShapeRecord::empty(Status::Ambiguous {
+                reason: format!("the occupancy's volume cannot be sliced: {e}"),
+            });
+        }
         let mut slices = match order::slice(occupancy, s) {
             Ok(slices) => slices,
             Err(status) => {

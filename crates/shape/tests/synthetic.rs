@@ -193,6 +193,19 @@ fn clouds_that_are_not_one_open_tube_get_a_status() {
         e.estimate(&single, &[]).status,
         Status::NoObject { voxels: 1 }
     );
+    // An occupancy built by hand on a volume `Volume::new` refuses (the carvers refuse it
+    // too): voxels 1e-300 mm deep.
+    let mut literal = tube(&[line(
+        Point3::new(0.0, 0.0, -100.0),
+        Point3::new(0.0, 0.0, 60.0),
+    )]);
+    literal.volume.voxel_size[2] = 1e-300;
+    let r = e.estimate(&literal, &[]);
+    assert!(
+        matches!(&r.status, Status::Ambiguous { reason } if reason.contains("voxel_size")),
+        "{:?}",
+        r.status
+    );
     let closed = tube(&[arc(40.0, std::f64::consts::TAU, 0.0)]);
     let r = e.estimate(&closed, &[]);
     assert!(

@@ -5,7 +5,7 @@ use crate::common;
 use std::f64::consts::PI;
 
 use flexshape_camera::nalgebra::Point3;
-use flexshape_carve::{CarveError, LookupTable, OutsideImage, PlyEncoding};
+use flexshape_carve::{CarveError, HierarchicalCarver, LookupTable, OutsideImage, PlyEncoding};
 use flexshape_rig::Volume;
 use flexshape_silhouette::BitMask;
 use flexshape_sim::{SimConfig, Simulator};
@@ -90,6 +90,19 @@ fn bad_input_and_empty_masks() {
         ),
         Err(CarveError::TableTooLarge { .. })
     ));
+    // A volume written as a literal, past `Volume::new`'s checks: refused by both carvers,
+    // naming the field.
+    let literal = Volume {
+        voxel_size: [1.0, 1.0, 1e-300],
+        ..small
+    };
+    for err in [
+        LookupTable::new(&cams, &literal).err(),
+        HierarchicalCarver::new(&cams, &literal).err(),
+    ] {
+        let err = err.expect("refused").to_string();
+        assert!(err.contains("voxel_size"), "{err}");
+    }
     let table = LookupTable::new(&cams, &small).unwrap();
     let empty = BitMask::new(640, 480);
     let full = BitMask::new(640, 480).not();
