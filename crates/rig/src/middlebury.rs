@@ -58,7 +58,8 @@ pub fn parse_par(
         })?,
         None => return Err(RigError::field(path, "line 1", "the file is empty")),
     };
-    let mut views = Vec::with_capacity(count);
+    // The count is the file's word: room is made for the views that follow, not for it.
+    let mut views = Vec::new();
     for (n, line) in lines {
         let field = format!("line {}", n + 1);
         let mut words = line.split_whitespace();
@@ -155,6 +156,11 @@ b.png 1000 0 320 0 1010 240 0 0 1 0 1 0 -1 0 0 0 0 1 0 0 0.6
         assert!(e.to_string().contains("line 3") && e.to_string().contains("found 20"));
         let e = parse_par(p, &TWO.replace("2\n", "3\n"), 640, 480, 1000.0).unwrap_err();
         assert!(e.to_string().contains("announces 3 views but 2"));
+        // A count of 10¹⁸ panicked on the allocation made for it ("capacity overflow").
+        for huge in ["1000000000000000000\n", "18446744073709551615\n"] {
+            let e = parse_par(p, &TWO.replace("2\n", huge), 640, 480, 1000.0).unwrap_err();
+            assert!(e.to_string().contains("views but 2"), "{e}");
+        }
         let reflected = TWO.replace("0 1 0 -1 0 0 0 0 1", "0 1 0 1 0 0 0 0 1");
         let e = parse_par(p, &reflected, 640, 480, 1000.0).unwrap_err();
         assert!(

@@ -64,15 +64,16 @@ pub(crate) fn parse(path: &Path, bytes: &[u8]) -> Result<Array, RigError> {
                 .map_err(|_| bad("shape is not a tuple of sizes"))
         })
         .collect::<Result<_, _>>()?;
-    let count = shape
+    // In bytes, checked: a shape of 2⁶¹ values of 8 bytes wrapped to 0 and matched an empty
+    // body.
+    let needed = shape
         .iter()
-        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .try_fold(size, |a: usize, &d| a.checked_mul(d))
         .ok_or_else(|| bad("shape too large"))?;
     let body = &bytes[start + len..];
-    if body.len() != count * size {
+    if body.len() != needed {
         return Err(bad(&format!(
-            "shape {shape:?} needs {} bytes of data, the file has {}",
-            count * size,
+            "shape {shape:?} needs {needed} bytes of data, the file has {}",
             body.len()
         )));
     }
@@ -165,5 +166,11 @@ mod tests {
         let short = npy("<f8", false, "(3, 4)", &[0; 8]);
         let e = parse(Path::new("s.npy"), &short).unwrap_err().to_string();
         assert!(e.contains("96 bytes"), "{e}");
+        // 2⁶¹ doubles are 2⁶⁴ bytes: that wrapped to 0 and an empty body passed.
+        for shape in ["(2305843009213693952,)", "(1073741824, 2147483648)"] {
+            let wrapped = npy("<f8", false, shape, &[]);
+            let e = parse(Path::new("w.npy"), &wrapped).unwrap_err().to_string();
+            assert!(e.contains("too large"), "{shape}: {e}");
+        }
     }
 }
