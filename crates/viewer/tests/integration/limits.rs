@@ -34,6 +34,7 @@ fn idle_and_surplus_connections_are_closed() {
     let limits = Limits {
         connections: 4,
         idle: Duration::from_millis(400),
+        ..Limits::default()
     };
     let viewer = Viewer::start_with("127.0.0.1:0", false, scene(), limits).unwrap();
     let addr = viewer.addr();
@@ -71,9 +72,12 @@ fn idle_and_surplus_connections_are_closed() {
 
 #[tokio::test]
 async fn a_websocket_answers_pings_stays_while_quiet_and_ends_on_close() {
+    // A head deadline far shorter than the quiet spell: an upgraded socket sends no heads.
     let limits = Limits {
         connections: 8,
         idle: Duration::from_millis(300),
+        head: Duration::from_millis(200),
+        ..Limits::default()
     };
     let viewer = Viewer::start_with("127.0.0.1:0", false, scene(), limits).unwrap();
     let url = format!("ws://127.0.0.1:{}/ws", viewer.addr().port());
@@ -111,6 +115,74 @@ async fn a_websocket_answers_pings_stays_while_quiet_and_ends_on_close() {
     assert!(ended.is_ok(), "the viewer ended the socket on our close");
 }
 
+/// Slow clients cannot hold the page: a request head trickled a byte at a time (which keeps
+/// a connection from idling) is closed once its time is up — the first request's, and the
+/// next one's on a kept-alive connection — and one address cannot take every place.
+#[test]
+fn trickled_heads_are_closed_and_one_address_gets_its_share() {
+    let limits = Limits {
+        connections: 8,
+        idle: Duration::from_millis(300),
+        per_peer: 3,
+        head: Duration::from_millis(700),
+    };
+    let viewer = Viewer::start_with("127.0.0.1:0", false, scene(), limits).unwrap();
+    let addr = viewer.addr();
+    let head = format!(
+        "GET /health HTTP/1.1\r\nHost: 127.0.0.1:{}\r\n\r\n",
+        addr.port()
+    );
+    // A byte every 100 ms: never idle for 300 ms, but the head is not whole in 700 ms.
+    let trickle = |s: &mut TcpStream, bytes: &[u8]| -> Duration {
+        let start = Instant::now();
+        for b in bytes {
+            std::thread::sleep(Duration::from_millis(100));
+            if s.write_all(&[*b]).is_err() {
+                break;
+            }
+        }
+        s.set_read_timeout(Some(Duration::from_secs(3))).unwrap();
+        let mut buf = [0u8; 256];
+        while !matches!(s.read(&mut buf), Ok(0) | Err(_)) {}
+        start.elapsed()
+    };
+    let mut slow = TcpStream::connect(addr).unwrap();
+    let closed = trickle(&mut slow, head.as_bytes());
+    assert!(
+        closed < Duration::from_millis(2500),
+        "closed after {closed:?}"
+    );
+    // Kept alive after a whole request, the next head is timed again.
+    let mut kept = TcpStream::connect(addr).unwrap();
+    kept.write_all(head.as_bytes()).unwrap();
+    let mut reply = [0u8; 17];
+    kept.read_exact(&mut reply).unwrap();
+    assert!(reply.starts_with(b"HTTP/1.1 200"), "{reply:?}");
+    let closed = trickle(&mut kept, head.as_bytes());
+    assert!(
+        closed < Duration::from_millis(2500),
+        "kept alive: closed after {closed:?}"
+    );
+    // Three places for one address: a fourth connection from it is closed at once.
+    let mut held: Vec<TcpStream> = (0..3).map(|_| TcpStream::connect(addr).unwrap()).collect();
+    std::thread::sleep(Duration::from_millis(50));
+    let mut fourth = TcpStream::connect(addr).unwrap();
+    assert!(closed_within(&mut fourth, Duration::from_millis(250)));
+    // Their places come back with them.
+    for s in &mut held {
+        assert!(closed_within(s, Duration::from_secs(2)));
+    }
+    let mut again = TcpStream::connect(addr).unwrap();
+    let request = format!(
+        "GET /health HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nConnection: close\r\n\r\n",
+        addr.port()
+    );
+    again.write_all(request.as_bytes()).unwrap();
+    let mut reply = String::new();
+    again.read_to_string(&mut reply).unwrap();
+    assert!(reply.starts_with("HTTP/1.1 200"), "{reply}");
+}
+
 /// A frame of camera noise (it compresses badly: every frame is several hundred kilobytes).
 fn noisy_update(frame: u64) -> Update {
     let mut state = 0x9E37_79B9_7F4A_7C15u64 ^ frame;
@@ -128,6 +200,7 @@ fn a_browser_that_stops_reading_is_let_go() {
     let limits = Limits {
         connections: 1,
         idle: Duration::from_millis(400),
+        ..Limits::default()
     };
     let viewer = Viewer::start_with("127.0.0.1:0", false, scene(), limits).unwrap();
     let addr = viewer.addr();
