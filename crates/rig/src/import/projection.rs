@@ -173,6 +173,10 @@ pub fn read(
             skipped.push(format!("{name} ({} numbers, not 12)", values.len()));
             continue;
         }
+        // A NaN compares false and passed for a rigid transform: skipped, not refused.
+        for v in &values {
+            finite(path, name, *v)?;
+        }
         let m = Matrix3x4::from_row_slice(&values);
         let block = m.fixed_view::<3, 3>(0, 0);
         if (block * block.transpose() - Matrix3::identity()).amax() < 1e-3 {
@@ -326,5 +330,16 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("3 numbers"), "{e}");
+        // A line holding a NaN is an error naming it, not "a rigid transform" passed over.
+        std::fs::write(
+            &kitti,
+            format!("P0: {all}\nTr: 0 -1 0 0.1 0 0 -1 0.2 1 0 0 nan\n"),
+        )
+        .unwrap();
+        let e = read(&kitti, 640, 480, Unit::Metre).unwrap_err().to_string();
+        assert!(
+            e.contains("Tr") && e.contains("NaN is not a finite number"),
+            "{e}"
+        );
     }
 }
