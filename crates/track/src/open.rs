@@ -124,6 +124,14 @@ pub fn read_records(path: &Path) -> Result<Vec<(usize, TrackRecord)>, TrackError
         line,
         problem,
     };
+    // Not opened unless a regular file: a FIFO blocks the open, a device reads for ever.
+    let meta = std::fs::metadata(path).map_err(|e| bad(None, e.to_string()))?;
+    if !meta.is_file() {
+        return Err(bad(
+            None,
+            "not a regular file (a folder, device, FIFO or socket): give a `flexshape track` JSON Lines file".into(),
+        ));
+    }
     let text = std::fs::read_to_string(path).map_err(|e| bad(None, e.to_string()))?;
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
@@ -147,4 +155,30 @@ fn json_of(line: &str) -> Result<Option<serde_json::Value>, String> {
 
 fn record_of(value: serde_json::Value) -> Result<TrackRecord, String> {
     serde_json::from_value(value).map_err(|e| format!("not a tracking record ({e})"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `flexshape view /dev/zero` read 1.9 GB before running out of memory, and a FIFO held
+    /// the open for ever: neither is opened.
+    #[cfg(unix)]
+    #[test]
+    fn records_are_read_from_regular_files_only() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("fifo");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        let mut paths = vec![
+            Path::new("/dev/zero").to_path_buf(),
+            dir.path().to_path_buf(),
+        ];
+        if made.is_ok_and(|s| s.success()) {
+            paths.push(fifo);
+        }
+        for path in paths {
+            let e = read_records(&path).unwrap_err().to_string();
+            assert!(e.contains("not a regular file"), "{}: {e}", path.display());
+        }
+    }
 }
