@@ -45,6 +45,7 @@ impl Decoder {
         input_args: &[String],
         size: (u32, u32),
     ) -> Result<Self, InputError> {
+        check_size(camera, input, size)?;
         let mut child = Command::new("ffmpeg")
             .args(["-nostdin", "-hide_banner", "-loglevel", "error"])
             .args(input_args)
@@ -170,7 +171,7 @@ pub fn probe_size(camera: &str, input: &str) -> Result<(u32, u32), InputError> {
         .split_once(',')
         .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)));
     match (out.status.success(), parsed) {
-        (true, Some(size)) => Ok(size),
+        (true, Some(size)) => check_size(camera, input, size).map(|()| size),
         _ => Err(InputError::Ffmpeg {
             camera: camera.into(),
             input: input.into(),
@@ -180,6 +181,24 @@ pub fn probe_size(camera: &str, input: &str) -> Result<(u32, u32), InputError> {
             ),
         }),
     }
+}
+
+/// Refuses a frame size no image of the rig can have (a stream that reports 0×0 sends no
+/// frame to wait for; 100000×100000 asked for a 30 GB frame), before any frame is made room
+/// for: 1 to [`flexshape_rig::files::MAX_IMAGE_SIDE`] pixels a side, as for image files.
+fn check_size(camera: &str, input: &str, (w, h): (u32, u32)) -> Result<(), InputError> {
+    let side = 1..=flexshape_rig::files::MAX_IMAGE_SIDE;
+    if side.contains(&w) && side.contains(&h) {
+        return Ok(());
+    }
+    Err(InputError::Ffmpeg {
+        camera: camera.into(),
+        input: input.into(),
+        message: format!(
+            "frames of {w}×{h} pixels: a camera's are 1 to {} pixels a side",
+            flexshape_rig::files::MAX_IMAGE_SIDE
+        ),
+    })
 }
 
 fn spawn_error(e: std::io::Error, camera: &str, input: &str) -> InputError {
@@ -193,5 +212,32 @@ fn spawn_error(e: std::io::Error, camera: &str, input: &str) -> InputError {
             input: input.into(),
             message: format!("cannot start ffmpeg: {e}"),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stream's reported size is bounded before a frame is made room for: 0×0 waited for
+    /// ever, 100000×100000 aborted on a 30 GB allocation.
+    #[test]
+    fn sizes_no_camera_has_are_refused_before_any_frame() {
+        for size in [(0, 0), (640, 0), (100_000, 100_000), (16_385, 10)] {
+            let e = check_size("cam0", "/dev/video9", size)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("cam0") && e.contains(&format!("{}×{}", size.0, size.1)),
+                "{e}"
+            );
+            // ffmpeg is never started for it (whether or not it is installed).
+            match Decoder::spawn("cam0", "/dev/video9", &[], size) {
+                Err(e) => assert!(e.to_string().contains("pixels a side"), "{e}"),
+                Ok(_) => panic!("{size:?}: ffmpeg started"),
+            }
+        }
+        assert!(check_size("cam0", "x", (640, 480)).is_ok());
+        assert!(check_size("cam0", "x", (16_384, 16_384)).is_ok());
     }
 }
