@@ -78,6 +78,17 @@ pub enum InputError {
         /// What went wrong.
         message: String,
     },
+    /// A live camera sent no new frame for a long while (unplugged, stalled, a stream that
+    /// never starts).
+    #[error(
+        "camera `{camera}` sent no new frame for {waited_s} s: check that it is connected and streaming"
+    )]
+    Silent {
+        /// Camera name.
+        camera: String,
+        /// How long was waited, s.
+        waited_s: u64,
+    },
     /// One camera's video or stream ended before the others'.
     #[error(
         "camera `{camera}`: its input ended after {frames} frames while other cameras still had frames; the stream stops here (videos of one recording must have the same number of frames)"
@@ -99,6 +110,7 @@ impl InputError {
             InputError::FfmpegMissing { .. }
                 | InputError::Ffmpeg { .. }
                 | InputError::Ended { .. }
+                | InputError::Silent { .. }
                 | InputError::Producer { .. }
                 | InputError::Cameras(_)
                 | InputError::NoFrames(_)

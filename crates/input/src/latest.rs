@@ -4,6 +4,7 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Condvar, Mutex};
+use std::time::{Duration, Instant};
 
 use crate::InputError;
 
@@ -74,6 +75,8 @@ pub(crate) struct Taker {
     taken: Vec<u64>,
     dropped: Vec<u64>,
     finished: bool,
+    /// How long to wait for every slot, and the producers' names to say which did not fill.
+    patience: Option<(Duration, Vec<String>)>,
 }
 
 impl Taker {
@@ -83,6 +86,16 @@ impl Taker {
             taken: vec![0; producers],
             dropped: vec![0; producers],
             finished: false,
+            patience: None,
+        }
+    }
+
+    /// The same, ending with [`InputError::Silent`] (naming the producer by `names`) when a
+    /// slot stays without a new item for `patience`.
+    pub(crate) fn patient(self, patience: Duration, names: Vec<String>) -> Self {
+        Taker {
+            patience: Some((patience, names)),
+            ..self
         }
     }
 
@@ -97,6 +110,7 @@ impl Taker {
             self.finished = true;
             return None;
         };
+        let since = Instant::now();
         loop {
             let fresh = slots
                 .iter()
@@ -114,7 +128,27 @@ impl Taker {
                     _ => None,
                 };
             }
-            slots = match latest.arrived.wait(slots) {
+            let waited = match &self.patience {
+                None => latest.arrived.wait(slots).map_err(|_| ()),
+                Some((patience, names)) => {
+                    let left = patience.saturating_sub(since.elapsed());
+                    let silent = (0..slots.len())
+                        .find(|&i| slots[i].received == self.taken[i] || slots[i].item.is_none());
+                    if let (true, Some(i)) = (left.is_zero(), silent) {
+                        self.finished = true;
+                        return Some(Err(InputError::Silent {
+                            camera: names.get(i).cloned().unwrap_or_else(|| i.to_string()),
+                            waited_s: patience.as_secs(),
+                        }));
+                    }
+                    latest
+                        .arrived
+                        .wait_timeout(slots, left)
+                        .map(|(s, _)| s)
+                        .map_err(|_| ())
+                }
+            };
+            slots = match waited {
                 Ok(s) => s,
                 Err(_) => {
                     self.finished = true;
@@ -136,5 +170,32 @@ impl Taker {
     /// Items overwritten before they were taken: the most of any slot.
     pub(crate) fn dropped(&self) -> u64 {
         self.dropped.iter().copied().max().unwrap_or(0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A camera that sends nothing was waited for silently for ever: a patient taker names it.
+    #[test]
+    fn a_slot_that_stays_empty_is_named_once_patience_runs_out() {
+        let latest = Latest::new(2);
+        let names = vec!["cam0".to_string(), "cam1".to_string()];
+        let mut taker = Taker::new(2).patient(Duration::from_millis(200), names);
+        latest.put(0, 1);
+        latest.put(1, 1);
+        assert_eq!(taker.take(&latest).unwrap().unwrap(), [1, 1]);
+        // Only cam0 goes on.
+        let start = Instant::now();
+        latest.put(0, 2);
+        let e = taker.take(&latest).unwrap().unwrap_err().to_string();
+        assert!(e.contains("camera `cam1` sent no new frame"), "{e}");
+        let waited = start.elapsed();
+        assert!(
+            waited >= Duration::from_millis(200) && waited < Duration::from_secs(2),
+            "{waited:?}"
+        );
+        assert!(taker.take(&latest).is_none(), "the source has ended");
     }
 }

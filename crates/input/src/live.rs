@@ -26,6 +26,10 @@ pub struct LiveSource {
     next: u64,
 }
 
+/// How long a camera may send no new frame before the source ends, naming it: far past any
+/// frame interval or a camera's start.
+const SILENCE: std::time::Duration = std::time::Duration::from_secs(10);
+
 /// A live camera: its name, its input (a device path, a URL or a video file) and the
 /// calibrated image size.
 pub type LiveCamera = (String, String, (u32, u32));
@@ -53,9 +57,10 @@ impl LiveSource {
             let shared = latest.clone();
             std::thread::spawn(move || read_camera(i, decoder, &shared));
         }
+        let names = cameras.iter().map(|(name, _, _)| name.clone()).collect();
         Ok(LiveSource {
             latest,
-            taker: Taker::new(cameras.len()),
+            taker: Taker::new(cameras.len()).patient(SILENCE, names),
             next: 0,
         })
     }
