@@ -66,13 +66,10 @@ pub fn capture(
             )));
         }
     }
-    for name in names {
-        let dir = out.join(name);
-        std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    }
     let stamps_path = out.join("timestamps.csv");
-    let mut stamps = std::fs::File::create_new(&stamps_path).map_err(io(&stamps_path))?;
-    writeln!(stamps, "frame,seconds").map_err(io(&stamps_path))?;
+    // Made when the first set is in hand: a source that fails first leaves nothing behind
+    // to block the next try.
+    let mut stamps: Option<std::fs::File> = None;
     let mut report = CaptureReport {
         sets: 0,
         dropped: 0,
@@ -108,6 +105,18 @@ pub fn capture(
                 names.len()
             )));
         }
+        let stamps = match &mut stamps {
+            Some(file) => file,
+            None => {
+                for name in names {
+                    let dir = out.join(name);
+                    std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+                }
+                let mut file = std::fs::File::create_new(&stamps_path).map_err(io(&stamps_path))?;
+                writeln!(file, "frame,seconds").map_err(io(&stamps_path))?;
+                stamps.insert(file)
+            }
+        };
         let number = report.sets;
         for (name, image) in names.iter().zip(set.images) {
             let path = capture_path(out, name, number);
@@ -232,6 +241,42 @@ mod tests {
         stop.store(true, Ordering::Relaxed);
         let report = capture(&mut source, &names(), dir.path(), &options, &stop, |_| {}).unwrap();
         assert_eq!((report.sets, report.stopped), (0, true));
-        assert!(dir.path().join("timestamps.csv").is_file());
+        // Stopped before any set: nothing is left behind to block the next try.
+        assert!(!dir.path().join("timestamps.csv").exists());
+        assert!(!dir.path().join("left").exists());
+    }
+
+    /// A source that fails before its first set (a camera that sends nothing) left empty
+    /// camera folders that refused every retry ("exists already").
+    #[test]
+    fn a_source_failing_at_once_leaves_the_folder_free_for_a_retry() {
+        struct Silent;
+        impl FrameSource for Silent {
+            fn next_frame(&mut self) -> Option<Result<FrameSet, InputError>> {
+                Some(Err(InputError::Silent {
+                    camera: "right".into(),
+                    waited_s: 10,
+                }))
+            }
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let options = CaptureOptions {
+            sets: 2,
+            interval: Duration::ZERO,
+        };
+        let stop = AtomicBool::new(false);
+        let e = capture(&mut Silent, &names(), dir.path(), &options, &stop, |_| {}).unwrap_err();
+        assert!(
+            e.to_string().contains("camera `right` sent no new frame"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        let mut source = Steady {
+            left: 2,
+            gap: Duration::from_millis(10),
+            clock: Instant::now(),
+        };
+        let report = capture(&mut source, &names(), dir.path(), &options, &stop, |_| {}).unwrap();
+        assert_eq!(report.sets, 2);
     }
 }
