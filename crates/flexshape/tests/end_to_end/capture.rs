@@ -169,8 +169,12 @@ fn chessboards_captured_live_calibrate_the_rig() {
                 .render(&board, &view.pose, 1.0, i as u64 * 7 + k as u64)
                 .save(&shot)
                 .unwrap();
-            for f in 0..13 {
-                let picture = if f < 3 { &empty } else { &shot };
+            // A third of a second of nothing between shots: two streams started together
+            // but drifting apart on a busy machine (by up to that) are never captured on two
+            // different shots, which the calibration rightly refuses as not simultaneous (it
+            // did, once, with a tenth of a second between them).
+            for f in 0..18 {
+                let picture = if f < 8 { &empty } else { &shot };
                 std::fs::hard_link(picture, frames.join(format!("{n:06}.png"))).unwrap();
                 n += 1;
             }
