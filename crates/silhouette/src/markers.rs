@@ -33,6 +33,9 @@ impl Default for MarkerSettings {
     }
 }
 
+/// A [`MarkerSettings::min_level`] above any pixel's R + G + B: no pixel is tested as tape.
+pub const MARKERS_OFF: f32 = 766.0;
+
 impl MarkerSettings {
     pub(crate) fn validate(&self) -> Result<(), SilhouetteError> {
         let norm = self.colour.iter().map(|c| c * c).sum::<f32>().sqrt();
@@ -42,12 +45,13 @@ impl MarkerSettings {
                 problem: "must be three non-negative numbers, not all zero".into(),
             });
         }
-        // A sum of three 8-bit channels; NaN left every band unfound.
-        if !(0.0..=765.0).contains(&self.min_level) {
+        // A sum of three 8-bit channels, or one past the brightest: no pixel is tested (masks
+        // carry no bands). NaN left every band unfound.
+        if !(0.0..=MARKERS_OFF).contains(&self.min_level) {
             return Err(SilhouetteError::Setting {
                 field: "markers.min_level",
                 problem: format!(
-                    "{} must lie in [0, 765] (the sum of R, G and B)",
+                    "{} must lie in [0, 765] (the sum of R, G and B), or be {MARKERS_OFF}: no band is read",
                     self.min_level
                 ),
             });
@@ -139,7 +143,7 @@ mod tests {
     /// A NaN level left every band unfound (`bands_missing` on every frame) without a word.
     #[test]
     fn a_level_outside_the_channels_sum_is_refused() {
-        for level in [f32::NAN, -1.0, 766.0, f32::INFINITY] {
+        for level in [f32::NAN, -1.0, 767.0, f32::INFINITY] {
             let s = MarkerSettings {
                 min_level: level,
                 ..MarkerSettings::default()
@@ -147,7 +151,7 @@ mod tests {
             let e = s.validate().unwrap_err().to_string();
             assert!(e.contains("markers.min_level"), "{level}: {e}");
         }
-        for level in [0.0, 40.0, 765.0] {
+        for level in [0.0, 40.0, 765.0, MARKERS_OFF] {
             let s = MarkerSettings {
                 min_level: level,
                 ..MarkerSettings::default()

@@ -123,8 +123,8 @@ impl SilhouetteSettings {
             close_radius: 0,
             keep: rig.keep,
             markers: MarkerSettings {
-                // Darker than anything: no pixel of a mask is tested as tape.
-                min_level: 766.0,
+                // Brighter than anything: no pixel of a mask is tested as tape.
+                min_level: crate::markers::MARKERS_OFF,
                 ..rig.markers.clone()
             },
             max_foreground: rig.max_foreground,

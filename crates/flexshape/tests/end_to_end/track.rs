@@ -399,27 +399,38 @@ fn errors(record: &Value, truth: &Truth, volume: &Volume) -> TruthErrors {
 #[test]
 fn masks_drawn_a_fixed_width_give_the_shape() {
     let dir = tempfile::tempdir().unwrap();
-    let rec = dir.path().join("drawn");
+    // Two cameras at 2500², masks 30 px wide: simulated, then tracked.
+    let drawn = |name: &str, frames: &str, seed: &str| {
+        let rec = dir.path().join(name);
+        let wrote = common::run(&[
+            "simulate",
+            "--out",
+            rec.to_str().unwrap(),
+            "--frames",
+            frames,
+            "--cams",
+            "2",
+            "--size",
+            "2500x2500",
+            "--drawn-masks",
+            "30",
+            "--seed",
+            seed,
+        ]);
+        assert!(wrote.contains("drawn masks"), "{wrote}");
+        let out = dir.path().join(format!("{name}.jsonl"));
+        common::run(&[
+            "track",
+            rec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        (rec, read_lines(&out).0)
+    };
+    let (rec, records) = drawn("drawn", "8", "1");
     let rec_arg = rec.to_str().unwrap();
-    let wrote = common::run(&[
-        "simulate",
-        "--out",
-        rec_arg,
-        "--frames",
-        "8",
-        "--cams",
-        "2",
-        "--size",
-        "2500x2500",
-        "--drawn-masks",
-        "30",
-    ]);
-    assert!(wrote.contains("drawn masks"), "{wrote}");
     assert!(rec.join("masks/cam1/000007.png").is_file());
     assert!(!rec.join("frames").exists() && !rec.join("background").exists());
-    let out = dir.path().join("drawn.jsonl");
-    common::run(&["track", rec_arg, "--out", out.to_str().unwrap()]);
-    let (records, _) = read_lines(&out);
     let reader = RecordingReader::open(&rec).unwrap();
     let volume = reader.rig().volume;
     let mut ok = 0;
@@ -463,30 +474,7 @@ fn masks_drawn_a_fixed_width_give_the_shape() {
     // the start from the two views ends there 0.7 mm off (0.22 mm RMS). Its masks' boundaries
     // read against a "rim" (a shaded tube's darkest sample, which a mask has not) made that
     // fit pass the check: it must not be `ok`; the other three are, and right.
-    let seed3 = dir.path().join("seed3");
-    common::run(&[
-        "simulate",
-        "--out",
-        seed3.to_str().unwrap(),
-        "--frames",
-        "4",
-        "--cams",
-        "2",
-        "--size",
-        "2500x2500",
-        "--drawn-masks",
-        "30",
-        "--seed",
-        "3",
-    ]);
-    let out = dir.path().join("seed3.jsonl");
-    common::run(&[
-        "track",
-        seed3.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let (records, _) = read_lines(&out);
+    let (seed3, records) = drawn("seed3", "4", "3");
     let reader = RecordingReader::open(&seed3).unwrap();
     let statuses: Vec<_> = records.iter().map(|r| r["status"].clone()).collect();
     assert_eq!(statuses, ["ok", "ok", "ok", "inconsistent"], "{records:?}");
