@@ -17,6 +17,13 @@ struct Slot<T> {
     ended: Option<Result<(), InputError>>,
 }
 
+impl<T> Slot<T> {
+    /// Whether it holds an item the taker has not taken (`taken` items taken so far).
+    fn has_new(&self, taken: u64) -> bool {
+        self.received > taken && self.item.is_some()
+    }
+}
+
 /// Slots shared by the producers (one slot each) and the taker.
 pub(crate) struct Latest<T> {
     slots: Mutex<Vec<Slot<T>>>,
@@ -112,10 +119,7 @@ impl Taker {
         };
         let since = Instant::now();
         loop {
-            let fresh = slots
-                .iter()
-                .zip(&self.taken)
-                .all(|(s, &t)| s.received > t && s.item.is_some());
+            let fresh = slots.iter().zip(&self.taken).all(|(s, &t)| s.has_new(t));
             if fresh {
                 break;
             }
@@ -132,8 +136,7 @@ impl Taker {
                 None => latest.arrived.wait(slots).map_err(|_| ()),
                 Some((patience, names)) => {
                     let left = patience.saturating_sub(since.elapsed());
-                    let silent = (0..slots.len())
-                        .find(|&i| slots[i].received == self.taken[i] || slots[i].item.is_none());
+                    let silent = (0..slots.len()).find(|&i| !slots[i].has_new(self.taken[i]));
                     if let (true, Some(i)) = (left.is_zero(), silent) {
                         self.finished = true;
                         return Some(Err(InputError::Silent {

@@ -5,13 +5,28 @@
 use crate::common;
 
 use std::io::{ErrorKind, Read, Write};
-use std::net::TcpStream;
+use std::net::{SocketAddr, TcpStream};
 use std::time::{Duration, Instant};
 
 use common::{scene, update};
 use flexshape_viewer::{Limits, Update, Viewer};
 use futures_util::{SinkExt, StreamExt};
 use tokio_tungstenite::tungstenite::Message;
+
+/// The viewer's whole answer to `GET /health` on a connection of its own, or `None` when it
+/// cannot be asked or does not answer within `wait`.
+fn health(addr: SocketAddr, wait: Duration) -> Option<String> {
+    let mut s = TcpStream::connect(addr).ok()?;
+    s.set_read_timeout(Some(wait)).ok()?;
+    let request = format!(
+        "GET /health HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nConnection: close\r\n\r\n",
+        addr.port()
+    );
+    s.write_all(request.as_bytes()).ok()?;
+    let mut reply = String::new();
+    s.read_to_string(&mut reply).ok()?;
+    Some(reply)
+}
 
 /// Whether the server closes `s` within `within` (reading end of stream or a reset).
 fn closed_within(s: &mut TcpStream, within: Duration) -> bool {
@@ -59,14 +74,7 @@ fn idle_and_surplus_connections_are_closed() {
     let waited = start.elapsed();
     assert!(waited < Duration::from_secs(2), "{waited:?}");
     // And the viewer answers again.
-    let mut s = TcpStream::connect(addr).unwrap();
-    let request = format!(
-        "GET /health HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nConnection: close\r\n\r\n",
-        addr.port()
-    );
-    s.write_all(request.as_bytes()).unwrap();
-    let mut reply = String::new();
-    s.read_to_string(&mut reply).unwrap();
+    let reply = health(addr, Duration::from_secs(30)).expect("no answer to /health");
     assert!(reply.starts_with("HTTP/1.1 200"), "{reply}");
 }
 
@@ -172,14 +180,7 @@ fn trickled_heads_are_closed_and_one_address_gets_its_share() {
     for s in &mut held {
         assert!(closed_within(s, Duration::from_secs(2)));
     }
-    let mut again = TcpStream::connect(addr).unwrap();
-    let request = format!(
-        "GET /health HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nConnection: close\r\n\r\n",
-        addr.port()
-    );
-    again.write_all(request.as_bytes()).unwrap();
-    let mut reply = String::new();
-    again.read_to_string(&mut reply).unwrap();
+    let reply = health(addr, Duration::from_secs(30)).expect("no answer to /health");
     assert!(reply.starts_with("HTTP/1.1 200"), "{reply}");
 }
 
@@ -211,24 +212,11 @@ fn a_browser_that_stops_reading_is_let_go() {
         addr.port()
     );
     stalled.write_all(handshake.as_bytes()).unwrap();
-    let health = || {
-        let mut s = TcpStream::connect(addr).ok()?;
-        s.set_read_timeout(Some(Duration::from_secs(2))).ok()?;
-        let request = format!(
-            "GET /health HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nConnection: close\r\n\r\n",
-            addr.port()
-        );
-        s.write_all(request.as_bytes()).ok()?;
-        let mut reply = String::new();
-        s.read_to_string(&mut reply).ok()?;
-        reply.starts_with("HTTP/1.1 200").then_some(())
-    };
+    let healthy =
+        || health(addr, Duration::from_secs(2)).is_some_and(|r| r.starts_with("HTTP/1.1 200"));
     // While it holds the only place, others are turned away…
     std::thread::sleep(Duration::from_millis(100));
-    assert!(
-        health().is_none(),
-        "the stalled socket holds the only place"
-    );
+    assert!(!healthy(), "the stalled socket holds the only place");
     // …until its sends stall for the idle time: then it is closed and the place is free.
     let start = Instant::now();
     let mut frame = 0;
@@ -236,7 +224,7 @@ fn a_browser_that_stops_reading_is_let_go() {
         viewer.publish(noisy_update(frame));
         frame += 1;
         std::thread::sleep(Duration::from_millis(50));
-        if start.elapsed() > Duration::from_secs(1) && health().is_some() {
+        if start.elapsed() > Duration::from_secs(1) && healthy() {
             break true;
         }
         if start.elapsed() > Duration::from_secs(30) {
