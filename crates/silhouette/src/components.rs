@@ -85,12 +85,20 @@ fn find(parent: &mut [usize], mut i: usize) -> usize {
     i
 }
 
-/// Labels of the runs' components (an index per run; equal labels = same component) and each
-/// label's area in pixels.
+/// Labels of the runs' components, 8-connected (an index per run; equal labels = same
+/// component) and each label's area in pixels.
 pub fn label(runs: &[Run]) -> (Vec<usize>, Vec<usize>) {
+    label_with(runs, true)
+}
+
+/// [`label`], with runs of consecutive rows that meet only at a corner joined when
+/// `diagonal` (8-connected) and apart when not (4-connected: the background between the
+/// pixels of an 8-connected object).
+pub(crate) fn label_with(runs: &[Run], diagonal: bool) -> (Vec<usize>, Vec<usize>) {
     let mut parent: Vec<usize> = (0..runs.len()).collect();
-    // Runs of consecutive rows touch (8-connected) when their column ranges overlap or meet
-    // diagonally; both rows are sorted, so one sweep finds every pair.
+    // Runs of consecutive rows touch when their column ranges overlap (or, 8-connected, meet
+    // diagonally); both rows are sorted, so one sweep finds every pair.
+    let reach = u32::from(diagonal);
     let mut start = 0;
     for i in 0..runs.len() {
         let r = runs[i];
@@ -102,7 +110,7 @@ pub fn label(runs: &[Run]) -> (Vec<usize>, Vec<usize>) {
         let mut j = start;
         while j < i && runs[j].y + 1 == r.y {
             let p = runs[j];
-            if p.x0 <= r.x1 && r.x0 <= p.x1 {
+            if p.x0 < r.x1 + reach && r.x0 < p.x1 + reach {
                 let (a, b) = (find(&mut parent, i), find(&mut parent, j));
                 if a != b {
                     parent[a.max(b)] = a.min(b);

@@ -4,7 +4,8 @@
 //! Pipeline ([`Silhouetter::process`]): classify every pixel against the [`BackgroundModel`]
 //! ([`Classifier`]: the paper's green matting, or colour subtraction with shadow rejection) into
 //! bit-packed masks ([`BitMask`]), close small holes, keep the object's connected components
-//! ([`KeepComponents`]), then find the marker tape inside the object ([`MarkerSettings`]).
+//! ([`KeepComponents`]), fill the holes it encloses that are thinner than it is wide (a silvery
+//! tube's highlight), then find the marker tape inside the object ([`MarkerSettings`]).
 //! Masks keep their boundary at half contrast; a consumer that wants a margin dilates its own
 //! copy ([`BitMask::dilate`]). Pixel (0, 0) is the top-left pixel.
 //!
@@ -31,6 +32,7 @@ mod bitmask;
 mod classify;
 pub mod components;
 mod error;
+mod holes;
 mod markers;
 mod shade;
 mod silhouetter;

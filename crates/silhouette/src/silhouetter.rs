@@ -1,5 +1,6 @@
 //! The per-camera silhouette pipeline: classify, hysteresis, closing, components (a
-//! shadow-coloured part apart from a coloured object dropped as its shadow), markers.
+//! shadow-coloured part apart from a coloured object dropped as its shadow), thin holes
+//! filled, markers.
 
 use image::{DynamicImage, RgbImage};
 use serde::{Deserialize, Serialize};
@@ -9,6 +10,7 @@ use crate::bitmask::BitMask;
 use crate::classify::{Area, Classifier, Prepared, Region};
 use crate::components::{KeepComponents, keep_components, touching};
 use crate::error::SilhouetteError;
+use crate::holes::fill_thin_holes;
 use crate::markers::{MarkerSettings, find_markers};
 
 /// Settings of one camera's silhouettes (the rig's `[processing.silhouette]`, see
@@ -21,6 +23,9 @@ pub struct SilhouetteSettings {
     /// Radius of the closing that fills holes (square window `2r + 1`); it does not move
     /// straight boundaries, so the mask stays at half contrast.
     pub close_radius: usize,
+    /// Whether holes the object encloses that are thinner than the object is wide are
+    /// filled (a silvery tube's highlight in the backdrop's colour; see `holes`).
+    pub fill_holes: bool,
     /// Which connected components are the object.
     pub keep: KeepComponents,
     /// Marker tape.
@@ -49,6 +54,7 @@ impl Default for SilhouetteSettings {
         SilhouetteSettings {
             classifier: Classifier::colour_shadow(),
             close_radius: 1,
+            fill_holes: true,
             keep: KeepComponents::MinArea(40),
             markers: MarkerSettings::default(),
             max_foreground: 0.5,
@@ -66,6 +72,7 @@ impl SilhouetteSettings {
     /// [processing.silhouette]
     /// classifier = { kind = "colour_shadow", dark_weak = 0.55 }
     /// close_radius = 1
+    /// fill_holes = true                 # holes thinner than the object is wide
     /// keep = { min_area = 40 }          # or keep = "largest"
     /// adapt = true                      # the background follows a changed backdrop
     /// [processing.silhouette.per_camera.cam2]
@@ -121,6 +128,8 @@ impl SilhouetteSettings {
                 noise_factor: 0.0,
             }),
             close_radius: 0,
+            // A segmentation's holes (a CNN's, a threshold's) are what a highlight leaves.
+            fill_holes: rig.fill_holes,
             keep: rig.keep,
             markers: MarkerSettings {
                 // Brighter than anything: no pixel of a mask is tested as tape.
@@ -283,6 +292,9 @@ impl Silhouetter {
             }
             object.and(&shade)
         };
+        if self.settings.fill_holes {
+            object = fill_thin_holes(&object);
+        }
         let markers = find_markers(frame, &object, &self.settings.markers);
         let fraction = object.count() as f64 / (w as f64 * h as f64);
         let status = if fraction > self.settings.max_foreground {
