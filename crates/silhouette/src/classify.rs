@@ -243,6 +243,10 @@ impl Classifier {
     }
 }
 
+/// How many pixels deep the object's own colours are followed from its strict pixels (a
+/// highlight is a stripe a few pixels wide).
+const OWN_COLOUR_STEPS: usize = 4;
+
 /// Pixels per skip test (a quarter of a mask word).
 const BLOCK: usize = 16;
 
@@ -466,7 +470,11 @@ impl Prepared {
     pub fn foreground_and_shade(&self, frame: &RgbImage, region: &impl Area) -> (BitMask, BitMask) {
         let (strong, weak, shady) = self.classify(frame, region);
         let Kind::Colour {
-            bg, inv_e2, edge, ..
+            bg,
+            inv_e2,
+            cd2,
+            edge,
+            ..
         } = &self.kind
         else {
             let none = BitMask::new(strong.width(), strong.height());
@@ -474,36 +482,80 @@ impl Prepared {
         };
         let (w, h) = (strong.width(), strong.height());
         let beside = strong.dilate(1);
-        let ring = weak.and(&beside).and_not(&strong);
         let px = frame.as_raw();
         let colour = |x: usize, y: usize| {
             let i = (y * w + x) * 3;
             [px[i] as f32, px[i + 1] as f32, px[i + 2] as f32]
         };
+        // A loose pixel beside the object joins it when it is at least half covered by the
+        // colour of its object neighbours (`S`, their mean): a boundary pixel, mixing the
+        // backdrop `E` and `S`, keeps the boundary at half contrast. It joins too when its
+        // colour is the object's own: differing from the backdrop's chromaticity, and off the
+        // mixing line E→S or at `S` itself by less than the loose chroma limit — a silvery
+        // tube's highlight, which no mix of backdrop and body gives. Pixels beside the ones that joined so are
+        // looked at again (up to `OWN_COLOUR_STEPS` pixels deep), against those own colours
+        // only and only when they differ from the backdrop's chromaticity: a mix measured
+        // against a mixed neighbour would creep outward by a pixel a step.
+        // `own`: the pixels in the object's own colours (strict, or joined as such), which
+        // alone give the neighbours' colour; a mixed pixel joins `out` only.
+        // (Joined pixels are listed and set after each step, so every pixel of a step is
+        // judged against the same neighbours; `own` is `strong` until a pixel joins so.)
         let mut out = strong.clone();
-        for_each_set(&ring, |x, y| {
-            let (mut sum, mut n) = ([0f32; 3], 0f32);
-            for yy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
-                for xx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
-                    if strong.get(xx, yy) {
-                        let c = colour(xx, yy);
-                        for k in 0..3 {
-                            sum[k] += c[k];
+        let mut own: Option<BitMask> = None;
+        let mut ring = weak.and(&beside).and_not(&strong);
+        for step in 0..=OWN_COLOUR_STEPS {
+            let (mut owned, mut mixed) = (Vec::new(), Vec::new());
+            let own_now = own.as_ref().unwrap_or(&strong);
+            for_each_set(&ring, |x, y| {
+                let (mut sum, mut n) = ([0f32; 3], 0f32);
+                for yy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+                    for xx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
+                        if own_now.get(xx, yy) {
+                            let c = colour(xx, yy);
+                            for k in 0..3 {
+                                sum[k] += c[k];
+                            }
+                            n += 1.0;
                         }
-                        n += 1.0;
                     }
                 }
-            }
-            let e = bg.each_ref().map(|plane| plane[y * w + x]);
-            let i = colour(x, y);
-            let d: [f32; 3] = std::array::from_fn(|k| sum[k] / n - e[k]);
-            let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            let c =
-                ((i[0] - e[0]) * d[0] + (i[1] - e[1]) * d[1] + (i[2] - e[2]) * d[2]) / dd.max(1e-6);
-            if c >= 0.5 {
+                let k = y * w + x;
+                let e = bg.each_ref().map(|plane| plane[k]);
+                let i = colour(x, y);
+                let d: [f32; 3] = std::array::from_fn(|c| sum[c] / n - e[c]);
+                let f: [f32; 3] = std::array::from_fn(|c| i[c] - e[c]);
+                let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                let c = (f[0] * d[0] + f[1] * d[1] + f[2] * d[2]) / dd.max(1e-6);
+                // Squared chromaticity distortion against the backdrop, and the squared
+                // distance from the mixing line, both over ‖E‖².
+                let alpha = (i[0] * e[0] + i[1] * e[1] + i[2] * e[2]) * inv_e2[k];
+                let chroma = (i[0] * i[0] + i[1] * i[1] + i[2] * i[2]) * inv_e2[k] - alpha * alpha;
+                let r: [f32; 3] = std::array::from_fn(|m| f[m] - c * d[m]);
+                let off = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) * inv_e2[k];
+                // Squared distance from the neighbours' colour, over ‖E‖²: the same colour.
+                let g: [f32; 3] = std::array::from_fn(|m| f[m] - d[m]);
+                let same = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * inv_e2[k];
+                let coloured = chroma > cd2[1][k];
+                if coloured && (off > cd2[1][k] || same <= cd2[1][k]) {
+                    owned.push((x, y));
+                } else if c >= 0.5 && (step == 0 || coloured) {
+                    mixed.push((x, y));
+                }
+            });
+            for &(x, y) in mixed.iter().chain(&owned) {
                 out.set(x, y, true);
             }
-        });
+            if owned.is_empty() {
+                break;
+            }
+            let own = own.get_or_insert_with(|| strong.clone());
+            let mut joined = BitMask::new(w, h);
+            for &(x, y) in &owned {
+                own.set(x, y, true);
+                joined.set(x, y, true);
+            }
+            ring = weak.and(&joined.dilate(1)).and_not(&out);
+        }
         if *edge > 0.0 {
             let alpha = |x: usize, y: usize| {
                 let i = y * w + x;
@@ -881,6 +933,67 @@ mod tests {
         }
         assert!(set[0] > 1000, "{} strict pixels", set[0]);
         assert_eq!([strong.count(), weak.count(), shady.count()], set);
+    }
+
+    /// A frame of the green backdrop with vertical stripes over rows 5..45: `(columns,
+    /// colour)` each.
+    fn striped(stripes: &[(std::ops::Range<u32>, [u8; 3])]) -> RgbImage {
+        let mut frame = RgbImage::from_pixel(50, 50, image::Rgb(GREEN));
+        for (columns, colour) in stripes {
+            for x in columns.clone() {
+                for y in 5..45 {
+                    frame.put_pixel(x, y, image::Rgb(*colour));
+                }
+            }
+        }
+        frame
+    }
+
+    const GREEN: [u8; 3] = [177, 222, 167];
+    /// A silvery tube's dark body and its colourless highlight (brighter than the green cloth
+    /// in red and blue, darker in green: loose, not strict, and no mix of cloth and body).
+    const BODY: [u8; 3] = [60, 60, 60];
+    const HIGHLIGHT: [u8; 3] = [211, 210, 213];
+
+    /// The colour classifier's foreground, without its sharp-outline rule (which by design
+    /// takes a shadow as sharp as these stripes for a grey object).
+    fn colour_foreground(frame: &RgbImage) -> BitMask {
+        let model = BackgroundModel::uniform(50, 50, GREEN.map(f32::from), 2.0).unwrap();
+        let c = Classifier::ColourShadow(ColourShadow {
+            edge: 0.0,
+            ..ColourShadow::default()
+        });
+        Prepared::new(&model, &c)
+            .foreground_and_shade(frame, &Region::ALL)
+            .0
+    }
+
+    #[test]
+    fn a_highlight_in_the_objects_own_colour_is_object() {
+        // In the middle of the body, and along its edge, 3 px wide: every column of it is
+        // object, and the backdrop beside it is not.
+        for frame in [
+            striped(&[(20..23, BODY), (23..26, HIGHLIGHT), (26..29, BODY)]),
+            striped(&[(20..26, BODY), (26..29, HIGHLIGHT)]),
+        ] {
+            let fg = colour_foreground(&frame);
+            for x in 18..31 {
+                assert_eq!(fg.get(x, 25), (20..29).contains(&x), "column {x}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_shadow_beside_the_object_is_not_followed() {
+        // A blue body, then its shadow (the cloth at half its light, the cloth's
+        // chromaticity) 6 px wide: the shadow's first column mixes like a boundary pixel and
+        // may join; the rest is not the object's colour and stays out.
+        let shadow = GREEN.map(|c| c / 2);
+        let fg = colour_foreground(&striped(&[(20..29, [40, 50, 110]), (29..35, shadow)]));
+        let row: String = (18..37)
+            .map(|x| if fg.get(x, 25) { '#' } else { '.' })
+            .collect();
+        assert_eq!(row, "..##########.......");
     }
 
     #[test]
