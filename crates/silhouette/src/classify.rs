@@ -17,7 +17,9 @@
 //!   foreground; a pixel passing a looser test that touches them is foreground when its
 //!   estimated coverage `c = (I − E)·(S − E) / ‖S − E‖²` is at least ½, with `S` the mean
 //!   colour of its strict neighbours (the pure surface colour). That puts the boundary at half
-//!   contrast whatever the surface colour. A grey or silvery object on a white backdrop is
+//!   contrast whatever the surface colour. A loose pixel whose colour is the object's own —
+//!   off the backdrop's chromaticity, and off the line from `E` to `S` (no mix of the two) or
+//!   at `S` — joins too, a few pixels deep: a silvery tube's colourless highlight on green. A grey or silvery object on a white backdrop is
 //!   shadow-like all over; what tells it from a shadow is its edge: a shadow cast from across
 //!   the room fades in over its penumbra, an object in focus is whole within a pixel or two. So
 //!   a connected region of shadow-like pixels (`α < shade`) whose outline reaches its own
