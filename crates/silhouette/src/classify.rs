@@ -19,7 +19,8 @@
 //!   colour of its strict neighbours (the pure surface colour). That puts the boundary at half
 //!   contrast whatever the surface colour. A loose pixel whose colour is the object's own —
 //!   off the backdrop's chromaticity, and off the line from `E` to `S` (no mix of the two) or
-//!   at `S` — joins too, a few pixels deep: a silvery tube's colourless highlight on green. A grey or silvery object on a white backdrop is
+//!   of `S`'s chromaticity — joins too, a few pixels deep: a silvery tube's colourless
+//!   highlight on green, a grey tube's lit side. A grey or silvery object on a white backdrop is
 //!   shadow-like all over; what tells it from a shadow is its edge: a shadow cast from across
 //!   the room fades in over its penumbra, an object in focus is whole within a pixel or two. So
 //!   a connected region of shadow-like pixels (`α < shade`) whose outline reaches its own
@@ -492,11 +493,12 @@ impl Prepared {
         // A loose pixel beside the object joins it when it is at least half covered by the
         // colour of its object neighbours (`S`, their mean): a boundary pixel, mixing the
         // backdrop `E` and `S`, keeps the boundary at half contrast. It joins too when its
-        // colour is the object's own: differing from the backdrop's chromaticity, and off the
-        // mixing line E→S or at `S` itself by less than the loose chroma limit — a silvery
-        // tube's highlight, which no mix of backdrop and body gives. Pixels beside the ones that joined so are
-        // looked at again (up to `OWN_COLOUR_STEPS` pixels deep), against those own colours
-        // only and only when they differ from the backdrop's chromaticity: a mix measured
+        // colour is the object's own: differing from the backdrop's chromaticity, and either
+        // off the mixing line E→S (a silvery tube's colourless highlight on green cloth,
+        // which no mix of backdrop and body gives) or of `S`'s chromaticity at another
+        // brightness (the lit side of a grey tube whose shaded side alone is strict), each
+        // by the loose chroma limit. Pixels beside the ones that joined so are looked at
+        // again (up to `OWN_COLOUR_STEPS` pixels deep) by that test alone: a mix measured
         // against a mixed neighbour would creep outward by a pixel a step.
         // `own`: the pixels in the object's own colours (strict, or joined as such), which
         // alone give the neighbours' colour; a mixed pixel joins `out` only.
@@ -534,13 +536,17 @@ impl Prepared {
                 let chroma = (i[0] * i[0] + i[1] * i[1] + i[2] * i[2]) * inv_e2[k] - alpha * alpha;
                 let r: [f32; 3] = std::array::from_fn(|m| f[m] - c * d[m]);
                 let off = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) * inv_e2[k];
-                // Squared distance from the neighbours' colour, over ‖E‖²: the same colour.
-                let g: [f32; 3] = std::array::from_fn(|m| f[m] - d[m]);
-                let same = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * inv_e2[k];
+                // Squared distance from the neighbours' chromaticity (their colour at any
+                // brightness), over ‖E‖²: the object's colour, lit or shaded otherwise.
+                let s: [f32; 3] = std::array::from_fn(|m| sum[m] / n);
+                let ss = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+                let beta = (i[0] * s[0] + i[1] * s[1] + i[2] * s[2]) / ss.max(1.0);
+                let g: [f32; 3] = std::array::from_fn(|m| i[m] - beta * s[m]);
+                let hue = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * inv_e2[k];
                 let coloured = chroma > cd2[1][k];
-                if coloured && (off > cd2[1][k] || same <= cd2[1][k]) {
+                if coloured && (off > cd2[1][k] || (ss >= 1.0 && hue <= cd2[1][k])) {
                     owned.push((x, y));
-                } else if c >= 0.5 && (step == 0 || coloured) {
+                } else if step == 0 && c >= 0.5 {
                     mixed.push((x, y));
                 }
             });
@@ -983,6 +989,19 @@ mod tests {
                 assert_eq!(fg.get(x, 25), (20..29).contains(&x), "column {x}");
             }
         }
+    }
+
+    #[test]
+    fn a_grey_tubes_lit_side_is_object() {
+        // Only the shaded side (3 px) is darker than any shadow; the lit side (5 px) differs
+        // from the green cloth only in chromaticity, by little, and lies near the mix of cloth
+        // and shaded body — but it is the body's grey at another brightness.
+        let lit = [140, 142, 139];
+        let fg = colour_foreground(&striped(&[(20..23, BODY), (23..28, lit)]));
+        let row: String = (18..30)
+            .map(|x| if fg.get(x, 25) { '#' } else { '.' })
+            .collect();
+        assert_eq!(row, "..########..");
     }
 
     #[test]

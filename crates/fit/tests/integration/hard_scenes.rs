@@ -181,12 +181,14 @@ fn a_tube_on_a_backdrop_of_its_hue_is_placed_by_its_outline() {
     // tube the outline found (IoU 0.64–0.74, 0.97–0.98 completed). Before, read against the
     // colour inside, the boundary lay 0.2 px outside the dark rim (the radius 5 % large, the
     // tips 0.22–0.36 mm short) and an `ok` frame's tip was off by more than 0.3 mm; those
-    // silhouettes failed the IoU limit of 0.75.
+    // silhouettes failed the IoU limit of 0.75. Since the silhouettes take in the lit tube's
+    // pixels of the tube's hue at the cloth's brightness beside its strict ones, 4 frames
+    // still need a camera's silhouette completed (IoU 0.71–0.73, then 0.97–0.98).
     assert!(
         ok >= 18 && refused <= 3,
         "{ok} ok, {refused} right but refused"
     );
-    assert!(completed >= 8, "{completed}");
+    assert!(completed >= 3, "{completed}");
 
     let chain = Chain::with_camera_turned(scene(1), 1, 0.2);
     let sim = &chain.sim;
