@@ -703,6 +703,7 @@ impl TubeFitter {
         let mut record = estimator.record_from_curve(fitted, volume, hull);
         let ghost = fit.ghost_mm.unwrap_or(0.0);
         if let Some(reason) = self.verdict(fit, volume) {
+            let reason = reason + &self.along_epipolar_plane(&fit.tube).unwrap_or_default();
             record.status = Status::Inconsistent { reason };
         } else if ghost > s.max_ghost_mm {
             record.status = Status::Ambiguous {

@@ -44,7 +44,60 @@ const MIN_CAP_FOUND: usize = 3;
 /// at the start of the first cannot pass both.
 const GOES_ON_STRETCHES_MM: [(f64, f64); 2] = [(4.0, 9.0), (9.0, 14.0)];
 
+/// Shortest stretch of tube along two cameras' epipolar plane that a refusal names, mm: over
+/// shorter ones the curve's smoothness bridges the depth the cameras leave open (the drawn-mask
+/// frames refused for it ran along the plane for 30–50 mm).
+const EPIPOLAR_STRETCH_MM: f64 = 10.0;
+
 impl TubeFitter {
+    /// On a two-camera rig, the longest stretch of `tube` whose tangent lies within
+    /// [`MIN_CROSSING_SINE`](crate::stereo::MIN_CROSSING_SINE) of the cameras' epipolar plane
+    /// through it, said as a clause for a refusal when it is [`EPIPOLAR_STRETCH_MM`] or
+    /// longer: there both images show the tube along the same epipolar lines, and nothing in
+    /// them places it within that plane. Sampled every ~0.5 mm.
+    pub(crate) fn along_epipolar_plane(&self, tube: &Tube) -> Option<String> {
+        let [a, b] = self.cameras.as_slice() else {
+            return None;
+        };
+        let (ca, cb) = (a.centre(), b.centre());
+        let n = ((tube.length() / 0.5).ceil() as usize).clamp(16, 4000);
+        let (mut arc, mut prev) = (0.0, tube.frame(0.0).0);
+        let (mut best, mut run): ((f64, f64), Option<f64>) = ((0.0, 0.0), None);
+        for i in 0..=n {
+            let (p, t) = tube.frame(i as f64 / n as f64);
+            arc += (p - prev).norm();
+            prev = p;
+            let normal = (p - ca).cross(&(p - cb));
+            let along = normal.norm() > 1e-9
+                && t.dot(&normal).abs() / normal.norm() < crate::stereo::MIN_CROSSING_SINE;
+            match (along, run) {
+                (true, None) => run = Some(arc),
+                (false, Some(from)) => {
+                    if arc - from > best.1 - best.0 {
+                        best = (from, arc);
+                    }
+                    run = None;
+                }
+                _ => {}
+            }
+        }
+        if let Some(from) = run
+            && arc - from > best.1 - best.0
+        {
+            best = (from, arc);
+        }
+        let (from, to) = best;
+        (to - from >= EPIPOLAR_STRETCH_MM).then(|| {
+            format!(
+                "; over {:.0} mm (from {from:.0} to {to:.0} mm along it) the tube runs within {:.0}° of the epipolar plane of {} and {}, where neither image places it within that plane: add a camera that sees it from another side",
+                to - from,
+                crate::stereo::MIN_CROSSING_SINE.asin().to_degrees(),
+                self.names[0],
+                self.names[1],
+            )
+        })
+    }
+
     /// Why a capped end's place is not seen, if it is not: fewer than two cameras see it —
     /// have it in their image, find [`MIN_CAP_FOUND`] samples of its cap's outline
     /// (`checks`, the rig's order), and look at the tube there from the side
@@ -596,6 +649,47 @@ mod tests {
             std::array::from_fn(|a| v.origin[a] + 0.5 * v.voxel_size[a] * v.dims[a] as f64);
         let at = |z: f64| [c[0], c[1] + dy, c[2] + z];
         Tube::through(&[at(z0), at(z1)], 3.0, [false, true], 10.0, 0.0).unwrap()
+    }
+
+    #[test]
+    fn a_stretch_along_two_cameras_epipolar_plane_is_named() {
+        let sim = Simulator::new(SimConfig::default()).unwrap();
+        let cams = &sim.cameras()[..2];
+        let names = vec!["left".to_string(), "right".to_string()];
+        let fitter = TubeFitter::new(cams.to_vec(), names, FitSettings::default()).unwrap();
+        let centre = tube(&sim, 0.0, 0.0, 1.0).frame(0.0).0;
+        let (ca, cb) = (cams[0].centre(), cams[1].centre());
+        let normal = (centre - ca).cross(&(centre - cb)).normalize();
+        let straight = |d: nalgebra::Vector3<f64>, from: f64, to: f64| {
+            let at = |s: f64| (centre + d * s).coords.into();
+            Tube::through(&[at(from), at(to)], 3.0, [false, true], 10.0, 0.0).unwrap()
+        };
+        // Within the plane: the whole 100 mm.
+        let in_plane = normal.cross(&(cb - ca)).normalize();
+        let said = fitter
+            .along_epipolar_plane(&straight(in_plane, -50.0, 50.0))
+            .expect("named");
+        assert!(
+            said.contains("over 100 mm (from 0 to 100 mm along it)")
+                && said.contains("of the epipolar plane of left and right"),
+            "{said}"
+        );
+        // Across it, or within it for less than 10 mm: nothing to say.
+        assert_eq!(
+            fitter.along_epipolar_plane(&straight(normal, -50.0, 50.0)),
+            None
+        );
+        assert_eq!(
+            fitter.along_epipolar_plane(&straight(in_plane, 0.0, 8.0)),
+            None
+        );
+        // A third camera sees it from another side: nothing to say either.
+        let names = (0..3).map(|i| format!("cam{i}")).collect();
+        let three = TubeFitter::new(sim.cameras(), names, FitSettings::default()).unwrap();
+        assert_eq!(
+            three.along_epipolar_plane(&straight(in_plane, -50.0, 50.0)),
+            None
+        );
     }
 
     #[test]

@@ -30,7 +30,7 @@ const TRUNCATE_PX: f64 = 4.0;
 const MATCH_PX: f64 = 1.5;
 /// Least sine of the angle between a curve and the epipolar line it is matched along for a
 /// pair to be triangulated (below, depth along the line is not determined).
-const MIN_CROSSING_SINE: f64 = 0.3;
+pub(crate) const MIN_CROSSING_SINE: f64 = 0.3;
 /// Samples from a curve's end within which a match still counts as reaching it.
 const END_SAMPLES: usize = 3;
 

@@ -8,6 +8,8 @@
 mod matching;
 mod skeleton;
 
+pub(crate) use matching::MIN_CROSSING_SINE;
+
 use flexshape_rig::Volume;
 use flexshape_shape::{ShapeEstimator, ShapeRecord, Status};
 use flexshape_silhouette::BitMask;

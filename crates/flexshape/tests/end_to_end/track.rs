@@ -478,6 +478,12 @@ fn masks_drawn_a_fixed_width_give_the_shape() {
     let reader = RecordingReader::open(&seed3).unwrap();
     let statuses: Vec<_> = records.iter().map(|r| r["status"].clone()).collect();
     assert_eq!(statuses, ["ok", "ok", "ok", "inconsistent"], "{records:?}");
+    // And the refusal says why two cameras cannot place it there.
+    let reason = records[3]["reason"].as_str().unwrap();
+    assert!(
+        reason.contains("runs within 17° of the epipolar plane of cam0 and cam1"),
+        "{reason}"
+    );
     for (n, r) in records.iter().take(3).enumerate() {
         let e = errors(r, &reader.read_truth(n as u64).unwrap().unwrap(), &volume);
         assert!(e.centerline_rms <= 0.06 && e.tip <= 0.2, "frame {n}: {e:?}");
