@@ -976,18 +976,26 @@ mod tests {
             .0
     }
 
+    /// Row 25 of the foreground of [`striped`]`(stripes)` over `columns`: `#` object, `.` not.
+    fn foreground_row(
+        stripes: &[(std::ops::Range<u32>, [u8; 3])],
+        columns: std::ops::Range<usize>,
+    ) -> String {
+        let fg = colour_foreground(&striped(stripes));
+        columns
+            .map(|x| if fg.get(x, 25) { '#' } else { '.' })
+            .collect()
+    }
+
     #[test]
     fn a_highlight_in_the_objects_own_colour_is_object() {
         // In the middle of the body, and along its edge, 3 px wide: every column of it is
         // object, and the backdrop beside it is not.
-        for frame in [
-            striped(&[(20..23, BODY), (23..26, HIGHLIGHT), (26..29, BODY)]),
-            striped(&[(20..26, BODY), (26..29, HIGHLIGHT)]),
+        for stripes in [
+            [(20..23, BODY), (23..26, HIGHLIGHT), (26..29, BODY)].as_slice(),
+            &[(20..26, BODY), (26..29, HIGHLIGHT)],
         ] {
-            let fg = colour_foreground(&frame);
-            for x in 18..31 {
-                assert_eq!(fg.get(x, 25), (20..29).contains(&x), "column {x}");
-            }
+            assert_eq!(foreground_row(stripes, 18..31), "..#########..");
         }
     }
 
@@ -997,10 +1005,7 @@ mod tests {
         // from the green cloth only in chromaticity, by little, and lies near the mix of cloth
         // and shaded body — but it is the body's grey at another brightness.
         let lit = [140, 142, 139];
-        let fg = colour_foreground(&striped(&[(20..23, BODY), (23..28, lit)]));
-        let row: String = (18..30)
-            .map(|x| if fg.get(x, 25) { '#' } else { '.' })
-            .collect();
+        let row = foreground_row(&[(20..23, BODY), (23..28, lit)], 18..30);
         assert_eq!(row, "..########..");
     }
 
@@ -1010,10 +1015,7 @@ mod tests {
         // chromaticity) 6 px wide: the shadow's first column mixes like a boundary pixel and
         // may join; the rest is not the object's colour and stays out.
         let shadow = GREEN.map(|c| c / 2);
-        let fg = colour_foreground(&striped(&[(20..29, [40, 50, 110]), (29..35, shadow)]));
-        let row: String = (18..37)
-            .map(|x| if fg.get(x, 25) { '#' } else { '.' })
-            .collect();
+        let row = foreground_row(&[(20..29, [40, 50, 110]), (29..35, shadow)], 18..37);
         assert_eq!(row, "..##########.......");
     }
 
