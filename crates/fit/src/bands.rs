@@ -3,8 +3,10 @@
 //!
 //! Along the tube every half millimetre, each camera that sees the tube side-on enough
 //! reads the colour at the centerline's pixel. Tape and body colours come from the samples the
-//! silhouette's marker mask does and does not mark; the tape's share `q = (I − B)·(T − B) /
-//! ‖T − B‖²` is linear in how much of the pixel the tape covers, so a band's edge is where `q`
+//! silhouette's marker mask does and does not mark (the body's from those within 10 mm when
+//! they spread widely: a silvery tube shows its highlight at the centerline in one place and
+//! its dark body in another); the tape's share `q = (I − B)·(T − B) / ‖T − B‖²` is linear in how much of the pixel the tape
+//! covers, so a band's edge is where `q`
 //! crosses halfway between its level inside and outside the band. The surface a camera sees
 //! at the centerline's pixel is not the centerline's own section: the ray meets the tube's
 //! near side `r·cot α` closer to the camera along the tube (`α` the angle between ray and
@@ -185,17 +187,37 @@ fn runs(samples: &[Option<Sample>], tip_capped: bool) -> Vec<Seen> {
     let (Some(tape), Some(body)) = (mean(true), mean(false)) else {
         return Vec::new();
     };
-    let axis = Vector3::from(tape.map(f64::from)) - Vector3::from(body.map(f64::from));
-    if axis.norm() < 20.0 {
+    let tape = Vector3::from(tape.map(f64::from));
+    if (tape - Vector3::from(body.map(f64::from))).norm() < 20.0 {
         return Vec::new();
     }
+    // The body's colour: the mean of the unmarked samples; where they spread along the tube
+    // by more than BODY_UNEVEN of the tape's contrast, the mean of those within
+    // BODY_WINDOW_MM of each sample instead. A silvery tube's centerline shows its highlight
+    // in one place and its dark body in another (spread 0.47–0.58; a plastic tube's
+    // 0.02–0.05): against their mean, the dark body before a band read as half tape.
+    let whole = Vector3::from(body.map(f64::from));
+    let axis = tape - whole;
+    let unmarked: Vec<f64> = samples
+        .iter()
+        .flatten()
+        .filter(|s| !s.marked)
+        .map(|s| (Vector3::from(s.colour.map(f64::from)) - whole).dot(&axis) / axis.norm_squared())
+        .collect();
+    let spread = (unmarked.iter().map(|q| q * q).sum::<f64>() / unmarked.len() as f64).sqrt();
+    let body_near = if spread > BODY_UNEVEN {
+        local_body(samples, body)
+    } else {
+        vec![whole; samples.len()]
+    };
     let q: Vec<Option<f64>> = samples
         .iter()
-        .map(|s| {
+        .zip(&body_near)
+        .map(|(s, b)| {
             s.map(|s| {
-                (Vector3::from(s.colour.map(f64::from)) - Vector3::from(body.map(f64::from)))
-                    .dot(&axis)
-                    / axis.norm_squared()
+                let axis = tape - b;
+                (Vector3::from(s.colour.map(f64::from)) - b).dot(&axis)
+                    / axis.norm_squared().max(1.0)
             })
         })
         .collect();
@@ -242,6 +264,42 @@ fn runs(samples: &[Option<Sample>], tip_capped: bool) -> Vec<Seen> {
         }
     }
     out
+}
+
+/// Spread of the unmarked samples' tape share (RMS about the body's mean, the tape 1) beyond
+/// which the body's colour is taken near each sample rather than over the whole tube.
+const BODY_UNEVEN: f64 = 0.2;
+/// Half the span of samples along the tube whose unmarked colours give the body's colour near
+/// a sample, mm.
+const BODY_WINDOW_MM: f64 = 10.0;
+/// Fewest unmarked samples in that span for their mean to stand for the body there.
+const BODY_SAMPLES: usize = 6;
+
+/// The body's colour near each sample (see [`runs`]): the mean of the unmarked samples within
+/// [`BODY_WINDOW_MM`], or `whole`, the mean of them all, where fewer than [`BODY_SAMPLES`] are.
+fn local_body(samples: &[Option<Sample>], whole: [f32; 3]) -> Vec<Vector3<f64>> {
+    // Prefix sums of the unmarked samples' colours and count.
+    let mut sums = vec![(Vector3::zeros(), 0usize)];
+    for s in samples {
+        let (mut sum, mut n) = sums[sums.len() - 1];
+        if let Some(s) = s.filter(|s| !s.marked) {
+            sum += Vector3::from(s.colour.map(f64::from));
+            n += 1;
+        }
+        sums.push((sum, n));
+    }
+    let reach = (BODY_WINDOW_MM / STEP).round() as usize;
+    (0..samples.len())
+        .map(|k| {
+            let (lo, hi) = (k.saturating_sub(reach), (k + reach + 1).min(samples.len()));
+            let (sum, n) = (sums[hi].0 - sums[lo].0, sums[hi].1 - sums[lo].1);
+            if n >= BODY_SAMPLES {
+                sum / n as f64
+            } else {
+                Vector3::from(whole.map(f64::from))
+            }
+        })
+        .collect()
 }
 
 /// Where `q` crosses halfway between `inside` and its level just outside the run's end at
@@ -432,6 +490,34 @@ mod tests {
             "{} against {expected}",
             lower.at
         );
+        assert!(seen[0].at_tip);
+    }
+
+    #[test]
+    fn a_silvery_tubes_tip_band_is_read_against_the_body_beside_it() {
+        // The centerline shows the highlight for 100 mm, then the dark body for 30 mm, then
+        // a red tip band: against the whole body's mean the dark body reads as half tape.
+        let (highlight, dark, tape) = (
+            [200.0, 200.0, 200.0],
+            [62.0, 62.0, 62.0],
+            [150.0, 18.0, 14.0],
+        );
+        let sample = |colour: [f32; 3], marked| {
+            Some(Sample {
+                colour,
+                marked,
+                shift: 0.0,
+                sin: 1.0,
+            })
+        };
+        let mut s = vec![sample(highlight, false); 200];
+        s.extend(vec![sample(dark, false); 60]);
+        s.extend(vec![sample(tape, true); 8]);
+        let seen = runs(&s, true);
+        assert_eq!(seen.len(), 1);
+        let lower = seen[0].lower.expect("the band's lower end").at;
+        // Halfway between sample 259 (body) and 260 (tape).
+        assert!((lower - 259.5 * STEP).abs() < 0.01, "{lower}");
         assert!(seen[0].at_tip);
     }
 
