@@ -5,9 +5,9 @@
 //! reads the colour at the centerline's pixel. Tape and body colours come from the samples the
 //! silhouette's marker mask does and does not mark (the body's from those within 10 mm when
 //! they spread widely: a silvery tube shows its highlight at the centerline in one place and
-//! its dark body in another); the tape's share `q = (I − B)·(T − B) / ‖T − B‖²` is linear in how much of the pixel the tape
-//! covers, so a band's edge is where `q`
-//! crosses halfway between its level inside and outside the band. The surface a camera sees
+//! its dark body in another); the tape's share `q = (I − B)·(T − B) / ‖T − B‖²` is linear in
+//! how much of the pixel the tape covers, so a band's edge is where `q` crosses halfway
+//! between its level inside and outside the band. The surface a camera sees
 //! at the centerline's pixel is not the centerline's own section: the ray meets the tube's
 //! near side `r·cot α` closer to the camera along the tube (`α` the angle between ray and
 //! tangent), which is taken off. Cameras' edges are averaged, each weighted by `sin⁴ α`: an
