@@ -187,8 +187,11 @@ fn runs(samples: &[Option<Sample>], tip_capped: bool) -> Vec<Seen> {
     let (Some(tape), Some(body)) = (mean(true), mean(false)) else {
         return Vec::new();
     };
-    let tape = Vector3::from(tape.map(f64::from));
-    if (tape - Vector3::from(body.map(f64::from))).norm() < 20.0 {
+    let (tape, whole) = (
+        Vector3::from(tape.map(f64::from)),
+        Vector3::from(body.map(f64::from)),
+    );
+    if (tape - whole).norm() < 20.0 {
         return Vec::new();
     }
     // The body's colour: the mean of the unmarked samples; where they spread along the tube
@@ -196,7 +199,6 @@ fn runs(samples: &[Option<Sample>], tip_capped: bool) -> Vec<Seen> {
     // BODY_WINDOW_MM of each sample instead. A silvery tube's centerline shows its highlight
     // in one place and its dark body in another (spread 0.47–0.58; a plastic tube's
     // 0.02–0.05): against their mean, the dark body before a band read as half tape.
-    let whole = Vector3::from(body.map(f64::from));
     let axis = tape - whole;
     let unmarked: Vec<f64> = samples
         .iter()
@@ -206,7 +208,7 @@ fn runs(samples: &[Option<Sample>], tip_capped: bool) -> Vec<Seen> {
         .collect();
     let spread = (unmarked.iter().map(|q| q * q).sum::<f64>() / unmarked.len() as f64).sqrt();
     let body_near = if spread > BODY_UNEVEN {
-        local_body(samples, body)
+        local_body(samples, whole)
     } else {
         vec![whole; samples.len()]
     };
@@ -277,7 +279,7 @@ const BODY_SAMPLES: usize = 6;
 
 /// The body's colour near each sample (see [`runs`]): the mean of the unmarked samples within
 /// [`BODY_WINDOW_MM`], or `whole`, the mean of them all, where fewer than [`BODY_SAMPLES`] are.
-fn local_body(samples: &[Option<Sample>], whole: [f32; 3]) -> Vec<Vector3<f64>> {
+fn local_body(samples: &[Option<Sample>], whole: Vector3<f64>) -> Vec<Vector3<f64>> {
     // Prefix sums of the unmarked samples' colours and count.
     let mut sums = vec![(Vector3::zeros(), 0usize)];
     for s in samples {
@@ -296,7 +298,7 @@ fn local_body(samples: &[Option<Sample>], whole: [f32; 3]) -> Vec<Vector3<f64>> 
             if n >= BODY_SAMPLES {
                 sum / n as f64
             } else {
-                Vector3::from(whole.map(f64::from))
+                whole
             }
         })
         .collect()

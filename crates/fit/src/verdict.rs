@@ -70,21 +70,16 @@ impl TubeFitter {
             let normal = (p - ca).cross(&(p - cb));
             let along = normal.norm() > 1e-9
                 && t.dot(&normal).abs() / normal.norm() < crate::stereo::MIN_CROSSING_SINE;
-            match (along, run) {
-                (true, None) => run = Some(arc),
-                (false, Some(from)) => {
-                    if arc - from > best.1 - best.0 {
-                        best = (from, arc);
-                    }
-                    run = None;
-                }
-                _ => {}
+            run = match (along, run) {
+                (true, None) => Some(arc),
+                (true, from) => from,
+                (false, _) => None,
+            };
+            if let Some(from) = run
+                && arc - from > best.1 - best.0
+            {
+                best = (from, arc);
             }
-        }
-        if let Some(from) = run
-            && arc - from > best.1 - best.0
-        {
-            best = (from, arc);
         }
         let (from, to) = best;
         (to - from >= EPIPOLAR_STRETCH_MM).then(|| {

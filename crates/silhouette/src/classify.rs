@@ -491,19 +491,17 @@ impl Prepared {
             [px[i] as f32, px[i + 1] as f32, px[i + 2] as f32]
         };
         // A loose pixel beside the object joins it when it is at least half covered by the
-        // colour of its object neighbours (`S`, their mean): a boundary pixel, mixing the
-        // backdrop `E` and `S`, keeps the boundary at half contrast. It joins too when its
-        // colour is the object's own: differing from the backdrop's chromaticity, and either
-        // off the mixing line E→S (a silvery tube's colourless highlight on green cloth,
-        // which no mix of backdrop and body gives) or of `S`'s chromaticity at another
-        // brightness (the lit side of a grey tube whose shaded side alone is strict), each
-        // by the loose chroma limit. Pixels beside the ones that joined so are looked at
-        // again (up to `OWN_COLOUR_STEPS` pixels deep) by that test alone: a mix measured
-        // against a mixed neighbour would creep outward by a pixel a step.
-        // `own`: the pixels in the object's own colours (strict, or joined as such), which
-        // alone give the neighbours' colour; a mixed pixel joins `out` only.
-        // (Joined pixels are listed and set after each step, so every pixel of a step is
-        // judged against the same neighbours; `own` is `strong` until a pixel joins so.)
+        // colour of its object neighbours (`S`, the mean of those in `own`, the object's own
+        // colours): a boundary pixel, mixing the backdrop `E` and `S`, keeps the boundary at
+        // half contrast and joins `out` only. It joins `own` too when its colour is the
+        // object's own: differing from the backdrop's chromaticity, and either off the mixing
+        // line E→S (a silvery tube's colourless highlight on green cloth, which no mix of
+        // backdrop and body gives) or of `S`'s chromaticity at another brightness (the lit
+        // side of a grey tube whose shaded side alone is strict), each by the loose chroma
+        // limit. The pixels beside those are looked at again, up to `OWN_COLOUR_STEPS` deep,
+        // by that test alone: a mix judged against a mixed neighbour would creep outward a
+        // pixel a step. A step's joins are set after it, so all its pixels are judged against
+        // the same neighbours (`own` is `strong` until a pixel joins so).
         let mut out = strong.clone();
         let mut own: Option<BitMask> = None;
         let mut ring = weak.and(&beside).and_not(&strong);
