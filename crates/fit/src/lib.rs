@@ -61,6 +61,7 @@ mod bands;
 mod bundle;
 mod check;
 mod edges;
+mod lengthen;
 mod orient;
 mod outline;
 mod pose;
@@ -537,7 +538,14 @@ impl TubeFitter {
             Err(_) => return Ok((hull.clone(), None)),
         };
         let fit_radius = radius.is_none() && s.fit_radius;
-        let fitted = self.fit_with(s, views, start, fit_radius, ONE_MEASUREMENT_MM)?;
+        let mut fitted = self.fit_with(s, views, start, fit_radius, ONE_MEASUREMENT_MM)?;
+        // An end the hull stopped short of, where the images show the tube going on.
+        for _ in 0..lengthen::ROUNDS {
+            let Some(longer) = self.lengthened(views, volume, &fitted.0)? else {
+                break;
+            };
+            fitted = self.fit_with(s, views, longer, fit_radius, ONE_MEASUREMENT_MM)?;
+        }
         let mut base = hull.clone();
         let (mut fit, spheres) =
             self.orient_by_band(estimator, views, fitted, &mut base, fit_radius)?;

@@ -184,7 +184,7 @@ impl TubeFitter {
     /// probe leaves it silent). Never where the
     /// profile meets `own`, the fitted tube's image, within [`OWN_CLEARANCE_PX`]: a part of
     /// the tube lying on past its own end is the tube, not a lost continuation.
-    fn shows_tube(
+    pub(crate) fn shows_tube(
         &self,
         cam: &Camera,
         (img, own): (&EdgeImage<'_>, &BitMask),

@@ -183,9 +183,11 @@ fn a_tube_on_a_backdrop_of_its_hue_is_placed_by_its_outline() {
     // tips 0.22–0.36 mm short) and an `ok` frame's tip was off by more than 0.3 mm; those
     // silhouettes failed the IoU limit of 0.75. Since the silhouettes take in the lit tube's
     // pixels of the tube's hue at the cloth's brightness beside its strict ones, 4 frames
-    // still need a camera's silhouette completed (IoU 0.71–0.73, then 0.97–0.98).
+    // still need a camera's silhouette completed (IoU 0.71–0.73, then 0.97–0.98). Since an
+    // end the images show going on is lengthened along them (a proximal shaft one camera's
+    // silhouette lost stopped the hull short), 23 of 24 are ok, 6 completed.
     assert!(
-        ok >= 18 && refused <= 3,
+        ok >= 22 && refused <= 2,
         "{ok} ok, {refused} right but refused"
     );
     assert!(completed >= 3, "{completed}");
@@ -202,13 +204,15 @@ fn a_tube_on_a_backdrop_of_its_hue_is_placed_by_its_outline() {
 /// The same cloth, where the silhouettes lost the tube's proximal 60 mm in every camera (as
 /// sensor noise makes them lose a lit stretch as bright as the cloth), on a rig without bands
 /// (a lost band would say so by itself): the fit from what is left caps the tube there, a
-/// shape that explains every silhouette. The images still show the tube's two sides going on
-/// from that cap, so no such frame is `ok`; with the whole silhouettes no end of a right fit
-/// is taken for one that goes on. Measured: two cameras see the cut fit going on in 5 of 6
-/// frames (the sixth fails its free end's outline); without the probe frame 0 was `ok` with
-/// its centerline 26.7 mm RMS off.
+/// shape that explains every silhouette, but the images still show the tube's two sides
+/// going on from that cap. The end is lengthened along them to the volume's boundary and the
+/// tube fitted again: every `ok` is right. With the whole silhouettes no end of a right fit is
+/// taken for one that goes on. Measured: 5 of 6 `ok` (0.04–0.05 mm RMS, tips 0.15–0.22 mm
+/// off), lengthened in 3–4 rounds; the sixth cut fit, 28 mm off, is refused (65 silhouette
+/// pixels beyond it). Before the lengthening no frame was `ok` (two cameras saw the cut fit
+/// going on in 5 of 6), and before the probe frame 0 was `ok` 26.7 mm RMS off.
 #[test]
-fn a_tube_its_silhouettes_cut_short_is_not_ok() {
+fn a_tube_its_silhouettes_cut_short_is_lengthened_along_the_images() {
     let mut chain = Chain::new(SimConfig {
         render: RenderSettings {
             backdrop_albedo: [0.22, 0.28, 0.45],
@@ -229,7 +233,7 @@ fn a_tube_its_silhouettes_cut_short_is_not_ok() {
     .unwrap();
     let sim = &chain.sim;
     let volume = &sim.rig().volume;
-    let (mut goes_on, mut frames) = (0, 0);
+    let (mut ok, mut lengthened) = (0, 0);
     for (n, pose) in sim.sweep(6).iter().enumerate() {
         let frame = sim.render(n as u64, pose).unwrap();
         let whole = chain.run(frame.clone());
@@ -279,17 +283,19 @@ fn a_tube_its_silhouettes_cut_short_is_not_ok() {
             "frame {n}: {:?}, rms {rms:.2} mm, tip {tip:.2} mm",
             cut.fitted.status
         );
-        assert_ne!(cut.fitted.status, Status::Ok, "frame {n}: rms {rms:.2}");
-        if let Some(fit) = &cut.fit {
-            frames += 1;
-            goes_on += usize::from(fit.cameras.iter().filter(|c| c.goes_on[0]).count() >= 2);
+        if cut.fitted.status == Status::Ok {
+            ok += 1;
+            assert!(
+                rms <= 0.15 && tip <= 0.3,
+                "frame {n}: ok at {rms:.2} mm, tip {tip:.2}"
+            );
         }
+        let open = cut.fit.as_ref().is_some_and(|f| !f.tube.capped[0]);
+        lengthened += usize::from(open);
     }
-    println!(
-        "{goes_on} of {frames} cut fits seen by two cameras going on beyond their proximal cap"
-    );
+    println!("{ok} of 6 ok, {lengthened} with the proximal end lengthened to the boundary");
     assert!(
-        frames >= 4 && goes_on >= frames / 2,
-        "{goes_on} of {frames}"
+        ok >= 5 && lengthened >= 5,
+        "{ok} ok, {lengthened} lengthened"
     );
 }

@@ -1,0 +1,145 @@
+//! A capped end the images show going on is lengthened along them, and the tube fitted again.
+//!
+//! Where the tube's colour is close to the backdrop's, one camera's silhouette can lose a
+//! stretch of it (a proximal shaft against cloth of its own hue); the hull, the intersection
+//! of every camera's silhouette, then stops short, and the fit from it caps the tube where
+//! the hull ends. The images still show the tube there: averaged along a stretch, `I − E`
+//! across it stands out of the noise at the tube's width ([`TubeFitter::goes_on`]). When two
+//! cameras or more see that beyond an end, the end is walked on along its tangent while two
+//! cameras still see the tube, to where they stop seeing it (the end stays capped there, and
+//! the check asks its cap's outline) or to the volume's boundary (the end becomes open), and
+//! the tube is fitted again from there. The check judges the result as any other fit.
+
+use flexshape_rig::Volume;
+use nalgebra::Point3;
+
+use crate::tube::Tube;
+use crate::{Fit, FitError, TubeFitter, View};
+
+/// Length of each stretch the walk asks the cameras about, mm: long enough for the average
+/// along it to stand out of the noise (the first of [`crate::verdict`]'s goes-on stretches
+/// is as long).
+const STEP_MM: f64 = 5.0;
+
+/// Where the walk starts beyond the end's apex, mm: a sliver of the end's own cap, or its
+/// blur, lies before it (as the goes-on stretches start).
+const FROM_MM: f64 = 4.0;
+
+/// Longest walk from one end, mm (a run-away walk along a stripe of the backdrop stops
+/// here; the volume's boundary stops most walks far sooner).
+const MAX_WALK_MM: f64 = 600.0;
+
+/// Rounds of lengthening and fitting again at most: a walk along the end's tangent drifts off
+/// a bending continuation within 10–25 mm, and the fit from where it stopped turns the
+/// tangent for the next (60 mm lost from a bent shaft took 3–4 rounds).
+pub(crate) const ROUNDS: usize = 8;
+
+impl TubeFitter {
+    /// `fit`'s tube lengthened at each capped end that at least two cameras see going on
+    /// ([`crate::CameraCheck::goes_on`]): on along the end's tangent, in [`STEP_MM`]
+    /// stretches, while two cameras or more show the tube along each
+    /// ([`TubeFitter::shows_tube`]); open where the walk leaves `volume`. `None` when no end
+    /// goes on, or the walk gains less than a stretch.
+    pub(crate) fn lengthened(
+        &self,
+        views: &[View<'_>],
+        volume: &Volume,
+        fit: &Fit,
+    ) -> Result<Option<Tube>, FitError> {
+        let going_on = |end: usize| fit.cameras.iter().filter(|c| c.goes_on[end]).count() >= 2;
+        if !(0..2).any(going_on) {
+            return Ok(None);
+        }
+        let images = self.edge_images(views)?;
+        let own: Vec<_> = (0..self.cameras.len())
+            .filter_map(|i| self.render(i, &fit.tube).map(|(body, _)| body))
+            .collect();
+        let tube = &fit.tube;
+        let length = tube.length();
+        let mut ends: [Option<(Point3<f64>, bool)>; 2] = [None, None];
+        for end in (0..2).filter(|&e| going_on(e) && tube.capped[e]) {
+            let (at, tangent) = tube.frame(end as f64);
+            let dir = if end == 0 { -tangent } else { tangent };
+            let r = tube.radius_at(end as f64, length);
+            let seen = |from: f64, to: f64| {
+                self.cameras
+                    .iter()
+                    .zip(&images)
+                    .zip(&own)
+                    .filter(|((cam, img), own)| {
+                        self.shows_tube(cam, (img, own), at + dir * from, at + dir * to, r)
+                    })
+                    .count()
+                    >= 2
+            };
+            // Beyond the apex, how far the tube is shown (mm), and whether it runs out of
+            // the volume.
+            let mut shown = 0.0;
+            let mut open = false;
+            while shown < MAX_WALK_MM {
+                let (from, to) = (r + FROM_MM + shown, r + FROM_MM + shown + STEP_MM);
+                if volume.depth(&(at + dir * to)) <= 0.0 {
+                    // Runs out of the volume within this stretch: open at the boundary. (The
+                    // stretches before it were seen, or the goes-on stretches were: the rest
+                    // may be too short for a profile.)
+                    let (mut lo, mut hi) = (0.0, to);
+                    for _ in 0..30 {
+                        let mid = 0.5 * (lo + hi);
+                        if volume.depth(&(at + dir * mid)) > 0.0 {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
+                    }
+                    shown = lo - r;
+                    open = true;
+                    break;
+                }
+                if !seen(from, to) {
+                    break;
+                }
+                shown += STEP_MM;
+            }
+            if open || shown >= STEP_MM {
+                // A capped end's centre lies a radius inside its apex; an open end's is
+                // where it meets the boundary.
+                let centre = if open {
+                    at + dir * (r + shown)
+                } else {
+                    at + dir * shown
+                };
+                ends[end] = Some((centre, open));
+            }
+        }
+        if ends.iter().all(Option::is_none) {
+            return Ok(None);
+        }
+        // The fitted curve sampled every millimetre or so, with the straight stretches each
+        // end gained, proximal end first.
+        let n = length.ceil().max(8.0) as usize;
+        let stretch = |from: Point3<f64>, to: Point3<f64>| {
+            let k = (to - from).norm().ceil().max(1.0) as usize;
+            (1..=k).map(move |i| from + (to - from) * (i as f64 / k as f64))
+        };
+        let mut points: Vec<[f64; 3]> = Vec::with_capacity(n + 64);
+        let (first, last) = (tube.frame(0.0).0, tube.frame(1.0).0);
+        if let Some((p, _)) = ends[0] {
+            let before: Vec<Point3<f64>> = stretch(first, p).collect();
+            points.extend(before.iter().rev().map(|q| [q.x, q.y, q.z]));
+        }
+        points.extend((0..=n).map(|i| {
+            let q = tube.frame(i as f64 / n as f64).0;
+            [q.x, q.y, q.z]
+        }));
+        if let Some((p, _)) = ends[1] {
+            points.extend(stretch(last, p).map(|q| [q.x, q.y, q.z]));
+        }
+        let capped = [0, 1].map(|e| tube.capped[e] && !ends[e].is_some_and(|(_, open)| open));
+        let s = &self.settings;
+        Ok(
+            Tube::through(&points, tube.radius, capped, s.span_mm, s.extend_mm)
+                .ok()
+                .map(|t| t.with_steps(&tube.steps)),
+        )
+    }
+}
