@@ -40,6 +40,11 @@ pub struct CameraCheck {
     /// nearly all of its outline within a few tenths of a pixel, whatever a few outliers do to
     /// the RMS.
     pub p90_px: f64,
+    /// The scatter one boundary's place has from the image alone (its noise against the
+    /// tube's contrast there), pixels, read from the outline itself ([`boundary_noise`]): the
+    /// outline's residual limits widen by it ([`noisy_limit`]), 0 where too few samples tell.
+    #[serde(default)]
+    pub noise_px: f64,
     /// Overlap of the re-rendered tube with the silhouette (intersection over union).
     pub iou: f64,
     /// The least overlap this view allows: the setting's `min_iou`, or for a tube imaged
@@ -173,6 +178,7 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
         rms,
         mean,
         p90,
+        noise: boundary_noise(measured),
         shift: shift(measured),
         lighter,
         ramp,
@@ -187,6 +193,43 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
             end_residual_px: 0.0,
         },
     }
+}
+
+/// Fewest pairs of neighbouring side samples that give [`boundary_noise`].
+const NOISE_PAIRS: usize = 10;
+
+/// The scatter of one boundary's place that comes from the image alone, pixels (the image's
+/// noise against the tube's contrast, through the edge's rise): from the differences between
+/// neighbouring samples' residuals along each side of the outline. Samples are a few pixels
+/// apart, so each is a reading of other pixels, while what a wrong shape or calibration puts
+/// off the outline changes smoothly along it and cancels in the difference. The median size
+/// of the differences over 0.6745·√2 (a normal scatter's), which a few boundaries pulled off
+/// (a shadow's edge, a crossing) hardly move. 0 with fewer than [`NOISE_PAIRS`] pairs.
+pub(crate) fn boundary_noise(measured: &[Measured]) -> f64 {
+    let mut steps = Vec::new();
+    for side in [-1.0, 1.0] {
+        let mut along: Vec<(f64, f64)> = measured
+            .iter()
+            .filter(|m| matches!(m.point.part, crate::outline::Part::Side(_)))
+            .filter(|m| m.point.which == side)
+            .filter_map(|m| Some((m.point.u, m.residual?)))
+            .collect();
+        along.sort_by(|a, b| a.0.total_cmp(&b.0));
+        steps.extend(along.windows(2).map(|w| (w[1].1 - w[0].1).abs()));
+    }
+    if steps.len() < NOISE_PAIRS {
+        return 0.0;
+    }
+    let mid = steps.len() / 2;
+    let (_, median, _) = steps.select_nth_unstable_by(mid, f64::total_cmp);
+    *median / (0.6745 * std::f64::consts::SQRT_2)
+}
+
+/// A residual limit (`limit`, what the setting allows a right shape on a quiet image) widened
+/// by what noise of `noise` pixels adds to the statistic in quadrature, `z` of it (1 for an
+/// RMS, 1.645 for a 90th percentile of sizes: a normal scatter's).
+pub(crate) fn noisy_limit(limit: f64, noise: f64, z: f64) -> f64 {
+    limit.hypot(z * noise)
 }
 
 /// How far off a sharp tube's outline a boundary whose ¼–¾ rise is `ramp` pixels may lie,
@@ -267,6 +310,8 @@ pub(crate) struct Residuals {
     pub rms: f64,
     pub mean: f64,
     pub p90: f64,
+    /// [`CameraCheck::noise_px`].
+    pub noise: f64,
     /// [`CameraCheck::shift_px`].
     pub shift: [f64; 2],
     /// [`CameraCheck::lighter_share`].
@@ -689,6 +734,58 @@ pub(crate) fn self_crossing(stations: &[Station]) -> Option<SelfCrossing> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Residuals along both sides (100 samples each): a smooth error of the shape (up to
+    /// 0.6 px, what a wrong shape or calibration gives) plus normal noise of `sigma` px
+    /// (Box–Muller from a linear congruential sequence), and a few boundaries pulled 2 px off.
+    fn outline(sigma: f64, pulled: usize) -> Vec<Measured> {
+        let mut x = 7u64;
+        let mut uniform = || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((x >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let mut out = Vec::new();
+        for side in [-1.0, 1.0] {
+            for k in 0..100 {
+                let u = k as f64 / 99.0;
+                let n = (-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos();
+                let pull = if k % 10 == 3 && k / 10 < pulled {
+                    2.0
+                } else {
+                    0.0
+                };
+                let r = 0.6 * (3.0 * u).sin() * side + sigma * n + pull;
+                out.push(crate::solve::made_up::side(u, side, Some(r)));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn boundary_noise_reads_the_scatter_not_the_shapes_error() {
+        for sigma in [0.05, 0.1, 0.2] {
+            let got = boundary_noise(&outline(sigma, 0));
+            let pulled = boundary_noise(&outline(sigma, 6));
+            println!("σ {sigma}: {got:.4}, {pulled:.4} with boundaries pulled off");
+            assert!((got / sigma - 1.0).abs() < 0.2, "σ {sigma}: {got}");
+            // Six boundaries of each side pulled 2 px off (12 of 198 differences) move it by
+            // a fifth at most.
+            assert!((pulled / got - 1.0).abs() < 0.2, "σ {sigma}: {pulled}");
+        }
+        // The shape's smooth error alone: hardly any scatter (0.6 px at most, 0.02 px
+        // between neighbours).
+        assert!(boundary_noise(&outline(0.0, 0)) < 0.02);
+        // Too few samples tell nothing.
+        assert_eq!(boundary_noise(&outline(0.1, 0)[..5]), 0.0);
+    }
+
+    #[test]
+    fn a_noisy_limit_adds_the_noise_in_quadrature() {
+        assert_eq!(noisy_limit(0.25, 0.0, 1.645), 0.25);
+        assert!((noisy_limit(0.3, 0.4 / 1.645, 1.645) - 0.5).abs() < 1e-12);
+    }
 
     fn tube(points: &[[f64; 3]], span: f64) -> Tube {
         Tube::through(points, 3.0, [true, true], span, 0.0).unwrap()

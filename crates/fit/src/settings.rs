@@ -71,10 +71,13 @@ pub struct FitSettings {
     /// a capped end's: two cameras leave a stretch near their epipolar plane free to wiggle
     /// within it (0 turns it off).
     pub weak_span_prior: f64,
-    /// Self-check: largest outline residual RMS in any camera, pixels.
+    /// Self-check: largest outline residual RMS in any camera, pixels, on a quiet image
+    /// (widened by each camera's boundary noise, [`crate::CameraCheck::noise_px`]).
     pub max_residual_px: f64,
     /// Self-check: largest 90th percentile of the outline residuals' size in any camera,
-    /// pixels (sharp, low-noise images keep it near 0.1; raise it for noisy or blurred ones).
+    /// pixels, on a quiet image (sharp, low-noise images keep it near 0.1; the limit widens by
+    /// each camera's boundary noise, [`crate::CameraCheck::noise_px`]; raise it for blurred
+    /// ones).
     pub max_p90_px: f64,
     /// Self-check: smallest share of a camera's outline samples with a boundary found.
     pub min_found: f64,

@@ -475,6 +475,48 @@ fn mirror_upper(h: &mut DMatrix<f64>) {
     }
 }
 
+/// Measured samples made up for tests elsewhere in the crate.
+#[cfg(test)]
+pub(crate) mod made_up {
+    use nalgebra::{Point3, Vector2, Vector3};
+
+    use super::Measured;
+    use crate::outline::{OutlinePoint, Part};
+
+    /// A sample of `part` at `u`, grazing point `which`, with `residual` (pixels).
+    pub(crate) fn sample(part: Part, u: f64, which: f64, residual: Option<f64>) -> Measured {
+        Measured {
+            point: OutlinePoint {
+                pixel: Vector2::zeros(),
+                normal: Vector2::x(),
+                gain: 1.0,
+                surface: Vector3::x(),
+                half_width: 5.0,
+                weight: 1.0,
+                part,
+                section: 0,
+                u,
+                which,
+                world: Point3::origin(),
+            },
+            residual,
+            edge: None,
+            lighter: false,
+            ramp: None,
+            narrowing: 0.0,
+        }
+    }
+
+    /// A side sample at `u` on side `which` (±1).
+    pub(crate) fn side(u: f64, which: f64, residual: Option<f64>) -> Measured {
+        let basis = flexshape_curve::Basis {
+            first: 0,
+            weights: [[0.25; 4]; 4],
+        };
+        sample(Part::Side(basis), u, which, residual)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

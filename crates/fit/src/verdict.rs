@@ -406,9 +406,10 @@ impl TubeFitter {
         let i = &c.camera;
         self.outline_placed(c, o)
             .or_else(|| {
-                (o.p90 > s.max_p90_px).then(|| format!(
-                    "camera {i}: a tenth of the outline lies more than {:.2} px from the image's boundary (limit {:.2}): the shape does not explain this camera, or its calibration is off",
-                    o.p90, s.max_p90_px
+                let limit = check::noisy_limit(s.max_p90_px, c.noise_px, Z90);
+                (o.p90 > limit).then(|| format!(
+                    "camera {i}: a tenth of the outline lies more than {:.2} px from the image's boundary (limit {limit:.2}{}): the shape does not explain this camera, or its calibration is off",
+                    o.p90, with_noise(c)
                 ))
             })
             .or_else(|| self.end_placed(c, o))
@@ -450,10 +451,13 @@ impl TubeFitter {
                 s.min_found * 100.0
             ));
         }
-        (o.residual > s.max_residual_px).then(|| {
+        let limit = check::noisy_limit(s.max_residual_px, c.noise_px, 1.0);
+        (o.residual > limit).then(|| {
             format!(
-                "camera {i}: outline residual {:.2} px RMS (limit {:.2}; mean {:+.2} px)",
-                o.residual, s.max_residual_px, c.offset_px
+                "camera {i}: outline residual {:.2} px RMS (limit {limit:.2}{}; mean {:+.2} px)",
+                o.residual,
+                with_noise(c),
+                c.offset_px
             )
         })
     }
@@ -467,15 +471,31 @@ impl TubeFitter {
             return None;
         }
         let found = c.end_found as f64 / c.end_samples as f64;
-        (found < s.min_found || o.end_residual > s.max_residual_px).then(|| format!(
-            "camera {}: the outline around the tube's free end is not where the image shows it (boundary found at {}/{} samples, residual {:.2} px RMS; limits {:.0} %, {:.2} px): the tip has moved farther than the fit could follow, or is hidden",
+        let limit = check::noisy_limit(s.max_residual_px, c.noise_px, 1.0);
+        (found < s.min_found || o.end_residual > limit).then(|| format!(
+            "camera {}: the outline around the tube's free end is not where the image shows it (boundary found at {}/{} samples, residual {:.2} px RMS; limits {:.0} %, {limit:.2} px{}): the tip has moved farther than the fit could follow, or is hidden",
             c.camera,
             c.end_found,
             c.end_samples,
             o.end_residual,
             s.min_found * 100.0,
-            s.max_residual_px
+            with_noise(c)
         ))
+    }
+}
+
+/// The 90th percentile of a normal scatter's sizes, in standard deviations.
+const Z90: f64 = 1.645;
+
+/// How a limit widened by camera `c`'s boundary noise says so (empty without any).
+fn with_noise(c: &CameraCheck) -> String {
+    if c.noise_px > 0.0 {
+        format!(
+            ", with {:.2} px of scatter the image's noise gives each boundary",
+            c.noise_px
+        )
+    } else {
+        String::new()
     }
 }
 

@@ -141,41 +141,8 @@ fn smoothed(stations: &[(f64, f64)]) -> Vec<(f64, f64)> {
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::{Point3, Vector2, Vector3};
-
     use super::*;
-    use crate::outline::OutlinePoint;
-
-    fn sample(part: Part, u: f64, which: f64, residual: Option<f64>) -> Measured {
-        Measured {
-            point: OutlinePoint {
-                pixel: Vector2::zeros(),
-                normal: Vector2::x(),
-                gain: 1.0,
-                surface: Vector3::x(),
-                half_width: 5.0,
-                weight: 1.0,
-                part,
-                section: 0,
-                u,
-                which,
-                world: Point3::origin(),
-            },
-            residual,
-            edge: None,
-            lighter: false,
-            ramp: None,
-            narrowing: 0.0,
-        }
-    }
-
-    fn side(u: f64, which: f64, residual: Option<f64>) -> Measured {
-        let basis = flexshape_curve::Basis {
-            first: 0,
-            weights: [[0.25; 4]; 4],
-        };
-        sample(Part::Side(basis), u, which, residual)
-    }
+    use crate::solve::made_up::{sample, side};
 
     #[test]
     fn a_pair_keeps_its_middle_and_the_rest_read_their_neighbours_width() {
