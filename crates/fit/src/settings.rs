@@ -79,6 +79,14 @@ pub struct FitSettings {
     /// each camera's boundary noise, [`crate::CameraCheck::noise_px`]; raise it for blurred
     /// ones).
     pub max_p90_px: f64,
+    /// Self-check: largest image translation between a camera's fitted and measured outline
+    /// ([`crate::CameraCheck::shift_px`]), pixels. Noise scatters single boundaries, not a
+    /// whole outline (its shift's own scatter is the boundaries' over the root of their
+    /// number, hundredths of a pixel): an outline off as a whole by this much means the
+    /// cameras disagree about where the tube is — a calibration error — however noisy the
+    /// image (right shapes: at most 0.51 px in the simulator's scenes, with motion blur; a
+    /// camera turned by 0.2°: 1.8–2.2 px).
+    pub max_shift_px: f64,
     /// Self-check: smallest share of a camera's outline samples with a boundary found.
     pub min_found: f64,
     /// Self-check: smallest overlap (IoU) of the re-rendered tube with a camera's silhouette.
@@ -142,6 +150,7 @@ impl Default for FitSettings {
             weak_span_prior: 3.0,
             max_residual_px: 0.6,
             max_p90_px: 0.25,
+            max_shift_px: 1.0,
             min_found: 0.6,
             min_iou: 0.75,
             max_unexplained_px: 60,
@@ -196,6 +205,7 @@ impl FitSettings {
             ("huber_px", self.huber_px, 0.01, 100.0),
             ("max_residual_px", self.max_residual_px, 0.01, 100.0),
             ("max_p90_px", self.max_p90_px, 0.01, 100.0),
+            ("max_shift_px", self.max_shift_px, 0.01, 100.0),
             ("min_contrast", self.min_contrast, 0.0, 765.0),
             ("extend_mm", self.extend_mm, 0.0, 1000.0),
             ("slide_prior", self.slide_prior, 0.0, 1e6),

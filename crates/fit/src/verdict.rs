@@ -412,6 +412,14 @@ impl TubeFitter {
                     o.p90, with_noise(c)
                 ))
             })
+            .or_else(|| {
+                let [dx, dy] = c.shift_px;
+                let shift = dx.hypot(dy);
+                (shift > s.max_shift_px).then(|| format!(
+                    "camera {i}: its outline lies {shift:.1} px ({dx:+.1}, {dy:+.1}) off the image's as a whole (limit {:.1}): the cameras disagree about where the tube is, the rig's calibration is off (`flexshape rig refine`)",
+                    s.max_shift_px
+                ))
+            })
             .or_else(|| self.end_placed(c, o))
             .map(|why| why + &lighter_than_backdrop(c))
             .or_else(|| {
