@@ -8,9 +8,12 @@
 //! cameras or more see that beyond an end, the end is walked on along its tangent while two
 //! cameras still see the tube, to where they stop seeing it (the end stays capped there, and
 //! the check asks its cap's outline) or to the volume's boundary (the end becomes open), and
-//! the tube is fitted again from there. The check judges the result as any other fit.
+//! the tube is fitted again from there. A walk that stopped short of the boundary stopped
+//! where the tube ends or where it turns off the tangent; the fit turns the tangent, and the
+//! next round walks on from the fitted end. The check judges the result as any other fit.
 
 use flexshape_rig::Volume;
+use flexshape_silhouette::BitMask;
 use nalgebra::Point3;
 
 use crate::tube::Tube;
@@ -20,6 +23,10 @@ use crate::{Fit, FitError, TubeFitter, View};
 /// along it to stand out of the noise (the first of [`crate::verdict`]'s goes-on stretches
 /// is as long).
 const STEP_MM: f64 = 5.0;
+
+/// Shortest stretch the walk asks about where the tube stops showing, mm (a stretch must
+/// project to 3 px or more for a profile across it).
+const MIN_STEP_MM: f64 = 1.25;
 
 /// Where the walk starts beyond the end's apex, mm: a sliver of the end's own cap, or its
 /// blur, lies before it (as the goes-on stretches start).
@@ -36,23 +43,27 @@ pub(crate) const ROUNDS: usize = 8;
 
 impl TubeFitter {
     /// `fit`'s tube lengthened at each capped end that at least two cameras see going on
-    /// ([`crate::CameraCheck::goes_on`]): on along the end's tangent, in [`STEP_MM`]
-    /// stretches, while two cameras or more show the tube along each
-    /// ([`TubeFitter::shows_tube`]); open where the walk leaves `volume`. `None` when no end
-    /// goes on, or the walk gains less than a stretch.
+    /// ([`crate::CameraCheck::goes_on`]), or that `again` names (lengthened in the round
+    /// before): on along the end's tangent, in [`STEP_MM`] stretches, while two cameras or
+    /// more show the tube along each ([`TubeFitter::shows_tube`]), then by halves of the
+    /// stretch where they stop; open where the walk leaves `volume`. With the ends to walk
+    /// again in the next round; `None` when no end goes on, or the walks gain less than a
+    /// stretch.
     pub(crate) fn lengthened(
         &self,
         views: &[View<'_>],
         volume: &Volume,
         fit: &Fit,
-    ) -> Result<Option<Tube>, FitError> {
-        let going_on = |end: usize| fit.cameras.iter().filter(|c| c.goes_on[end]).count() >= 2;
+        again: [bool; 2],
+    ) -> Result<Option<(Tube, [bool; 2])>, FitError> {
+        let going_on =
+            |end: usize| again[end] || fit.cameras.iter().filter(|c| c.goes_on[end]).count() >= 2;
         if !(0..2).any(going_on) {
             return Ok(None);
         }
         let images = self.edge_images(views)?;
-        let own: Vec<_> = (0..self.cameras.len())
-            .filter_map(|i| self.render(i, &fit.tube).map(|(body, _)| body))
+        let own: Vec<Option<BitMask>> = (0..self.cameras.len())
+            .map(|i| self.render(i, &fit.tube).map(|(body, _)| body))
             .collect();
         let tube = &fit.tube;
         let length = tube.length();
@@ -67,17 +78,20 @@ impl TubeFitter {
                     .zip(&images)
                     .zip(&own)
                     .filter(|((cam, img), own)| {
-                        self.shows_tube(cam, (img, own), at + dir * from, at + dir * to, r)
+                        own.as_ref().is_some_and(|own| {
+                            self.shows_tube(cam, (img, own), at + dir * from, at + dir * to, r)
+                        })
                     })
                     .count()
                     >= 2
             };
-            // Beyond the apex, how far the tube is shown (mm), and whether it runs out of
+            // How far beyond the end's centre the images show the tube (mm; the goes-on
+            // stretches showed it past `FROM_MM` beyond the apex), and whether it runs out of
             // the volume.
-            let mut shown = 0.0;
+            let mut reach = r + FROM_MM;
             let mut open = false;
-            while shown < MAX_WALK_MM {
-                let (from, to) = (r + FROM_MM + shown, r + FROM_MM + shown + STEP_MM);
+            while reach < MAX_WALK_MM {
+                let to = reach + STEP_MM;
                 if volume.depth(&(at + dir * to)) <= 0.0 {
                     // Runs out of the volume within this stretch: open at the boundary. (The
                     // stretches before it were seen, or the goes-on stretches were: the rest
@@ -91,23 +105,29 @@ impl TubeFitter {
                             hi = mid;
                         }
                     }
-                    shown = lo - r;
+                    reach = lo;
                     open = true;
                     break;
                 }
-                if !seen(from, to) {
-                    break;
+                if seen(reach, to) {
+                    reach = to;
+                    continue;
                 }
-                shown += STEP_MM;
+                // The tube ends within this stretch, or turns off the tangent: its shown
+                // part, by halves down to `MIN_STEP_MM`.
+                let mut half = 0.5 * STEP_MM;
+                while half >= MIN_STEP_MM {
+                    if seen(reach, reach + half) {
+                        reach += half;
+                    }
+                    half *= 0.5;
+                }
+                break;
             }
-            if open || shown >= STEP_MM {
-                // A capped end's centre lies a radius inside its apex; an open end's is
-                // where it meets the boundary.
-                let centre = if open {
-                    at + dir * (r + shown)
-                } else {
-                    at + dir * shown
-                };
+            if open || reach >= r + FROM_MM + STEP_MM {
+                // An open end's centre is where it meets the boundary; a capped end's lies a
+                // radius inside its apex.
+                let centre = at + dir * if open { reach } else { reach - r };
                 ends[end] = Some((centre, open));
             }
         }
@@ -136,10 +156,14 @@ impl TubeFitter {
         }
         let capped = [0, 1].map(|e| tube.capped[e] && !ends[e].is_some_and(|(_, open)| open));
         let s = &self.settings;
+        // An end lengthened and still capped is walked on again from the fitted tube's end,
+        // whether or not the images show it going on straight from there: the walk stopped
+        // where the tube ends, or where it turns off the end's tangent, which the fit turns.
+        let walk_again = [0, 1].map(|e| ends[e].is_some() && capped[e]);
         Ok(
             Tube::through(&points, tube.radius, capped, s.span_mm, s.extend_mm)
                 .ok()
-                .map(|t| t.with_steps(&tube.steps)),
+                .map(|t| (t.with_steps(&tube.steps), walk_again)),
         )
     }
 }

@@ -541,11 +541,13 @@ impl TubeFitter {
         let fit_radius = radius.is_none() && s.fit_radius;
         let mut fitted = self.fit_with(s, views, start, fit_radius, ONE_MEASUREMENT_MM)?;
         // An end the hull stopped short of, where the images show the tube going on.
+        let mut again = [false; 2];
         for _ in 0..lengthen::ROUNDS {
-            let Some(longer) = self.lengthened(views, volume, &fitted.0)? else {
+            let Some((longer, walk)) = self.lengthened(views, volume, &fitted.0, again)? else {
                 break;
             };
             fitted = self.fit_with(s, views, longer, fit_radius, ONE_MEASUREMENT_MM)?;
+            again = walk;
         }
         let mut base = hull.clone();
         let (mut fit, spheres) =

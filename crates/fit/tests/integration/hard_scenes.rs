@@ -5,7 +5,8 @@ use crate::common;
 
 use common::*;
 use flexshape_shape::{ShapeEstimator, ShapeSettings, Status};
-use flexshape_sim::{RenderSettings, SimConfig, SimRigConfig};
+use flexshape_silhouette::Silhouette;
+use flexshape_sim::{RenderSettings, SimConfig, SimFrame, SimRigConfig};
 use nalgebra::Point3;
 
 #[test]
@@ -296,24 +297,7 @@ fn noise_widens_the_outline_limits_by_the_scatter_it_gives() {
 /// going on in 5 of 6), and before the probe frame 0 was `ok` 26.7 mm RMS off.
 #[test]
 fn a_tube_its_silhouettes_cut_short_is_lengthened_along_the_images() {
-    let mut chain = Chain::new(SimConfig {
-        render: RenderSettings {
-            backdrop_albedo: [0.22, 0.28, 0.45],
-            ..RenderSettings::default()
-        },
-        seed: 2,
-        ..SimConfig::default()
-    });
-    // No bands to count (a lost band would say so by itself); the base's place tells the
-    // tube's direction.
-    chain.estimator = ShapeEstimator::new(ShapeSettings {
-        expected_bands: 0,
-        tip_band: false,
-        sections: Vec::new(),
-        proximal_hint: Some([0.0, 0.0, -128.0]),
-        ..chain.estimator.settings().clone()
-    })
-    .unwrap();
+    let chain = cut_chain();
     let sim = &chain.sim;
     let volume = &sim.rig().volume;
     let (mut ok, mut lengthened) = (0, 0);
@@ -327,39 +311,11 @@ fn a_tube_its_silhouettes_cut_short_is_lengthened_along_the_images() {
         for c in &fit.cameras {
             assert_eq!(c.goes_on, [false, false], "frame {n}, camera {}", c.camera);
         }
-        // The tube up to 60 mm into the volume (and outside it, towards its base), cut out
-        // of every silhouette with a margin of 12 px (the tube is about 6 px wide).
-        let line: Vec<Point3<f64>> = frame
-            .truth
-            .centerline
-            .iter()
-            .map(|p| Point3::from(*p))
-            .collect();
+        // The tube up to 60 mm into the volume (and outside it, towards its base).
+        let line = truth_line(&frame);
         let entry = line.iter().position(|p| volume.contains(p)).unwrap();
-        let mut arc = 0.0;
-        let end = entry
-            + line[entry..]
-                .windows(2)
-                .take_while(|w| {
-                    arc += (w[1] - w[0]).norm();
-                    arc < 60.0
-                })
-                .count();
-        let mut sil = chain.silhouettes(&frame);
-        for (s, cam) in sil.iter_mut().zip(&chain.cameras) {
-            let (w, h) = (s.object.width() as i64, s.object.height() as i64);
-            for p in &line[..=end] {
-                let c = cam.project(p).unwrap().pixel;
-                let (cx, cy) = (c.x.round() as i64, c.y.round() as i64);
-                for y in (cy - 12).max(0)..(cy + 13).min(h) {
-                    for x in (cx - 12).max(0)..(cx + 13).min(w) {
-                        if (x - cx).pow(2) + (y - cy).pow(2) <= 144 {
-                            s.object.set(x as usize, y as usize, false);
-                        }
-                    }
-                }
-            }
-        }
+        let end = entry + within_mm(line[entry..].iter(), 60.0);
+        let sil = cut_out(&chain, &frame, &line[..=end]);
         let cut = chain.run_with(frame, sil, |_| {});
         let (rms, tip) = cut.fitted_errors(sim);
         println!(
@@ -381,4 +337,105 @@ fn a_tube_its_silhouettes_cut_short_is_lengthened_along_the_images() {
         ok >= 5 && lengthened >= 5,
         "{ok} ok, {lengthened} lengthened"
     );
+}
+
+/// The same, with the tube's last 25 mm and its tip cut out of every silhouette: the tip is
+/// walked on along what the images show, capped where they stop showing it (to within
+/// 1.25 mm) and fitted again, its cap's outline placing it. Every `ok` is right.
+/// Measured: 5 of 6 `ok` (0.03–0.05 mm RMS, tips 0.14–0.21 mm off); the sixth cut splits the
+/// hull in two (`ambiguous`). Walking 4 mm short of where the images stopped showing the
+/// tube, and only while they showed it going on straight, gave 2.
+#[test]
+fn a_tip_its_silhouettes_lost_is_found_along_the_images() {
+    let chain = cut_chain();
+    let sim = &chain.sim;
+    let (mut ok, mut right) = (0, 0);
+    for (n, pose) in sim.sweep(6).iter().enumerate() {
+        let frame = sim.render(n as u64, pose).unwrap();
+        let line = truth_line(&frame);
+        let from = line.len() - 1 - within_mm(line.iter().rev(), 25.0);
+        let sil = cut_out(&chain, &frame, &line[from..]);
+        let cut = chain.run_with(frame, sil, |_| {});
+        let (rms, tip) = cut.fitted_errors(sim);
+        println!(
+            "frame {n}: {:?}, rms {rms:.2} mm, tip {tip:.2} mm",
+            cut.fitted.status
+        );
+        right += usize::from(rms <= 0.15 && tip <= 0.3);
+        if cut.fitted.status == Status::Ok {
+            ok += 1;
+            assert!(
+                rms <= 0.15 && tip <= 0.3,
+                "frame {n}: ok at {rms:.2} mm, tip {tip:.2}"
+            );
+        }
+    }
+    println!("{ok} of 6 ok, {right} right");
+    assert!(ok >= 4, "{ok} ok, {right} right");
+}
+
+/// The chain of the cut-silhouette tests: the blue tube on cloth of its hue, no bands to
+/// count (a lost band would say so by itself), the base's place telling the tube's direction.
+fn cut_chain() -> Chain {
+    let mut chain = Chain::new(SimConfig {
+        render: RenderSettings {
+            backdrop_albedo: [0.22, 0.28, 0.45],
+            ..RenderSettings::default()
+        },
+        seed: 2,
+        ..SimConfig::default()
+    });
+    chain.estimator = ShapeEstimator::new(ShapeSettings {
+        expected_bands: 0,
+        tip_band: false,
+        sections: Vec::new(),
+        proximal_hint: Some([0.0, 0.0, -128.0]),
+        ..chain.estimator.settings().clone()
+    })
+    .unwrap();
+    chain
+}
+
+/// The frame's true centerline, proximal end first, world mm.
+fn truth_line(frame: &SimFrame) -> Vec<Point3<f64>> {
+    frame
+        .truth
+        .centerline
+        .iter()
+        .map(|p| Point3::from(*p))
+        .collect()
+}
+
+/// How many steps along `points` stay within `mm` of arc from the first.
+fn within_mm<'a>(points: impl Iterator<Item = &'a Point3<f64>>, mm: f64) -> usize {
+    let points: Vec<_> = points.collect();
+    let mut arc = 0.0;
+    points
+        .windows(2)
+        .take_while(|w| {
+            arc += (w[1] - w[0]).norm();
+            arc < mm
+        })
+        .count()
+}
+
+/// The frame's silhouettes with the tube along `line` cut out of every camera's, 12 px round
+/// each point (the tube is about 6 px wide).
+fn cut_out(chain: &Chain, frame: &SimFrame, line: &[Point3<f64>]) -> Vec<Silhouette> {
+    let mut sil = chain.silhouettes(frame);
+    for (s, cam) in sil.iter_mut().zip(&chain.cameras) {
+        let (w, h) = (s.object.width() as i64, s.object.height() as i64);
+        for p in line {
+            let c = cam.project(p).unwrap().pixel;
+            let (cx, cy) = (c.x.round() as i64, c.y.round() as i64);
+            for y in (cy - 12).max(0)..(cy + 13).min(h) {
+                for x in (cx - 12).max(0)..(cx + 13).min(w) {
+                    if (x - cx).pow(2) + (y - cy).pow(2) <= 144 {
+                        s.object.set(x as usize, y as usize, false);
+                    }
+                }
+            }
+        }
+    }
+    sil
 }

@@ -59,11 +59,16 @@ fn a_miscalibrated_camera_makes_frames_inconsistent() {
 }
 
 /// The hull cut short (as a thin tube with calibration error gets cut on real footage): the
-/// silhouette pixels of the missed distal part stay unexplained.
+/// silhouette pixels of the missed distal part stay unexplained, unless the fit, lengthened
+/// along what the images show beyond its cut end, finds the rest — then it is right.
+/// Measured: frames 0–2 `inconsistent` (their distal parts bend away from the cut end's
+/// tangent), frame 3 found (before the lengthening walked on from a fitted end, all four
+/// `inconsistent`).
 #[test]
-fn a_missed_distal_part_makes_the_frame_inconsistent() {
+fn a_missed_distal_part_makes_the_frame_inconsistent_or_is_found() {
     let chain = Chain::new(SimConfig::default());
     let sim = &chain.sim;
+    let mut found = 0;
     for (n, pose) in sim.sweep(4).iter().enumerate() {
         let b = chain.run_from(sim.render(n as u64, pose).unwrap(), |hull| {
             let keep = hull.points.len() * 3 / 5;
@@ -92,9 +97,21 @@ fn a_missed_distal_part_makes_the_frame_inconsistent() {
                     || reason.contains("free end"),
                 "{reason}"
             ),
+            // Found along the images: lengthened from the cut end (`lengthen`), and right.
+            Status::Ok => {
+                let (rms, tip) = b.fitted_errors(sim);
+                println!("  found along the images: rms {rms:.3} mm, tip {tip:.2} mm");
+                assert!(
+                    rms <= 0.15 && tip <= 0.3,
+                    "frame {n}: ok at {rms} mm, tip {tip}"
+                );
+                found += 1;
+            }
             other => panic!("frame {n}: {other:?} with 40 % of the tube missed"),
         }
     }
+    // The refusal this test is for still meets three of the four cut fits.
+    assert!(found <= 1, "{found} of 4 found");
 }
 
 /// Hull voxels the fitted tube leaves out — a branch the cameras would allow — make the frame
