@@ -73,6 +73,9 @@ pub(crate) struct Sampled {
     sides: Vec<Station>,
     /// Sphere centres along the centerline and their radii, world mm.
     centres: Vec<(Point3<f64>, f64)>,
+    /// Each radius step's shoulder: where it is on the centerline and the larger radius,
+    /// world mm.
+    shoulders: Vec<(Point3<f64>, f64)>,
 }
 
 impl Sampled {
@@ -97,14 +100,30 @@ impl Sampled {
                 )
             })
             .collect();
+        let mut before = tube.radius;
+        let shoulders = tube
+            .steps
+            .iter()
+            .map(|s| {
+                let larger = before.max(s.radius_mm);
+                before = s.radius_mm;
+                let u = (1.0 - s.from_tip_mm / length).clamp(0.0, 1.0);
+                (tube.frame(u).0, larger)
+            })
+            .collect();
         Sampled {
             length,
             stride: length / n as f64,
             sides,
             centres: sphere_centres(tube, length),
+            shoulders,
         }
     }
 }
+
+/// How far beyond a radius step's shoulder image its side points are left out, pixels: the
+/// boundary search's default reach (3 px) and a pixel for the edge's rise.
+const SHOULDER_CLEARANCE_PX: f64 = 4.0;
 
 /// Centres of spheres every half (smallest) radius along the centerline and their radii,
 /// world mm.
@@ -135,6 +154,18 @@ pub(crate) fn outline(
 ) -> Vec<OutlinePoint> {
     let mut out = Vec::with_capacity(2 * sampled.sides.len() + 40);
     let eye = camera.centre();
+    // A shoulder's image, widened by how far a boundary search reaches: a side point there
+    // would find the shoulder's rounded edge, which the model leaves out. Along the tube
+    // `Tube::at_shoulder` leaves out a few millimetres; a camera that sees the step obliquely
+    // sees the thinner tube within the shoulder's disc much farther (at 640×480, 15 of a
+    // camera's 159 points, the first 8 mm past the shoulder, 0.6–1.8 px off).
+    let shoulders: Vec<(Vector2<f64>, f64)> = sampled
+        .shoulders
+        .iter()
+        .filter_map(|&(p, r)| sphere(camera, p, r))
+        .map(|(_, px, rp)| (px, rp + SHOULDER_CLEARANCE_PX))
+        .collect();
+    let at_shoulder = |q: &Vector2<f64>| shoulders.iter().any(|(c, reach)| (q - c).norm() < *reach);
     for (u, basis, c, t, section) in &sampled.sides {
         let Ok(centre) = camera.project(c) else {
             continue;
@@ -148,14 +179,17 @@ pub(crate) fn outline(
             section: *section,
         };
         for side in [-1.0, 1.0] {
-            out.extend(side_at(
-                camera,
-                &eye,
-                tube.section_radius(*section),
-                &at,
-                side,
-                sampled.stride,
-            ));
+            out.extend(
+                side_at(
+                    camera,
+                    &eye,
+                    tube.section_radius(*section),
+                    &at,
+                    side,
+                    sampled.stride,
+                )
+                .filter(|p| !at_shoulder(&p.pixel)),
+            );
         }
     }
     for end in [0, 1] {
@@ -841,6 +875,42 @@ pub(crate) mod tests {
             }
             assert!(best.abs() < 1e-3, "u {} overshoot {best}", p.u);
         }
+    }
+
+    /// A camera that sees a radius step obliquely, nearly along the tube, sees the thinner
+    /// tube within the shoulder's image for many millimetres past the few that
+    /// `Tube::at_shoulder` leaves out: no side point lies within the shoulder's image and the
+    /// boundary search's reach of it, and the thinner tube beyond keeps its points.
+    #[test]
+    fn side_points_in_a_shoulders_image_are_left_out() {
+        // A straight tube along z, 1 mm radius to 60 mm from its tip, 3 mm beyond; the camera
+        // 25° off its axis, beyond the tip.
+        let control = (0..8).map(|i| [0.0, 0.0, 20.0 * i as f64 - 70.0]).collect();
+        let tube = Tube {
+            centerline: BSpline3::new(control).unwrap(),
+            radius: 1.0,
+            steps: vec![flexshape_curve::RadiusStep {
+                from_tip_mm: 60.0,
+                radius_mm: 3.0,
+            }],
+            capped: [false, true],
+        };
+        let angle = 25f64.to_radians();
+        let cam = camera_at(Point3::new(0.0, -400.0 * angle.sin(), 400.0 * angle.cos()));
+        let sampled = Sampled::new(&tube, 1.0);
+        let (shoulder, r) = sampled.shoulders[0];
+        let (_, c, rp) = sphere(&cam, shoulder, r).unwrap();
+        let pts = outline(&cam, &tube, &sampled, 1.0, 2.0);
+        let thin: Vec<_> = pts
+            .iter()
+            .filter(|p| matches!(p.part, Part::Side(_)) && p.section == 0)
+            .collect();
+        let near = thin
+            .iter()
+            .filter(|p| (p.pixel - c).norm() < rp + SHOULDER_CLEARANCE_PX)
+            .count();
+        assert_eq!(near, 0, "{near} of {} thin side points", thin.len());
+        assert!(thin.len() > 40, "{}", thin.len());
     }
 
     /// Interpolated spheres lie within hundredths of a pixel of projected ones, along the
