@@ -140,15 +140,8 @@ fn a_tube_whose_limbs_fade_into_a_dark_backdrop_is_placed_by_its_hue() {
 /// refused on every frame.
 #[test]
 fn a_tube_on_a_backdrop_of_its_hue_is_placed_by_its_outline() {
-    let scene = |seed: u64| SimConfig {
-        render: RenderSettings {
-            backdrop_albedo: [0.22, 0.28, 0.45],
-            ..RenderSettings::default()
-        },
-        seed,
-        ..SimConfig::default()
-    };
-    let (mut ok, mut refused, mut completed) = (0, 0, 0);
+    let scene = |seed: u64| cloth_of_its_hue(seed, RenderSettings::default().noise_sigma);
+    let (mut tally, mut completed) = (Tally::default(), 0);
     for seed in [1, 2, 3] {
         let chain = Chain::new(scene(seed));
         let sim = &chain.sim;
@@ -165,17 +158,14 @@ fn a_tube_on_a_backdrop_of_its_hue_is_placed_by_its_outline() {
                 b.fitted.status
             );
             completed += usize::from(iou.iter().any(|(_, o)| o.is_some()));
-            if b.fitted.status == Status::Ok {
-                ok += 1;
-                assert!(
-                    right,
-                    "seed {seed} frame {n}: ok with rms {rms:.3}, tip {tip:.2}"
-                );
-            } else {
-                refused += usize::from(right);
-            }
+            let which = format!("seed {seed} frame {n}: rms {rms:.3} mm, tip {tip:.2} mm");
+            tally.add(&b.fitted.status, right, &which);
         }
     }
+    let Tally {
+        ok,
+        right_refused: refused,
+    } = tally;
     println!("{ok} of 24 ok, {refused} right but refused, {completed} with a silhouette completed");
     // Measured: 21 of 24 ok, 1 right but refused (the outline's 90th percentile 0.28 px),
     // the tips 0.12–0.22 mm off; 13 frames had a camera's silhouette missing part of the
@@ -209,16 +199,8 @@ fn a_tube_on_a_backdrop_of_its_hue_is_placed_by_its_outline() {
 /// as noise, and its outline lies off the image's as a whole (`max_shift_px`).
 #[test]
 fn noise_widens_the_outline_limits_by_the_scatter_it_gives() {
-    let scene = |seed: u64| SimConfig {
-        render: RenderSettings {
-            backdrop_albedo: [0.22, 0.28, 0.45],
-            noise_sigma: 6.0,
-            ..RenderSettings::default()
-        },
-        seed,
-        ..SimConfig::default()
-    };
-    let (mut ok, mut right_refused, mut noise) = (0, 0, Vec::new());
+    let scene = |seed: u64| cloth_of_its_hue(seed, 6.0);
+    let (mut tally, mut noise) = (Tally::default(), Vec::new());
     for seed in [1, 2, 3] {
         let chain = Chain::new(scene(seed));
         let sim = &chain.sim;
@@ -233,17 +215,11 @@ fn noise_widens_the_outline_limits_by_the_scatter_it_gives() {
                 "seed {seed} frame {n}: {:?}, rms {rms:.3} mm, tip {tip:.2} mm",
                 b.fitted.status
             );
-            if b.fitted.status == Status::Ok {
-                ok += 1;
-                assert!(
-                    right,
-                    "seed {seed} frame {n}: ok at {rms:.3} mm, tip {tip:.2}"
-                );
-            } else {
-                right_refused += usize::from(right);
-            }
+            let which = format!("seed {seed} frame {n}: rms {rms:.3} mm, tip {tip:.2} mm");
+            tally.add(&b.fitted.status, right, &which);
         }
     }
+    let Tally { ok, right_refused } = tally;
     noise.sort_by(f64::total_cmp);
     println!(
         "{ok} of 12 ok, {right_refused} right but refused; boundary noise {:.3}–{:.3} px",
@@ -374,17 +350,43 @@ fn a_tip_its_silhouettes_lost_is_found_along_the_images() {
     assert!(ok >= 4, "{ok} ok, {right} right");
 }
 
+/// A blue tube on a lighter cloth of nearly its hue (7° apart), sensor noise `noise_sigma`
+/// grey levels.
+fn cloth_of_its_hue(seed: u64, noise_sigma: f64) -> SimConfig {
+    SimConfig {
+        render: RenderSettings {
+            backdrop_albedo: [0.22, 0.28, 0.45],
+            noise_sigma,
+            ..RenderSettings::default()
+        },
+        seed,
+        ..SimConfig::default()
+    }
+}
+
+/// Frames `ok` (each asserted right) and frames right but refused.
+#[derive(Default)]
+struct Tally {
+    ok: usize,
+    right_refused: usize,
+}
+
+impl Tally {
+    /// Counts a frame of `status`, right or not by the truth; `which` names it.
+    fn add(&mut self, status: &Status, right: bool, which: &str) {
+        if *status == Status::Ok {
+            self.ok += 1;
+            assert!(right, "{which}: ok but off the truth");
+        } else {
+            self.right_refused += usize::from(right);
+        }
+    }
+}
+
 /// The chain of the cut-silhouette tests: the blue tube on cloth of its hue, no bands to
 /// count (a lost band would say so by itself), the base's place telling the tube's direction.
 fn cut_chain() -> Chain {
-    let mut chain = Chain::new(SimConfig {
-        render: RenderSettings {
-            backdrop_albedo: [0.22, 0.28, 0.45],
-            ..RenderSettings::default()
-        },
-        seed: 2,
-        ..SimConfig::default()
-    });
+    let mut chain = Chain::new(cloth_of_its_hue(2, RenderSettings::default().noise_sigma));
     chain.estimator = ShapeEstimator::new(ShapeSettings {
         expected_bands: 0,
         tip_band: false,
