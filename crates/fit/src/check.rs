@@ -41,8 +41,11 @@ pub struct CameraCheck {
     /// the RMS.
     pub p90_px: f64,
     /// The scatter one boundary's place has from the image alone (its noise against the
-    /// tube's contrast there), pixels, read from the outline itself ([`boundary_noise`]): the
-    /// outline's residual limits widen by it ([`noisy_limit`]), 0 where too few samples tell.
+    /// tube's contrast there), pixels, read from the outline itself: the median difference
+    /// between neighbouring samples' residuals along each side over 0.6745·√2, where what a
+    /// wrong shape or calibration puts off the outline, smooth along it, cancels (0 with
+    /// fewer than 10 pairs). The outline's residual limits widen by it in quadrature (the
+    /// 90th percentile's by 1.645 times it).
     #[serde(default)]
     pub noise_px: f64,
     /// Overlap of the re-rendered tube with the silhouette (intersection over union).
