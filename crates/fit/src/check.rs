@@ -181,7 +181,6 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
         rms,
         mean,
         p90,
-        noise: boundary_noise(measured),
         shift: shift(measured),
         lighter,
         ramp,
@@ -313,8 +312,6 @@ pub(crate) struct Residuals {
     pub rms: f64,
     pub mean: f64,
     pub p90: f64,
-    /// [`CameraCheck::noise_px`].
-    pub noise: f64,
     /// [`CameraCheck::shift_px`].
     pub shift: [f64; 2],
     /// [`CameraCheck::lighter_share`].

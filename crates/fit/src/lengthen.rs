@@ -28,9 +28,9 @@ const STEP_MM: f64 = 5.0;
 /// project to 3 px or more for a profile across it).
 const MIN_STEP_MM: f64 = 1.25;
 
-/// Where the walk starts beyond the end's apex, mm: a sliver of the end's own cap, or its
-/// blur, lies before it (as the goes-on stretches start).
-const FROM_MM: f64 = 4.0;
+/// Where the walk starts beyond the end's apex, mm: where the goes-on stretches start (a
+/// sliver of the end's own cap, or its blur, lies before it).
+const FROM_MM: f64 = crate::verdict::GOES_ON_STRETCHES_MM[0].0;
 
 /// Longest walk from one end, mm (a run-away walk along a stripe of the backdrop stops
 /// here; the volume's boundary stops most walks far sooner).
@@ -141,19 +141,17 @@ impl TubeFitter {
             let k = (to - from).norm().ceil().max(1.0) as usize;
             (1..=k).map(move |i| from + (to - from) * (i as f64 / k as f64))
         };
-        let mut points: Vec<[f64; 3]> = Vec::with_capacity(n + 64);
+        let mut points: Vec<Point3<f64>> = Vec::with_capacity(n + 64);
         let (first, last) = (tube.frame(0.0).0, tube.frame(1.0).0);
         if let Some((p, _)) = ends[0] {
             let before: Vec<Point3<f64>> = stretch(first, p).collect();
-            points.extend(before.iter().rev().map(|q| [q.x, q.y, q.z]));
+            points.extend(before.into_iter().rev());
         }
-        points.extend((0..=n).map(|i| {
-            let q = tube.frame(i as f64 / n as f64).0;
-            [q.x, q.y, q.z]
-        }));
+        points.extend((0..=n).map(|i| tube.frame(i as f64 / n as f64).0));
         if let Some((p, _)) = ends[1] {
-            points.extend(stretch(last, p).map(|q| [q.x, q.y, q.z]));
+            points.extend(stretch(last, p));
         }
+        let points: Vec<[f64; 3]> = points.into_iter().map(Into::into).collect();
         let capped = [0, 1].map(|e| tube.capped[e] && !ends[e].is_some_and(|(_, open)| open));
         let s = &self.settings;
         // An end lengthened and still capped is walked on again from the fitted tube's end,

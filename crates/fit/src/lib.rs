@@ -428,7 +428,7 @@ impl TubeFitter {
                     offset_px: res.mean,
                     shift_px: res.shift,
                     p90_px: res.p90,
-                    noise_px: res.noise,
+                    noise_px: check::boundary_noise(m),
                     iou: overlap.iou,
                     iou_limit,
                     iou_outlined: overlap.iou_outlined,

@@ -100,16 +100,9 @@ impl Sampled {
                 )
             })
             .collect();
-        let mut before = tube.radius;
         let shoulders = tube
-            .steps
-            .iter()
-            .map(|s| {
-                let larger = before.max(s.radius_mm);
-                before = s.radius_mm;
-                let u = (1.0 - s.from_tip_mm / length).clamp(0.0, 1.0);
-                (tube.frame(u).0, larger)
-            })
+            .shoulders()
+            .map(|(at, larger)| (tube.frame((1.0 - at / length).clamp(0.0, 1.0)).0, larger))
             .collect();
         Sampled {
             length,

@@ -109,16 +109,22 @@ impl Tube {
             .fold(self.radius, f64::max)
     }
 
+    /// Each radius step's shoulder: where it is, arc length from the tip, mm, and the larger
+    /// of the radii it joins (its rounded end's), mm.
+    pub(crate) fn shoulders(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        let before = std::iter::once(self.radius).chain(self.steps.iter().map(|s| s.radius_mm));
+        self.steps
+            .iter()
+            .zip(before)
+            .map(|(s, before)| (s.from_tip_mm, before.max(s.radius_mm)))
+    }
+
     /// Whether `u` lies at a step's shoulder: within the larger radius plus a millimetre of
     /// it, where the outline turns from one radius to the other in a way the model leaves out.
     pub(crate) fn at_shoulder(&self, u: f64, length: f64) -> bool {
         let from_tip = (1.0 - u) * length;
-        let mut before = self.radius;
-        self.steps.iter().any(|s| {
-            let reach = before.max(s.radius_mm) + 1.0;
-            before = s.radius_mm;
-            (from_tip - s.from_tip_mm).abs() < reach
-        })
+        self.shoulders()
+            .any(|(at, larger)| (from_tip - at).abs() < larger + 1.0)
     }
 
     /// Number of free parameters: three per control point, then the radius of every section

@@ -10,7 +10,7 @@ use flexshape_silhouette::components::touching;
 use crate::check::{self, CameraCheck, OutlineResiduals, STILL_RAMP_PX};
 use crate::edges::EdgeImage;
 use crate::outline;
-use crate::{Fit, Tube, TubeFitter};
+use crate::{Fit, FitSettings, Tube, TubeFitter};
 use nalgebra::Vector2;
 
 /// Samples around a free end needed in a camera before its end is checked apart.
@@ -42,7 +42,7 @@ const MIN_CAP_FOUND: usize = 3;
 /// Stretches beyond a capped end's apex, along its tangent, mm, each of which must show the
 /// tube for [`TubeFitter::goes_on`] to say it goes on: a sliver of a real end's cap, or blur,
 /// at the start of the first cannot pass both.
-const GOES_ON_STRETCHES_MM: [(f64, f64); 2] = [(4.0, 9.0), (9.0, 14.0)];
+pub(crate) const GOES_ON_STRETCHES_MM: [(f64, f64); 2] = [(4.0, 9.0), (9.0, 14.0)];
 
 /// Shortest stretch of tube along two cameras' epipolar plane that a refusal names, mm: over
 /// shorter ones the curve's smoothness bridges the depth the cameras leave open (the drawn-mask
@@ -459,7 +459,7 @@ impl TubeFitter {
                 s.min_found * 100.0
             ));
         }
-        let limit = check::noisy_limit(s.max_residual_px, c.noise_px, 1.0);
+        let limit = residual_limit(s, c);
         (o.residual > limit).then(|| {
             format!(
                 "camera {i}: outline residual {:.2} px RMS (limit {limit:.2}{}; mean {:+.2} px)",
@@ -479,7 +479,7 @@ impl TubeFitter {
             return None;
         }
         let found = c.end_found as f64 / c.end_samples as f64;
-        let limit = check::noisy_limit(s.max_residual_px, c.noise_px, 1.0);
+        let limit = residual_limit(s, c);
         (found < s.min_found || o.end_residual > limit).then(|| format!(
             "camera {}: the outline around the tube's free end is not where the image shows it (boundary found at {}/{} samples, residual {:.2} px RMS; limits {:.0} %, {limit:.2} px{}): the tip has moved farther than the fit could follow, or is hidden",
             c.camera,
@@ -494,6 +494,12 @@ impl TubeFitter {
 
 /// The 90th percentile of a normal scatter's sizes, in standard deviations.
 const Z90: f64 = 1.645;
+
+/// The limit on camera `c`'s outline residual RMS (the whole outline's and its free ends'):
+/// `max_residual_px` widened by the camera's boundary noise.
+fn residual_limit(s: &FitSettings, c: &CameraCheck) -> f64 {
+    check::noisy_limit(s.max_residual_px, c.noise_px, 1.0)
+}
 
 /// How a limit widened by camera `c`'s boundary noise says so (empty without any).
 fn with_noise(c: &CameraCheck) -> String {
