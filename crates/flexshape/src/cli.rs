@@ -17,7 +17,7 @@ pub enum Command {
     /// Run flexshape on the built-in simulated rig and report what it measures.
     Demo(DemoArgs),
     /// Write a simulated recording (calibration, backgrounds, frames, ground truth).
-    Simulate(SimulateArgs),
+    Simulate(Box<SimulateArgs>),
     /// Capture frame sets from live cameras into one folder per camera (OUT/NAME/000000.png …,
     /// the images of one instant sharing a file name, and OUT/timestamps.csv): chessboard
     /// views for `calibrate`, the empty scene for `background`, frames to `track` later.
@@ -742,10 +742,42 @@ pub struct SimArgs {
     /// tip on). The recording's rig then gives the radii (`[processing.shape] radius_steps`).
     #[arg(long, value_name = "FROM_TIP:RADIUS,…", value_parser = parse_radius_steps)]
     pub radius_steps: Option<RadiusSteps>,
+    /// With --radius-steps: the outer tube's diffuse reflectance, R,G,B in 0–1, when it is of
+    /// another material than the inner one (e.g. 0.08,0.08,0.09 for a dark sheath around a
+    /// silvery wire; default: the body's).
+    #[arg(long, value_name = "R,G,B", value_parser = parse_albedo, requires = "radius_steps")]
+    pub outer_albedo: Option<[f64; 3]>,
+    /// With --radius-steps: the outer tube's highlight, STRENGTH,SHININESS (default: the
+    /// body's).
+    #[arg(long, value_name = "STRENGTH,SHININESS", value_parser = parse_gloss, requires = "radius_steps")]
+    pub outer_gloss: Option<[f64; 2]>,
+    /// A printed plate on the backdrop under the tube: `dots` (a grid of black dots 8 mm
+    /// across at a 20 mm pitch on white) or `chessboard` (20 mm squares), about two thirds
+    /// of the image wide.
+    #[arg(long, value_enum, value_name = "PATTERN")]
+    pub plate: Option<PlateArg>,
+    /// Calibration off by about this many pixels: each camera's written orientation is turned
+    /// by this many pixels' angle about a seeded axis; the images stay the true cameras'.
+    #[arg(
+        long,
+        value_name = "PX",
+        allow_negative_numbers = true,
+        default_value_t = 0.0
+    )]
+    pub calibration_error: f64,
     /// Rays per pixel side when rendering (default 4: 16 rays per pixel). 2 renders about
     /// twice as fast with softer edges.
     #[arg(long, value_name = "N")]
     pub supersampling: Option<u32>,
+}
+
+/// `--plate`: what is printed on the plate under the tube.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlateArg {
+    /// A grid of black dots on white.
+    Dots,
+    /// Black and white squares.
+    Chessboard,
 }
 
 #[derive(Debug, Args)]

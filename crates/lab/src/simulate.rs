@@ -219,7 +219,7 @@ pub fn simulate_boards(
     mut on_image: impl FnMut(),
 ) -> Result<BoardImages, LabError> {
     let printed = printed(board)?;
-    let rig = config.rig.rig().map_err(LabError::simulator)?;
+    let rig = config.rig.true_rig().map_err(LabError::simulator)?;
     let cameras: Vec<_> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
     let views = calibration_views(
         &cameras,

@@ -8,7 +8,7 @@ use flexshape_recording::{BendBase, Truth, TruthBand, TruthSection};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SimError, config_error};
-use crate::scene::{Albedo, BAND_ALBEDO, BODY_ALBEDO, Gloss, Tube};
+use crate::scene::{Albedo, BAND_ALBEDO, BODY_ALBEDO, Gloss, Material, Tube};
 
 /// Spacing of the ground-truth centerline samples, mm (the contract asks for ≤ 0.5 mm).
 pub const TRUTH_STEP: f64 = 0.25;
@@ -42,6 +42,10 @@ pub struct Catheter {
     /// silvery coating).
     #[serde(default)]
     pub gloss: Gloss,
+    /// The material behind the first radius step, when the outer tube is of another material
+    /// than the inner one (`None`: the body's throughout).
+    #[serde(default)]
+    pub outer: Option<Material>,
 }
 
 fn body_albedo() -> Albedo {
@@ -66,6 +70,7 @@ impl Default for Catheter {
             radius_steps: Vec::new(),
             albedo: BODY_ALBEDO,
             gloss: Gloss::default(),
+            outer: None,
         }
     }
 }
@@ -146,6 +151,20 @@ impl CatheterPose {
     }
 }
 
+/// A gloss the renderer can shade: strength in [0, 10], shininess in [1, 10⁴].
+fn check_gloss(field: &str, g: Gloss) -> Result<(), SimError> {
+    if (0.0..=10.0).contains(&g.strength) && (1.0..=1e4).contains(&g.shininess) {
+        return Ok(());
+    }
+    Err(config_error(
+        field,
+        format!(
+            "strength {} must lie in [0, 10] and shininess {} in [1, 10⁴]",
+            g.strength, g.shininess
+        ),
+    ))
+}
+
 /// The catheter in one pose: its centerline and where its bands are.
 #[derive(Debug, Clone)]
 pub struct CatheterState {
@@ -175,15 +194,15 @@ impl Catheter {
         positive("band_width", self.band_width)?;
         check_steps(&self.radius_steps, (1e-3, 1e3))
             .map_err(|e| config_error("radius_steps", e.0))?;
-        let g = self.gloss;
-        if !((0.0..=10.0).contains(&g.strength) && (1.0..=1e4).contains(&g.shininess)) {
-            return Err(config_error(
-                "gloss",
-                format!(
-                    "strength {} must lie in [0, 10] and shininess {} in [1, 10⁴]",
-                    g.strength, g.shininess
-                ),
-            ));
+        check_gloss("gloss", self.gloss)?;
+        if let Some(outer) = self.outer {
+            if self.radius_steps.is_empty() {
+                return Err(config_error(
+                    "outer",
+                    "an outer tube's material needs radius_steps (where the outer tube begins)",
+                ));
+            }
+            check_gloss("outer.gloss", outer.gloss)?;
         }
         let total: f64 = pose.bend.iter().map(|s| s.length).sum();
         if pose.bend.is_empty() || (total - self.bend_length).abs() > 1e-6 * self.bend_length {
@@ -308,6 +327,7 @@ impl Catheter {
             albedo: self.albedo,
             band_albedo: BAND_ALBEDO,
             gloss: self.gloss,
+            outer: self.outer,
         })
     }
 

@@ -47,8 +47,10 @@ pub use chessboard::{
 };
 pub use drawn::drawn_mask;
 pub use error::SimError;
-pub use render::{RenderSettings, Renderer, View};
+pub use render::{Plate, PlatePattern, RenderSettings, Renderer, View};
 pub use rig::SimRigConfig;
-pub use scene::{Albedo, BAND_ALBEDO, BODY_ALBEDO, Gloss, OCCLUDER_ALBEDO, Occluder, Scene, Tube};
+pub use scene::{
+    Albedo, BAND_ALBEDO, BODY_ALBEDO, Gloss, Material, OCCLUDER_ALBEDO, Occluder, Scene, Tube,
+};
 pub use sequence::{MAX_BEND_ANGLE, MAX_INSERTION, motion, motion_at, sweep};
 pub use simulator::{SimConfig, SimFrame, Simulator};

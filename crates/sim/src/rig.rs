@@ -34,6 +34,13 @@ pub struct SimRigConfig {
     pub seed: u64,
     /// The working volume written into the rig file.
     pub volume: Volume,
+    /// How far off the written calibration is, px: each camera's calibrated orientation is
+    /// turned by this many pixels' angle (`px / fx` rad) about a seeded axis across its
+    /// optical axis, so the volume's image lies about this far from where the calibration puts
+    /// it (what a rig bumped or a calibration of a few pixels' error gives). The images are
+    /// rendered through the true cameras. 0: the calibration is exact.
+    #[serde(default)]
+    pub calibration_error_px: f64,
 }
 
 impl Default for SimRigConfig {
@@ -48,6 +55,7 @@ impl Default for SimRigConfig {
             jitter: true,
             seed: 7,
             volume: Volume::default(),
+            calibration_error_px: 0.0,
         }
     }
 }
@@ -69,6 +77,12 @@ impl SimRigConfig {
             return Err(config_error(
                 "distance",
                 "must be a positive distance in mm",
+            ));
+        }
+        if !(self.calibration_error_px.is_finite() && self.calibration_error_px >= 0.0) {
+            return Err(config_error(
+                "calibration_error_px",
+                "must be a non-negative number of pixels",
             ));
         }
         if self.distortion.iter().any(|d| !d.is_finite()) {
@@ -145,10 +159,40 @@ impl SimRigConfig {
             .collect()
     }
 
-    /// The rig: cameras (files `calibration/camK.yml`) and the working volume.
+    /// The cameras as calibrated: [`SimRigConfig::cameras`] with the calibration error
+    /// [`SimRigConfig::calibration_error_px`] (the same cameras when it is 0).
+    pub fn calibrated_cameras(&self) -> Result<Vec<(String, Camera)>, SimError> {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(self.seed ^ 0xCA11_B0FF);
+        let mut cameras = self.cameras()?;
+        if self.calibration_error_px == 0.0 {
+            return Ok(cameras);
+        }
+        for (_, camera) in &mut cameras {
+            let across = rng.random_range(0.0..std::f64::consts::TAU);
+            let axis = Unit::new_normalize(Vector3::new(across.cos(), across.sin(), 0.0));
+            let angle = self.calibration_error_px / camera.intrinsics.fx;
+            // Turned about its own centre (camera frame): x' = δR·(R·X + t).
+            let turn = Rotation3::from_axis_angle(&axis, angle);
+            camera.pose.rotation = turn * camera.pose.rotation;
+            camera.pose.translation = turn * camera.pose.translation;
+        }
+        Ok(cameras)
+    }
+
+    /// The rig as calibrated (what a recording holds and a tracker uses): cameras (files
+    /// `calibration/camK.yml`, with the calibration error) and the working volume.
     pub fn rig(&self) -> Result<Rig, SimError> {
-        let cameras = self
-            .cameras()?
+        self.rig_of(self.calibrated_cameras()?)
+    }
+
+    /// The true rig, the images are rendered through ([`SimRigConfig::rig`] without the
+    /// calibration error).
+    pub fn true_rig(&self) -> Result<Rig, SimError> {
+        self.rig_of(self.cameras()?)
+    }
+
+    fn rig_of(&self, cameras: Vec<(String, Camera)>) -> Result<Rig, SimError> {
+        let cameras = cameras
             .into_iter()
             .map(|(name, camera)| RigCamera {
                 file: Layout::calibration_file_relative(&name),
@@ -161,5 +205,45 @@ impl SimRigConfig {
             volume: self.volume,
             processing: ProcessingTable::new(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_calibration_error_moves_the_volumes_image_by_that_many_pixels() {
+        let exact = SimRigConfig::default();
+        assert_eq!(
+            exact.calibrated_cameras().unwrap(),
+            exact.cameras().unwrap()
+        );
+        let off = SimRigConfig {
+            calibration_error_px: 2.0,
+            ..exact.clone()
+        };
+        assert_eq!(off.true_rig().unwrap(), exact.rig().unwrap());
+        let truth = off.cameras().unwrap();
+        let calibrated = off.calibrated_cameras().unwrap();
+        let mut directions = Vec::new();
+        for ((_, t), (_, c)) in truth.iter().zip(&calibrated) {
+            // Where the camera stands is kept: only its orientation is off.
+            assert!((t.centre() - c.centre()).norm() < 1e-9);
+            for p in [Point3::origin(), Point3::new(60.0, -40.0, 80.0)] {
+                let moved = c.project(&p).unwrap().pixel - t.project(&p).unwrap().pixel;
+                assert!((1.8..2.3).contains(&moved.norm()), "{moved}");
+                directions.push(moved.normalize());
+            }
+        }
+        // Each camera off its own way.
+        assert!(
+            directions[0].dot(&directions[2]) < 0.99 && directions[2].dot(&directions[4]) < 0.99
+        );
+        let bad = SimRigConfig {
+            calibration_error_px: -1.0,
+            ..exact
+        };
+        assert!(bad.rig().is_err());
     }
 }

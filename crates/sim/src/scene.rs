@@ -35,6 +35,19 @@ pub struct Tube {
     pub band_albedo: Albedo,
     /// How the surface shines where it reflects the lamp toward the camera.
     pub gloss: Gloss,
+    /// The material of everything behind the first radius step (an outer tube of another
+    /// material around the inner one: a dark sheath around a silvery wire); `None`, or no
+    /// steps: the body's throughout.
+    pub outer: Option<Material>,
+}
+
+/// What a surface is made of, as the renderer shades it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    /// Diffuse reflectance.
+    pub albedo: Albedo,
+    /// Specular highlight.
+    pub gloss: Gloss,
 }
 
 /// A surface's specular highlight (Blinn–Phong): `strength · (n·h)^shininess` of white light
@@ -72,6 +85,18 @@ impl Tube {
     pub fn is_band(&self, s: f64) -> bool {
         self.bands.iter().any(|&[a, b]| s >= a && s <= b)
     }
+
+    /// The body's material at arc length `s` (mm from the proximal end): the outer tube's
+    /// behind the first radius step, if it has its own.
+    pub fn material_at(&self, s: f64) -> Material {
+        match (self.outer, self.steps.first()) {
+            (Some(outer), Some(step)) if self.centerline.length() - s > step.from_tip_mm => outer,
+            _ => Material {
+                albedo: self.albedo,
+                gloss: self.gloss,
+            },
+        }
+    }
 }
 
 /// A sphere that hides what is behind it (a clamp, a hand, a cable).
@@ -92,4 +117,43 @@ pub struct Scene {
     pub tubes: Vec<Tube>,
     /// Objects that only hide and shadow (never in the truth mask).
     pub occluders: Vec<Occluder>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flexshape_curve::RadiusStep;
+
+    #[test]
+    fn an_outer_tube_of_its_own_material_begins_at_the_first_step() {
+        let line =
+            Polyline::new((0..=100).map(|i| Point3::new(0.0, 0.0, i as f64)).collect()).unwrap();
+        let dark = Material {
+            albedo: [0.08, 0.08, 0.09],
+            gloss: Gloss::default(),
+        };
+        let mut tube = Tube {
+            centerline: line,
+            radius: 1.2,
+            steps: vec![RadiusStep {
+                from_tip_mm: 30.0,
+                radius_mm: 3.0,
+            }],
+            bands: Vec::new(),
+            albedo: [0.35; 3],
+            band_albedo: BAND_ALBEDO,
+            gloss: Gloss {
+                strength: 0.9,
+                shininess: 20.0,
+            },
+            outer: Some(dark),
+        };
+        // Arc length from the proximal end: the step is 30 mm from the tip, at 70 mm.
+        assert_eq!(tube.material_at(10.0), dark);
+        assert_eq!(tube.material_at(69.0), dark);
+        assert_eq!(tube.material_at(71.0).albedo, [0.35; 3]);
+        assert_eq!(tube.material_at(100.0).gloss.strength, 0.9);
+        tube.steps.clear();
+        assert_eq!(tube.material_at(10.0).albedo, [0.35; 3]);
+    }
 }

@@ -59,7 +59,7 @@ impl Simulator {
         let mut rig = config.rig.rig()?;
         rig.processing
             .insert("shape".into(), config.catheter.shape_settings().into());
-        let cameras: Vec<Camera> = rig.cameras.iter().map(|c| c.camera.clone()).collect();
+        let cameras: Vec<Camera> = config.rig.cameras()?.into_iter().map(|(_, c)| c).collect();
         let renderer = Renderer::new(&cameras, config.render.clone())?;
         let occluders = place_occluders(&cameras, config.occluders, config.seed);
         Ok(Simulator {
@@ -75,12 +75,14 @@ impl Simulator {
         &self.config
     }
 
-    /// The simulated rig (true calibration).
+    /// The simulated rig as calibrated: what its recordings hold and a tracker uses. The true
+    /// calibration unless the settings ask for a calibration error
+    /// ([`SimRigConfig::calibration_error_px`]).
     pub fn rig(&self) -> &Rig {
         &self.rig
     }
 
-    /// The rig's cameras, in rig order.
+    /// The rig's cameras as calibrated, in rig order.
     pub fn cameras(&self) -> Vec<Camera> {
         self.rig.cameras.iter().map(|c| c.camera.clone()).collect()
     }

@@ -248,6 +248,7 @@ pub fn accuracy_experiment(e: &Experiments) -> Result<AccuracyRun, ValidateError
                 albedo: BODY_ALBEDO,
                 band_albedo: BAND_ALBEDO,
                 gloss: Gloss::default(),
+                outer: None,
             }],
             occluders: Vec::new(),
         };

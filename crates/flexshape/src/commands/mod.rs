@@ -76,12 +76,25 @@ pub(crate) fn ply_encoding(ascii: bool) -> flexshape_carve::PlyEncoding {
 fn sim_config(args: &SimArgs) -> SimConfig {
     let defaults = SimConfig::default();
     let (width, height) = args.size;
+    let gloss = |g: [f64; 2]| flexshape_sim::Gloss {
+        strength: g[0],
+        shininess: g[1],
+    };
+    let albedo = args.body_albedo.unwrap_or(defaults.catheter.albedo);
+    let body_gloss = args.gloss.map_or(defaults.catheter.gloss, gloss);
+    let outer = (args.outer_albedo.is_some() || args.outer_gloss.is_some()).then(|| {
+        flexshape_sim::Material {
+            albedo: args.outer_albedo.unwrap_or(albedo),
+            gloss: args.outer_gloss.map_or(body_gloss, gloss),
+        }
+    });
     SimConfig {
         rig: SimRigConfig {
             cameras: args.cams,
             width,
             height,
             focal: args.focal.unwrap_or(800.0 * width as f64 / 640.0),
+            calibration_error_px: args.calibration_error,
             ..defaults.rig
         },
         render: RenderSettings {
@@ -94,6 +107,12 @@ fn sim_config(args: &SimArgs) -> SimConfig {
                 .unwrap_or(defaults.render.backdrop_albedo),
             fold_depth: args.fold_depth,
             fold_shift_mm: args.fold_shift,
+            plate: args.plate.map(|p| {
+                flexshape_sim::Plate::new(match p {
+                    crate::cli::PlateArg::Dots => flexshape_sim::PlatePattern::Dots,
+                    crate::cli::PlateArg::Chessboard => flexshape_sim::PlatePattern::Chessboard,
+                })
+            }),
             ..defaults.render
         },
         catheter: Catheter {
@@ -103,15 +122,9 @@ fn sim_config(args: &SimArgs) -> SimConfig {
                 .as_ref()
                 .map(|s| s.0.clone())
                 .unwrap_or_default(),
-            albedo: args.body_albedo.unwrap_or(defaults.catheter.albedo),
-            gloss: args
-                .gloss
-                .map_or(defaults.catheter.gloss, |[strength, shininess]| {
-                    flexshape_sim::Gloss {
-                        strength,
-                        shininess,
-                    }
-                }),
+            albedo,
+            gloss: body_gloss,
+            outer,
             ..defaults.catheter
         },
         occluders: args.occluders,

@@ -6,6 +6,9 @@
 //! bounds share one parameter plane.
 
 use flexshape_camera::nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::scene::Albedo;
 
 /// Hash of an integer lattice point to `[0, 1)`.
 fn lattice(ix: i64, iy: i64, seed: u64) -> f64 {
@@ -55,6 +58,75 @@ pub(crate) fn folds(u: f64, v: f64, depth: f64, shift: f64, seed: u64) -> f64 {
     let across = 0.8 * u + 0.6 * v + 25.0 * value_noise(u / 150.0, v / 150.0, seed ^ 3) + shift;
     let valley = 0.5 + 0.5 * (std::f64::consts::TAU * across / FOLD_PERIOD).cos();
     1.0 - depth * valley.powi(8)
+}
+
+/// A flat printed plate lying on the backdrop under the volume's image (in each camera's
+/// backdrop plane): what a lab puts on the bench — a calibration plate, a sheet with a grid
+/// of dots — that the tube then crosses. Rigid: the cloth's folds stop at its edge.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Plate {
+    /// What is printed on it.
+    pub pattern: PlatePattern,
+    /// Its centre on the backdrop plane, mm (camera frame: x right, y down).
+    pub centre_mm: [f64; 2],
+    /// Half its width and height, mm.
+    pub half_size_mm: [f64; 2],
+    /// Distance between neighbouring dots' centres, or a square's side, mm.
+    pub pitch_mm: f64,
+    /// The dots' radius, mm (dots only).
+    pub dot_radius_mm: f64,
+    /// Reflectance of the plate.
+    pub paper: Albedo,
+    /// Reflectance of the print.
+    pub ink: Albedo,
+}
+
+/// What a [`Plate`] shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PlatePattern {
+    /// A square grid of black dots on white.
+    Dots,
+    /// Black and white squares.
+    Chessboard,
+}
+
+impl Plate {
+    /// A white plate 520 × 400 mm at a 1 m deep backdrop (about two thirds of the default
+    /// image's width), a little below the image's centre, printed with `pattern` at a 20 mm
+    /// pitch (dots 8 mm across: 6–7 px in the default 640 × 480 camera, about as wide as the
+    /// default tube).
+    pub fn new(pattern: PlatePattern) -> Self {
+        Plate {
+            pattern,
+            centre_mm: [0.0, 60.0],
+            half_size_mm: [260.0, 200.0],
+            pitch_mm: 20.0,
+            dot_radius_mm: 4.0,
+            paper: [0.86, 0.86, 0.84],
+            ink: [0.05, 0.05, 0.05],
+        }
+    }
+
+    /// The plate's reflectance at backdrop point `(u, v)` mm, `None` off the plate.
+    pub(crate) fn albedo_at(&self, u: f64, v: f64) -> Option<Albedo> {
+        let (x, y) = (u - self.centre_mm[0], v - self.centre_mm[1]);
+        if x.abs() > self.half_size_mm[0] || y.abs() > self.half_size_mm[1] {
+            return None;
+        }
+        let p = self.pitch_mm;
+        let inked = match self.pattern {
+            PlatePattern::Dots => {
+                // The nearest grid point, dots centred on the plate's centre.
+                let (dx, dy) = (x - (x / p).round() * p, y - (y / p).round() * p);
+                dx.hypot(dy) <= self.dot_radius_mm
+            }
+            PlatePattern::Chessboard => {
+                ((x / p).floor() as i64 + (y / p).floor() as i64).rem_euclid(2) == 0
+            }
+        };
+        Some(if inked { self.ink } else { self.paper })
+    }
 }
 
 /// Relative irradiance of the lamp at `lamp` on the backdrop point `p` (camera frame), scaled
@@ -109,6 +181,38 @@ mod tests {
             .min_by(|a, b| at(*a).total_cmp(&at(*b)))
             .unwrap();
         assert!(at(bottom) < 0.701 && at(bottom + FOLD_PERIOD / 2.0) > 0.999);
+    }
+
+    #[test]
+    fn a_plate_shows_its_print_and_nothing_beyond_its_edge() {
+        let dots = Plate::new(PlatePattern::Dots);
+        let [cx, cy] = dots.centre_mm;
+        assert_eq!(dots.albedo_at(cx, cy), Some(dots.ink));
+        assert_eq!(dots.albedo_at(cx + 3.9, cy), Some(dots.ink));
+        assert_eq!(dots.albedo_at(cx + 4.1, cy), Some(dots.paper));
+        assert_eq!(dots.albedo_at(cx + 10.0, cy + 10.0), Some(dots.paper));
+        assert_eq!(dots.albedo_at(cx + 40.0, cy - 60.0), Some(dots.ink));
+        assert_eq!(dots.albedo_at(cx + 261.0, cy), None);
+        assert_eq!(dots.albedo_at(cx, cy - 201.0), None);
+        // A dot's share of the plate: π·4² / 20².
+        let n = 400;
+        let inked = (0..n * n)
+            .filter(|i| {
+                let (x, y) = ((i % n) as f64 * 0.5, (i / n) as f64 * 0.5);
+                dots.albedo_at(cx + x, cy + y) == Some(dots.ink)
+            })
+            .count() as f64
+            / (n * n) as f64;
+        assert!(
+            (inked - std::f64::consts::PI * 16.0 / 400.0).abs() < 0.01,
+            "{inked}"
+        );
+        let board = Plate::new(PlatePattern::Chessboard);
+        let at = |x: f64, y: f64| board.albedo_at(cx + x, cy + y);
+        assert_eq!(at(5.0, 5.0), Some(board.ink));
+        assert_eq!(at(25.0, 5.0), Some(board.paper));
+        assert_eq!(at(-5.0, 5.0), Some(board.paper));
+        assert_eq!(at(-5.0, -5.0), Some(board.ink));
     }
 
     #[test]

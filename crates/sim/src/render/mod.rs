@@ -23,6 +23,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::SimError;
 use crate::scene::{Albedo, Gloss, Scene};
 use backdrop::lamp_visibility;
+pub use backdrop::{Plate, PlatePattern};
 use cull::{Rect, RectIndex, box_corners};
 use intersect::{Capsule, closest_on_segment, ray_capsule, ray_sphere, segment_distance};
 use view::{CameraView, TILE};
@@ -56,6 +57,9 @@ pub struct RenderSettings {
     /// frames, mm (cloth that slid or sagged; 0: the backgrounds show the frames' backdrop).
     #[serde(default)]
     pub fold_shift_mm: f64,
+    /// A printed plate on the backdrop under the volume's image (`None`: cloth only).
+    #[serde(default)]
+    pub plate: Option<Plate>,
 }
 
 impl Default for RenderSettings {
@@ -72,6 +76,7 @@ impl Default for RenderSettings {
             seed: 1,
             fold_depth: 0.0,
             fold_shift_mm: 0.0,
+            plate: None,
         }
     }
 }
@@ -107,6 +112,15 @@ impl RenderSettings {
         }
         if !self.fold_shift_mm.is_finite() {
             return bad("fold_shift_mm", "must be a distance in mm");
+        }
+        if let Some(p) = &self.plate {
+            let sizes = [p.pitch_mm, p.half_size_mm[0], p.half_size_mm[1]];
+            if !sizes.iter().all(|v| v.is_finite() && *v > 0.0) {
+                return bad("plate", "its size and pitch must be positive lengths in mm");
+            }
+            if !(p.dot_radius_mm.is_finite() && p.dot_radius_mm >= 0.0) {
+                return bad("plate.dot_radius_mm", "must be a non-negative length in mm");
+            }
         }
         Ok(())
     }
@@ -533,7 +547,8 @@ impl Renderer {
                 if tube.is_band(s) {
                     ((x - q) / c.radius, tube.band_albedo, Gloss::default())
                 } else {
-                    ((x - q) / c.radius, tube.albedo, tube.gloss)
+                    let m = tube.material_at(s);
+                    ((x - q) / c.radius, m.albedo, m.gloss)
                 }
             }
             Hit::Sphere(j) => {

@@ -134,14 +134,16 @@ impl CameraView {
 
     /// The lit backdrop per pixel, its folds moved by `fold_shift` mm.
     fn render_backdrop(&self, s: &RenderSettings, fold_shift: f64) -> Vec<[f64; 3]> {
-        // The texture's finest scale is about 2 px, so 2×2 samples already average it well.
-        let n = s.supersampling.clamp(1, 2) as usize;
+        // The texture's finest scale is about 2 px, so 2×2 samples already average it well; a
+        // plate's print has sharp edges and gets as many as the tube.
+        let most = if s.plate.is_some() { 4 } else { 2 };
+        let n = s.supersampling.clamp(1, most) as usize;
         let depth = s.backdrop_depth;
         (0..self.height)
             .into_par_iter()
             .flat_map_iter(|py| {
                 (0..self.width).map(move |px| {
-                    let mut acc = 0.0;
+                    let mut acc = [0.0; 3];
                     for sy in 0..n {
                         for sx in 0..n {
                             let [x, y] = self.normalized(
@@ -151,17 +153,23 @@ impl CameraView {
                                 (sy as f64 + 0.5) / n as f64,
                             );
                             let p = Vector3::new(x * depth, y * depth, depth);
-                            acc += texture(p.x, p.y, s.seed)
-                                * folds(p.x, p.y, s.fold_depth, fold_shift, s.seed)
-                                * lamp_shading(&p, &self.lamp, depth);
+                            let grain = texture(p.x, p.y, s.seed);
+                            let (albedo, b) =
+                                match s.plate.as_ref().and_then(|pl| pl.albedo_at(p.x, p.y)) {
+                                    // Smooth paper: a third of the cloth's grain, no folds.
+                                    Some(a) => (a, 1.0 + (grain - 1.0) / 3.0),
+                                    None => (
+                                        s.backdrop_albedo,
+                                        grain * folds(p.x, p.y, s.fold_depth, fold_shift, s.seed),
+                                    ),
+                                };
+                            let b = b * lamp_shading(&p, &self.lamp, depth);
+                            for c in 0..3 {
+                                acc[c] += albedo[c] * b;
+                            }
                         }
                     }
-                    let b = acc / (n * n) as f64;
-                    [
-                        s.backdrop_albedo[0] * b,
-                        s.backdrop_albedo[1] * b,
-                        s.backdrop_albedo[2] * b,
-                    ]
+                    acc.map(|a| a / (n * n) as f64)
                 })
             })
             .collect()

@@ -374,8 +374,23 @@ fn bad_settings_are_errors_naming_the_setting() {
     c.rig.distortion = [-0.9, 0.0, 0.0, 0.0, 0.0];
     let err = Simulator::new(c).err().unwrap().to_string();
     assert!(err.contains("distortion"), "{err}");
+    let mut c = SimConfig::default();
+    c.render.plate = Some(flexshape_sim::Plate {
+        pitch_mm: 0.0,
+        ..flexshape_sim::Plate::new(flexshape_sim::PlatePattern::Dots)
+    });
+    let err = Simulator::new(c).err().unwrap().to_string();
+    assert!(err.contains("plate"), "{err}");
     let s = sim(SimConfig::default());
     let mut pose = s.sweep(1)[0].clone();
+    // An outer tube's own material needs a step to begin at.
+    let mut c = SimConfig::default();
+    c.catheter.outer = Some(flexshape_sim::Material {
+        albedo: [0.1; 3],
+        gloss: flexshape_sim::Gloss::default(),
+    });
+    let err = sim(c).render(0, &pose).err().unwrap().to_string();
+    assert!(err.contains("outer"), "{err}");
     pose.bend[0].length = 10.0;
     assert!(
         s.render(0, &pose)
@@ -486,4 +501,72 @@ fn an_exposure_blurs_what_moves_and_keeps_the_middle_instant_as_truth() {
         checked >= 1,
         "an end instant's tip lay off the middle's tube in {checked} cameras"
     );
+}
+
+#[test]
+fn a_printed_plate_lies_under_the_tube_and_an_outer_tube_has_its_own_material() {
+    use flexshape_curve::RadiusStep;
+    use flexshape_sim::{Gloss, Material, Plate, PlatePattern, RenderSettings};
+    let defaults = SimConfig::default();
+    let dark = Material {
+        albedo: [0.08, 0.08, 0.09],
+        gloss: Gloss::default(),
+    };
+    let sim = sim(SimConfig {
+        render: RenderSettings {
+            plate: Some(Plate::new(PlatePattern::Dots)),
+            ..defaults.render.clone()
+        },
+        catheter: flexshape_sim::Catheter {
+            radius: 1.2,
+            radius_steps: vec![RadiusStep {
+                from_tip_mm: 70.0,
+                radius_mm: 3.0,
+            }],
+            albedo: [0.6, 0.6, 0.6],
+            outer: Some(dark),
+            ..defaults.catheter.clone()
+        },
+        ..defaults
+    });
+    let backgrounds = sim.backgrounds();
+    let cam = &sim.rig().cameras[0].camera;
+    let depth = sim.config().render.backdrop_depth;
+    // The plate's centre (a dot), a point between dots, and the cloth beyond the plate's edge.
+    let at = |u: f64, v: f64| {
+        let world = cam.pose.to_world(&Point3::new(u, v, depth));
+        let p = cam.project(&world).unwrap().pixel;
+        *backgrounds[0].get_pixel(p.x.round() as u32, p.y.round() as u32)
+    };
+    let [cx, cy] = Plate::new(PlatePattern::Dots).centre_mm;
+    let (dot, paper, cloth) = (at(cx, cy), at(cx + 10.0, cy + 10.0), at(cx + 330.0, cy));
+    assert!(dot.0.iter().all(|&v| v < 40), "dot {dot:?}");
+    assert!(paper.0.iter().all(|&v| v > 150), "paper {paper:?}");
+    assert!(
+        cloth[1] > cloth[0] + 20 && cloth[1] > cloth[2] + 20,
+        "cloth {cloth:?}"
+    );
+    // Along the tube: the inner tube light, the outer one dark.
+    let f = &frames(&sim, 1)[0];
+    let line = &f.truth.centerline;
+    let mean = |range: std::ops::Range<usize>| {
+        let (mut sum, mut n) = (0.0, 0);
+        for p in &line[range] {
+            let Ok(proj) = cam.project(&Point3::from(*p)) else {
+                continue;
+            };
+            if let Some((u, v)) = cam.intrinsics.pixel_index(proj.pixel) {
+                let px = f.views[0].image.get_pixel(u, v);
+                if f.views[0].mask.get_pixel(u, v)[0] == 255 {
+                    sum += px.0.iter().map(|&c| c as f64).sum::<f64>() / 3.0;
+                    n += 1;
+                }
+            }
+        }
+        assert!(n > 10, "{n} samples");
+        sum / n as f64
+    };
+    let step = line.len() - (70.0 / TRUTH_STEP) as usize;
+    let (outer, inner) = (mean(step / 2..step - 20), mean(step + 20..line.len() - 20));
+    assert!(inner > outer + 40.0, "inner {inner:.0}, outer {outer:.0}");
 }
