@@ -23,6 +23,11 @@ pub struct CameraCheck {
     pub samples: usize,
     /// Samples where a boundary was found.
     pub found: usize,
+    /// Samples where none could be: the backdrop behind them has the tube's own colour (a
+    /// printed dot behind a dark tube), so the image shows neither a boundary nor its absence.
+    /// The found share is taken over the other samples.
+    #[serde(default)]
+    pub unseen: usize,
     /// RMS of the outline residuals (predicted − measured, along the outline normal), pixels.
     pub residual_px: f64,
     /// Their mean, pixels (positive: the fitted outline lies outside the measured one). A mean
@@ -78,6 +83,9 @@ pub struct CameraCheck {
     /// Of those, samples where a boundary was found.
     #[serde(default)]
     pub end_found: usize,
+    /// Of those, samples against a backdrop of the tube's colour (as `unseen`).
+    #[serde(default)]
+    pub end_unseen: usize,
     /// RMS of their residuals, pixels.
     #[serde(default)]
     pub end_residual_px: f64,
@@ -178,6 +186,7 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
     Residuals {
         samples: measured.len(),
         found: found().count(),
+        unseen: measured.iter().filter(|m| m.unseen).count(),
         rms,
         mean,
         p90,
@@ -309,6 +318,8 @@ pub(crate) fn end_stats(measured: &[Measured], tube: &Tube, length: f64) -> Resi
 pub(crate) struct Residuals {
     pub samples: usize,
     pub found: usize,
+    /// [`CameraCheck::unseen`].
+    pub unseen: usize,
     pub rms: f64,
     pub mean: f64,
     pub p90: f64,

@@ -15,7 +15,7 @@ use flexshape_camera::Camera;
 use flexshape_curve::Basis;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
 
-use crate::edges::EdgeImage;
+use crate::edges::{EdgeImage, Miss};
 use crate::outline::{OutlinePoint, Part, Sampled, again, outline};
 use crate::settings::FitSettings;
 use crate::tube::Tube;
@@ -37,6 +37,9 @@ pub(crate) struct Measured {
     /// With free widths, how much narrower the silhouette is than the tube's image here,
     /// taken out of `residual` (pixels; 0 when widths follow the tube).
     pub narrowing: f64,
+    /// No boundary because the backdrop there has the tube's colour ([`Miss::Unseen`]): the
+    /// image holds no evidence here either way, and the found share leaves it out.
+    pub unseen: bool,
 }
 
 /// Every camera's outline of `tube`, measured (with free widths, only the middles between
@@ -69,6 +72,8 @@ pub(crate) fn measure(
                     settings.search_px,
                     settings.min_contrast,
                 );
+                let unseen = edge == Err(Miss::Unseen);
+                let edge = edge.ok();
                 Measured {
                     point: p,
                     residual: edge.map(|e| -e.offset),
@@ -76,6 +81,7 @@ pub(crate) fn measure(
                     lighter: edge.is_some_and(|e| e.lighter),
                     ramp: edge.and_then(|e| e.ramp),
                     narrowing: 0.0,
+                    unseen,
                 }
             })
             .collect()
@@ -120,6 +126,7 @@ pub(crate) fn against(
                         lighter: m.lighter,
                         ramp: m.ramp,
                         narrowing: 0.0,
+                        unseen: false,
                     })
                 })
                 .collect()
@@ -504,6 +511,7 @@ pub(crate) mod made_up {
             lighter: false,
             ramp: None,
             narrowing: 0.0,
+            unseen: false,
         }
     }
 

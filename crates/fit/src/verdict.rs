@@ -451,13 +451,8 @@ impl TubeFitter {
         if c.samples == 0 {
             return None;
         }
-        let found = c.found as f64 / c.samples as f64;
-        if found < s.min_found {
-            return Some(format!(
-                "camera {i}: the fitted outline found the image's boundary at {:.0} % of its samples (at least {:.0} % expected)",
-                found * 100.0,
-                s.min_found * 100.0
-            ));
+        if let Some(why) = found_too_rarely(c, s.min_found) {
+            return Some(why);
         }
         let limit = residual_limit(s, c);
         (o.residual > limit).then(|| {
@@ -478,7 +473,7 @@ impl TubeFitter {
         if c.samples == 0 || c.end_samples < END_SAMPLES {
             return None;
         }
-        let found = c.end_found as f64 / c.end_samples as f64;
+        let found = c.end_found as f64 / c.end_samples.saturating_sub(c.end_unseen).max(1) as f64;
         let limit = residual_limit(s, c);
         (found < s.min_found || o.end_residual > limit).then(|| format!(
             "camera {}: the outline around the tube's free end is not where the image shows it (boundary found at {}/{} samples, residual {:.2} px RMS; limits {:.0} %, {limit:.2} px{}): the tip has moved farther than the fit could follow, or is hidden",
@@ -490,6 +485,35 @@ impl TubeFitter {
             with_noise(c)
         ))
     }
+}
+
+/// Why camera `c`'s outline found the image's boundary too rarely to be placed by it, if it
+/// did: at fewer than `min_found` of its samples. Samples against a backdrop of the tube's
+/// colour ([`CameraCheck::unseen`]) show nothing either way, so the share is over the others,
+/// as long as they are `min_found` of the outline.
+fn found_too_rarely(c: &CameraCheck, min_found: f64) -> Option<String> {
+    let i = &c.camera;
+    let seen = c.samples.saturating_sub(c.unseen);
+    if (seen as f64) < min_found * c.samples as f64 {
+        return Some(format!(
+            "camera {i}: the backdrop behind {:.0} % of the fitted outline has the tube's colour, where the image cannot show the tube (at most {:.0} %): the camera hardly sees it against that backdrop",
+            c.unseen as f64 / c.samples as f64 * 100.0,
+            (1.0 - min_found) * 100.0
+        ));
+    }
+    let found = c.found as f64 / seen.max(1) as f64;
+    (found < min_found).then(|| {
+        let over = if c.unseen > 0 {
+            format!(" where the backdrop differs from the tube ({} of {seen})", c.found)
+        } else {
+            String::new()
+        };
+        format!(
+            "camera {i}: the fitted outline found the image's boundary at {:.0} % of its samples{over} (at least {:.0} % expected)",
+            found * 100.0,
+            min_found * 100.0
+        )
+    })
 }
 
 /// The 90th percentile of a normal scatter's sizes, in standard deviations.
@@ -678,6 +702,33 @@ mod tests {
             std::array::from_fn(|a| v.origin[a] + 0.5 * v.voxel_size[a] * v.dims[a] as f64);
         let at = |z: f64| [c[0], c[1] + dy, c[2] + z];
         Tube::through(&[at(z0), at(z1)], 3.0, [false, true], 10.0, 0.0).unwrap()
+    }
+
+    #[test]
+    fn the_found_share_leaves_out_samples_against_a_backdrop_of_the_tubes_colour() {
+        let check = |found: usize, unseen: usize| -> CameraCheck {
+            serde_json::from_value(serde_json::json!({
+                "camera": "cam0", "samples": 100, "found": found, "unseen": unseen,
+                "residual_px": 0.2, "offset_px": 0.0, "p90_px": 0.3, "iou": 0.95,
+                "unexplained_px": 0,
+            }))
+            .unwrap()
+        };
+        // 50 of 70 seen samples found.
+        assert_eq!(found_too_rarely(&check(50, 30), 0.6), None);
+        let why = found_too_rarely(&check(50, 0), 0.6).unwrap();
+        assert!(
+            why.contains("at 50 % of its samples (at least 60 %"),
+            "{why}"
+        );
+        let why = found_too_rarely(&check(30, 30), 0.6).unwrap();
+        assert!(
+            why.contains("43 % of its samples where the backdrop differs from the tube (30 of 70)"),
+            "{why}"
+        );
+        // Too little of the outline seen at all: the camera cannot confirm the shape.
+        let why = found_too_rarely(&check(55, 45), 0.6).unwrap();
+        assert!(why.contains("behind 45 % of the fitted outline"), "{why}");
     }
 
     #[test]
