@@ -250,6 +250,77 @@ fn a_dark_tube_over_a_printed_dot_plate_is_placed_where_the_plate_shows_it() {
     }
 }
 
+/// A concentric-tube robot as a lab films it (issue 45's real footage, simulated): a dark outer
+/// tube (3 mm radius, albedo 0.08) around a thin silvery inner one (1.2 mm, its last 70 mm),
+/// crossing a white plate printed with black dots on cloth whose folds slid 8 mm after the
+/// backgrounds were taken, two 1280×720 cameras 90° apart. Measured (3 seeds × 4 frames): 8
+/// of 12 `ok`, every one right (0.017–0.048 mm RMS); 2 right but refused (the cameras pin a
+/// stretch along their epipolar plane down only to 0.15 mm; the tip along a camera's line of
+/// sight), 2 refused and off (the tip hidden in a view; a stretch in the epipolar plane).
+/// Tracked by `flexshape track`, 3 seeds × 10 frames: 22 of 30 `ok`, 0 before outline samples
+/// against the dots could be unseen. (A camera turned by a fraction of a degree is not a test
+/// here: two cameras explain their images with the shape displaced, README "Positions are as
+/// good as the calibration"; the three-camera scenes refuse it.)
+#[test]
+fn a_concentric_tube_robot_over_a_dot_plate_is_found_by_two_cameras() {
+    let scene = |seed: u64| SimConfig {
+        rig: SimRigConfig {
+            cameras: 2,
+            width: 1280,
+            height: 720,
+            focal: 1600.0,
+            ..SimRigConfig::default()
+        },
+        render: RenderSettings {
+            plate: Some(Plate::new(PlatePattern::Dots)),
+            fold_depth: 0.3,
+            fold_shift_mm: 8.0,
+            ..RenderSettings::default()
+        },
+        catheter: flexshape_sim::Catheter {
+            radius: 1.2,
+            radius_steps: vec![flexshape_curve::RadiusStep {
+                from_tip_mm: 70.0,
+                radius_mm: 3.0,
+            }],
+            albedo: [0.35, 0.35, 0.35],
+            gloss: flexshape_sim::Gloss {
+                strength: 0.9,
+                shininess: 20.0,
+            },
+            outer: Some(flexshape_sim::Material {
+                albedo: [0.08, 0.08, 0.09],
+                gloss: flexshape_sim::Gloss {
+                    strength: 0.3,
+                    shininess: 30.0,
+                },
+            }),
+            ..Default::default()
+        },
+        seed,
+        ..SimConfig::default()
+    };
+    let mut tally = Tally::default();
+    for seed in [1, 2, 3] {
+        let chain = Chain::new(scene(seed));
+        let sim = &chain.sim;
+        for (n, pose) in sim.sweep(4).iter().enumerate() {
+            let (b, _) = chain.run_two_views(sim.render(n as u64, pose).unwrap());
+            let (rms, tip) = b.fitted_errors(sim);
+            let right = rms <= 0.15 && tip <= 0.3;
+            let which = format!("seed {seed} frame {n}: rms {rms:.3} mm, tip {tip:.2} mm");
+            println!("{which}: {:?}", b.fitted.status);
+            tally.add(&b.fitted.status, right, &which);
+        }
+    }
+    let Tally { ok, right_refused } = tally;
+    println!("{ok} of 12 ok, {right_refused} right but refused");
+    assert!(
+        ok >= 7 && right_refused <= 3,
+        "{ok} ok, {right_refused} right but refused"
+    );
+}
+
 /// The same cloth filmed with sensor noise of σ 6 grey levels (three times the default): each
 /// boundary's place scatters by 0.05–0.1 px, which the outline's own residual differences
 /// show, and the residual limits widen by it. Every `ok` is right, and a camera turned by 0.2°
