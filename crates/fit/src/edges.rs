@@ -165,6 +165,21 @@ impl<'a> EdgeImage<'a> {
         Some(d)
     }
 
+    /// As [`EdgeImage::difference`], widening `range` (per channel, least and most) to take in
+    /// the background of the four pixels read.
+    fn difference_within(&self, p: Vector2<f64>, range: &mut BackdropRange) -> Option<[f32; 3]> {
+        let mut d = [0f32; 3];
+        for (k, w) in self.corners(p)? {
+            let bg = self.background[k];
+            for c in 0..3 {
+                d[c] += w * (self.pixels[3 * k + c] as f32 - bg[c]);
+                range.0[c] = range.0[c].min(bg[c]);
+                range.1[c] = range.1[c].max(bg[c]);
+            }
+        }
+        Some(d)
+    }
+
     /// `E` at a sub-pixel position (bilinear), black outside the image. Only the unmixing needs
     /// it, and only at the few samples it reads: computed on demand.
     #[inline]
@@ -204,30 +219,6 @@ impl<'a> EdgeImage<'a> {
                 w * per_pixel(&d, &e)
             })
             .sum()
-    }
-
-    /// Whether the backdrop changes, over the pixels that the samples within
-    /// [`VARYING_REACH`] of sample `k` read, by more than [`MAX_BACKDROP_CHANGE`] of the
-    /// tube's `contrast` against it: then [`EdgeImage::pixelwise`] reads the crossing.
-    fn backdrop_varies(
-        &self,
-        k: usize,
-        count: usize,
-        at: &impl Fn(usize) -> Vector2<f64>,
-        contrast: f32,
-    ) -> bool {
-        let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
-        let last = (k + VARYING_REACH).min(count - 1);
-        for j in k.saturating_sub(VARYING_REACH)..=last {
-            for (i, _) in self.corners(at(j)).into_iter().flatten() {
-                for c in 0..3 {
-                    lo[c] = lo[c].min(self.background[i][c]);
-                    hi[c] = hi[c].max(self.background[i][c]);
-                }
-            }
-        }
-        let change: [f32; 3] = std::array::from_fn(|c| (hi[c] - lo[c]).max(0.0));
-        norm2(&change) > (MAX_BACKDROP_CHANGE * contrast).powi(2)
     }
 
     /// Where some of the line's outer samples (`diffs`, `I − E`, from outside inward, up to the
@@ -323,8 +314,9 @@ impl<'a> EdgeImage<'a> {
         }
         // diffs[k] is at t = (outer − k)·STEP: from outside inward.
         let at = |k: usize| origin + direction * ((outer - k as i32) as f64 * STEP);
+        let mut range: BackdropRange = ([f32::MAX; 3], [f32::MIN; 3]);
         for (k, d) in diffs[..count].iter_mut().enumerate() {
-            *d = self.difference(at(k))?;
+            *d = self.difference_within(at(k), &mut range)?;
         }
         // The surface colour: first the strongest difference at or inside the predicted
         // outline; then the colour just inside the boundary found with it (a band's edge or
@@ -368,7 +360,7 @@ impl<'a> EdgeImage<'a> {
                 let (near, _) = crossing(count, &projected)?;
                 let coverage = |k: usize| unmix(&diffs[k], &bg(k));
                 let found = crossing_near(near, count, coverage)?;
-                if self.backdrop_varies(found.0, count, &at, contrast) {
+                if backdrop_varies(&range, contrast) {
                     let coverage = |k: usize| self.pixelwise(at(k), shadow(k), &unmix);
                     let found = crossing_near(found.0, count, coverage)?;
                     (found, ramp(found.0, count, coverage))
@@ -390,7 +382,7 @@ impl<'a> EdgeImage<'a> {
                     .unwrap_or(surface);
                 let projected = projection(diffs, &diffs[rim], min_contrast)?;
                 let found = crossing(count, &projected)?;
-                if self.backdrop_varies(found.0, count, &at, contrast) {
+                if backdrop_varies(&range, contrast) {
                     // The rim's own colour, projected on against each pixel's backdrop.
                     let e = bg(rim);
                     let colour: [f32; 3] = std::array::from_fn(|c| diffs[rim][c] + e[c]);
@@ -411,16 +403,20 @@ impl<'a> EdgeImage<'a> {
         // Each of the four pixels a sample reads is asked, not their bilinear mix: beside
         // such a backdrop's edge the mix still differs, but what it is mixed from does not.
         let reach = (k + INSIDE).min(count - 1);
-        let seen = (0..=reach).all(|j| {
-            let shadow = lit.as_ref().map_or(1.0, |lit| lit[j]);
-            self.corners(at(j)).is_some_and(|corners| {
-                corners.iter().all(|&(i, _)| {
-                    let e = self.background[i];
-                    let d: [f32; 3] = std::array::from_fn(|c| raw[c] - shadow * e[c]);
-                    norm2(&d) as f64 >= min_contrast * min_contrast
+        // Most lines' backdrop is far from the surface's colour all along: said by the range
+        // of the pixels read, without reading them again.
+        let far = lit.is_none() && f64::from(distance_to_range(&raw, &range)) >= min_contrast;
+        let seen = far
+            || (0..=reach).all(|j| {
+                let shadow = lit.as_ref().map_or(1.0, |lit| lit[j]);
+                self.corners(at(j)).is_some_and(|corners| {
+                    corners.iter().all(|&(i, _)| {
+                        let e = self.background[i];
+                        let d: [f32; 3] = std::array::from_fn(|c| raw[c] - shadow * e[c]);
+                        norm2(&d) as f64 >= min_contrast * min_contrast
+                    })
                 })
-            })
-        });
+            });
         let edge = Edge {
             offset: (outer - k as i32 + 1) as f64 * STEP - frac * STEP,
             contrast: (norm2(&diffs[surface]) as f64).sqrt(),
@@ -431,11 +427,28 @@ impl<'a> EdgeImage<'a> {
     }
 }
 
-/// Samples on either side of a crossing whose pixels [`EdgeImage::backdrop_varies`] asks:
-/// 1.5 px, the bilinear reading's reach and a pixel's blur.
-const VARYING_REACH: usize = 3;
+/// The least and the most background colour (per channel) over the pixels a search line
+/// reads.
+type BackdropRange = ([f32; 3], [f32; 3]);
 
-/// Largest change of the backdrop around a crossing, as a share of the tube's contrast
+/// Whether the backdrop changes along a line, over the pixels its samples read (`range`), by
+/// more than [`MAX_BACKDROP_CHANGE`] of the tube's `contrast` against it: then
+/// [`EdgeImage::pixelwise`] reads the crossing.
+fn backdrop_varies(range: &BackdropRange, contrast: f32) -> bool {
+    let change: [f32; 3] = std::array::from_fn(|c| (range.1[c] - range.0[c]).max(0.0));
+    norm2(&change) > (MAX_BACKDROP_CHANGE * contrast).powi(2)
+}
+
+/// The distance from `colour` to the nearest colour within `range` (per channel between its
+/// least and most): every background in the range differs from `colour` by at least that.
+fn distance_to_range(colour: &[f32; 3], range: &BackdropRange) -> f32 {
+    let d: [f32; 3] = std::array::from_fn(|c| {
+        colour[c] - colour[c].clamp(range.0[c], range.1[c].max(range.0[c]))
+    });
+    norm2(&d).sqrt()
+}
+
+/// Largest change of the backdrop along a search line, as a share of the tube's contrast
 /// against it, that the bilinear reading of `I − E` is left to: it moves the boundary by
 /// about a quarter of that share of a pixel at most (a cloth's grain, a few percent, by
 /// well under a hundredth).
