@@ -72,6 +72,12 @@ impl Layout {
         self.root.join("truth").join(format!("{frame:06}.json"))
     }
 
+    /// `DIR/truth/rig.toml`: the true rig of a simulated recording whose calibration was
+    /// written off on purpose (its camera files beside it, `DIR/truth/calibration/`).
+    pub fn true_rig(&self) -> PathBuf {
+        self.root.join("truth").join("rig.toml")
+    }
+
     /// `DIR/truth/masks/<cam>/<frame:06>.png`.
     pub fn truth_mask(&self, cam: &str, frame: u64) -> PathBuf {
         self.root

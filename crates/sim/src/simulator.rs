@@ -218,6 +218,17 @@ impl Simulator {
         for (cam, bg) in self.rig.cameras.iter().zip(self.backgrounds()) {
             writer.write_background(&cam.name, &bg)?;
         }
+        // A calibration written off on purpose: the truth holds the cameras as they are.
+        if self.config.rig.calibration_error_px > 0.0 {
+            let truth = Rig {
+                processing: self.rig.processing.clone(),
+                ..self.config.rig.true_rig()?
+            };
+            let path = flexshape_recording::Layout::new(dir).true_rig();
+            truth
+                .save(&path)
+                .map_err(|e| SimError::Recording(e.into()))?;
+        }
         Ok(writer)
     }
 

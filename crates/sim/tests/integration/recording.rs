@@ -84,6 +84,29 @@ fn recording_round_trips() {
 }
 
 #[test]
+fn a_calibration_written_off_keeps_the_true_rig_in_the_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = SimConfig::default();
+    config.rig.calibration_error_px = 2.0;
+    let sim = Simulator::new(config.clone()).unwrap();
+    sim.write_recording(dir.path(), &sim.sweep(1), false, |_| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let rec = RecordingReader::open(dir.path()).unwrap();
+    assert_eq!(rec.rig(), sim.rig());
+    let truth = flexshape_rig::Rig::load(&dir.path().join("truth/rig.toml")).unwrap();
+    let true_rig = config.rig.true_rig().unwrap();
+    assert_eq!(truth.cameras, true_rig.cameras);
+    assert_ne!(truth.cameras, rec.rig().cameras);
+    assert_eq!(truth.processing, rec.rig().processing);
+    // An exact calibration writes no second rig.
+    let exact = tempfile::tempdir().unwrap();
+    write(exact.path(), 1);
+    assert!(!exact.path().join("truth/rig.toml").exists());
+}
+
+#[test]
 fn broken_recordings_name_the_problem() {
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), 2);
