@@ -765,6 +765,10 @@ pub struct SimArgs {
         default_value_t = 0.0
     )]
     pub calibration_error: f64,
+    /// With --calibration-error: only these cameras are off (indices from 0, comma-separated;
+    /// default every camera), e.g. `2` for one camera knocked after calibration.
+    #[arg(long, value_name = "K,…", value_delimiter = ',')]
+    pub miscalibrated: Vec<usize>,
     /// Rays per pixel side when rendering (default 4: 16 rays per pixel). 2 renders about
     /// twice as fast with softer edges.
     #[arg(long, value_name = "N")]

@@ -41,6 +41,10 @@ pub struct SimRigConfig {
     /// rendered through the true cameras. 0: the calibration is exact.
     #[serde(default)]
     pub calibration_error_px: f64,
+    /// The cameras (rig indices) whose calibration is off by `calibration_error_px`; empty:
+    /// every camera (a camera knocked after calibration: only that one).
+    #[serde(default)]
+    pub miscalibrated: Vec<usize>,
 }
 
 impl Default for SimRigConfig {
@@ -56,6 +60,7 @@ impl Default for SimRigConfig {
             seed: 7,
             volume: Volume::default(),
             calibration_error_px: 0.0,
+            miscalibrated: Vec::new(),
         }
     }
 }
@@ -83,6 +88,12 @@ impl SimRigConfig {
             return Err(config_error(
                 "calibration_error_px",
                 "must be a non-negative number of pixels",
+            ));
+        }
+        if let Some(k) = self.miscalibrated.iter().find(|&&k| k >= self.cameras) {
+            return Err(config_error(
+                "miscalibrated",
+                format!("camera {k} is not in a rig of {} cameras", self.cameras),
             ));
         }
         if self.distortion.iter().any(|d| !d.is_finite()) {
@@ -160,15 +171,19 @@ impl SimRigConfig {
     }
 
     /// The cameras as calibrated: [`SimRigConfig::cameras`] with the calibration error
-    /// [`SimRigConfig::calibration_error_px`] (the same cameras when it is 0).
+    /// [`SimRigConfig::calibration_error_px`] on [`SimRigConfig::miscalibrated`] (the same
+    /// cameras when it is 0). Each camera's error is its own whichever others are off.
     pub fn calibrated_cameras(&self) -> Result<Vec<(String, Camera)>, SimError> {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(self.seed ^ 0xCA11_B0FF);
         let mut cameras = self.cameras()?;
         if self.calibration_error_px == 0.0 {
             return Ok(cameras);
         }
-        for (_, camera) in &mut cameras {
+        for (k, (_, camera)) in cameras.iter_mut().enumerate() {
             let across = rng.random_range(0.0..std::f64::consts::TAU);
+            if !(self.miscalibrated.is_empty() || self.miscalibrated.contains(&k)) {
+                continue;
+            }
             let axis = Unit::new_normalize(Vector3::new(across.cos(), across.sin(), 0.0));
             let angle = self.calibration_error_px / camera.intrinsics.fx;
             // Turned about its own centre (camera frame): x' = δR·(R·X + t).
@@ -240,6 +255,21 @@ mod tests {
         assert!(
             directions[0].dot(&directions[2]) < 0.99 && directions[2].dot(&directions[4]) < 0.99
         );
+        // One camera knocked: only it is off, the same way as when all are.
+        let one = SimRigConfig {
+            miscalibrated: vec![2],
+            ..off.clone()
+        };
+        let knocked = one.calibrated_cameras().unwrap();
+        assert_eq!(knocked[0], truth[0]);
+        assert_eq!(knocked[1], truth[1]);
+        assert_eq!(knocked[2], calibrated[2]);
+        let absent = SimRigConfig {
+            miscalibrated: vec![3],
+            ..off.clone()
+        };
+        let err = absent.rig().unwrap_err().to_string();
+        assert!(err.contains("miscalibrated"), "{err}");
         let bad = SimRigConfig {
             calibration_error_px: -1.0,
             ..exact

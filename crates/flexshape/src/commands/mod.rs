@@ -95,6 +95,7 @@ fn sim_config(args: &SimArgs) -> SimConfig {
             height,
             focal: args.focal.unwrap_or(800.0 * width as f64 / 640.0),
             calibration_error_px: args.calibration_error,
+            miscalibrated: args.miscalibrated.clone(),
             ..defaults.rig
         },
         render: RenderSettings {
