@@ -155,14 +155,7 @@ impl<'a> EdgeImage<'a> {
 
     /// `I − E` at a sub-pixel position (bilinear), or `None` outside the image.
     pub(crate) fn difference(&self, p: Vector2<f64>) -> Option<[f32; 3]> {
-        let mut d = [0f32; 3];
-        for (k, w) in self.corners(p)? {
-            let bg = self.background[k];
-            for c in 0..3 {
-                d[c] += w * (self.pixels[3 * k + c] as f32 - bg[c]);
-            }
-        }
-        Some(d)
+        self.difference_within(p, &mut ([f32::MAX; 3], [f32::MIN; 3]))
     }
 
     /// As [`EdgeImage::difference`], widening `range` (per channel, least and most) to take in
@@ -333,14 +326,10 @@ impl<'a> EdgeImage<'a> {
             None
         };
         let diffs = &diffs[..count];
-        // The backdrop's colour at sample `k`, in the shadow where one lies beside the tube.
-        let bg = |k: usize| {
-            let e = self.background_at(at(k));
-            match &lit {
-                Some(lit) => e.map(|v| v * lit[k]),
-                None => e,
-            }
-        };
+        // The share of the backdrop's light at sample `k`, less in the shadow where one lies
+        // beside the tube, and the backdrop's colour there.
+        let shadow = |k: usize| lit.as_ref().map_or(1.0, |lit| lit[k]);
+        let bg = |k: usize| self.background_at(at(k)).map(|v| v * shadow(k));
         let (k, _) = crossing(count, projection(diffs, &diffs[strongest], min_contrast)?)?;
         let local = (k + INSIDE).min(count - 1);
         let surface = if norm2(&diffs[local]) >= min_contrast.powi(2) as f32 {
@@ -351,8 +340,9 @@ impl<'a> EdgeImage<'a> {
         let projected = projection(diffs, &diffs[surface], min_contrast)?;
         let inside_colour = bg(surface);
         let raw = std::array::from_fn(|c| diffs[surface][c] + inside_colour[c]);
-        let shadow = |k: usize| lit.as_ref().map_or(1.0, |lit| lit[k]);
-        let contrast = norm2(&diffs[surface]).sqrt();
+        let contrast = (norm2(&diffs[surface]) as f64).sqrt();
+        // Read pixel by pixel where the backdrop changes along the line.
+        let varies = backdrop_varies(&range, contrast as f32);
         let ((k, frac), ramp) = match unmixing(raw, &bg(0), min_contrast) {
             Some(unmix) => {
                 // The unmixed crossing lies near the projected one (shading moves it by a
@@ -360,7 +350,7 @@ impl<'a> EdgeImage<'a> {
                 let (near, _) = crossing(count, &projected)?;
                 let coverage = |k: usize| unmix(&diffs[k], &bg(k));
                 let found = crossing_near(near, count, coverage)?;
-                if backdrop_varies(&range, contrast) {
+                if varies {
                     let coverage = |k: usize| self.pixelwise(at(k), shadow(k), &unmix);
                     let found = crossing_near(found.0, count, coverage)?;
                     (found, ramp(found.0, count, coverage))
@@ -382,7 +372,7 @@ impl<'a> EdgeImage<'a> {
                     .unwrap_or(surface);
                 let projected = projection(diffs, &diffs[rim], min_contrast)?;
                 let found = crossing(count, &projected)?;
-                if backdrop_varies(&range, contrast) {
+                if varies {
                     // The rim's own colour, projected on against each pixel's backdrop.
                     let e = bg(rim);
                     let colour: [f32; 3] = std::array::from_fn(|c| diffs[rim][c] + e[c]);
@@ -418,7 +408,7 @@ impl<'a> EdgeImage<'a> {
             });
         let edge = Edge {
             offset: (outer - k as i32 + 1) as f64 * STEP - frac * STEP,
-            contrast: (norm2(&diffs[surface]) as f64).sqrt(),
+            contrast,
             lighter: diffs[surface].iter().sum::<f32>() > 0.0,
             ramp,
         };

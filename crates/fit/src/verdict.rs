@@ -473,7 +473,7 @@ impl TubeFitter {
         if c.samples == 0 || c.end_samples < END_SAMPLES {
             return None;
         }
-        let found = c.end_found as f64 / c.end_samples.saturating_sub(c.end_unseen).max(1) as f64;
+        let found = seen_share(c.end_found, c.end_samples, c.end_unseen);
         let limit = residual_limit(s, c);
         (found < s.min_found || o.end_residual > limit).then(|| format!(
             "camera {}: the outline around the tube's free end is not where the image shows it (boundary found at {}/{} samples, residual {:.2} px RMS; limits {:.0} %, {limit:.2} px{}): the tip has moved farther than the fit could follow, or is hidden",
@@ -501,7 +501,7 @@ fn found_too_rarely(c: &CameraCheck, min_found: f64) -> Option<String> {
             (1.0 - min_found) * 100.0
         ));
     }
-    let found = c.found as f64 / seen.max(1) as f64;
+    let found = seen_share(c.found, c.samples, c.unseen);
     (found < min_found).then(|| {
         let over = if c.unseen > 0 {
             format!(" where the backdrop differs from the tube ({} of {seen})", c.found)
@@ -514,6 +514,12 @@ fn found_too_rarely(c: &CameraCheck, min_found: f64) -> Option<String> {
             min_found * 100.0
         )
     })
+}
+
+/// The share of `samples` less the `unseen` ones where a boundary was `found` (0 when none
+/// was seen).
+fn seen_share(found: usize, samples: usize, unseen: usize) -> f64 {
+    found as f64 / samples.saturating_sub(unseen).max(1) as f64
 }
 
 /// The 90th percentile of a normal scatter's sizes, in standard deviations.

@@ -784,6 +784,15 @@ pub enum PlateArg {
     Chessboard,
 }
 
+impl From<PlateArg> for flexshape_sim::PlatePattern {
+    fn from(p: PlateArg) -> Self {
+        match p {
+            PlateArg::Dots => flexshape_sim::PlatePattern::Dots,
+            PlateArg::Chessboard => flexshape_sim::PlatePattern::Chessboard,
+        }
+    }
+}
+
 #[derive(Debug, Args)]
 #[command(args_conflicts_with_subcommands = true)]
 pub struct SimulateArgs {

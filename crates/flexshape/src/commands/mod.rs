@@ -108,12 +108,7 @@ fn sim_config(args: &SimArgs) -> SimConfig {
                 .unwrap_or(defaults.render.backdrop_albedo),
             fold_depth: args.fold_depth,
             fold_shift_mm: args.fold_shift,
-            plate: args.plate.map(|p| {
-                flexshape_sim::Plate::new(match p {
-                    crate::cli::PlateArg::Dots => flexshape_sim::PlatePattern::Dots,
-                    crate::cli::PlateArg::Chessboard => flexshape_sim::PlatePattern::Chessboard,
-                })
-            }),
+            plate: args.plate.map(|p| flexshape_sim::Plate::new(p.into())),
             ..defaults.render
         },
         catheter: Catheter {
