@@ -45,14 +45,26 @@ pub struct CameraCheck {
     /// nearly all of its outline within a few tenths of a pixel, whatever a few outliers do to
     /// the RMS.
     pub p90_px: f64,
-    /// The scatter one boundary's place has from the image alone (its noise against the
-    /// tube's contrast there), pixels, read from the outline itself: the median difference
-    /// between neighbouring samples' residuals along each side over 0.6745·√2, where what a
-    /// wrong shape or calibration puts off the outline, smooth along it, cancels (0 with
-    /// fewer than 10 pairs). The outline's residual limits widen by it in quadrature (the
-    /// 90th percentile's by 1.645 times it).
+    /// The scatter one boundary's place has from the image alone, pixels: the RMS over the
+    /// outline of each boundary's own — a floor every boundary has, and the image's noise
+    /// over the grey levels its coverage is read from (the tube's contrast against the
+    /// backdrop behind that boundary) — read from the outline itself, from the differences
+    /// between neighbouring samples' residuals along each side, where what a wrong shape or
+    /// calibration puts off the outline, smooth along it, cancels (0 with fewer than 10
+    /// pairs). The residual RMS limits widen by it in quadrature.
     #[serde(default)]
     pub noise_px: f64,
+    /// The least and the most of the boundaries' own scatter over the outline, pixels (equal
+    /// where the tube's contrast is the same all along).
+    #[serde(default)]
+    pub noise_range_px: [f64; 2],
+    /// The share of the outline (by the length each sample stands for, among the samples
+    /// where a boundary was found) whose residual's size lies beyond its own limit,
+    /// `max_p90_px` widened in quadrature by 1.645 times that boundary's scatter: a fit that
+    /// explains the image keeps at least nine tenths of its outline within it (with one
+    /// scatter for the whole outline, the same as a 90th percentile within one limit).
+    #[serde(default)]
+    pub outlying_share: f64,
     /// Overlap of the re-rendered tube with the silhouette (intersection over union).
     pub iou: f64,
     /// The least overlap this view allows: the setting's `min_iou`, or for a tube imaged
@@ -86,9 +98,14 @@ pub struct CameraCheck {
     /// Of those, samples against a backdrop of the tube's colour (as `unseen`).
     #[serde(default)]
     pub end_unseen: usize,
-    /// RMS of their residuals, pixels.
+    /// RMS of their residuals, pixels, over all but the tenth farthest off (the whole
+    /// outline, too, may keep a tenth beyond its limits).
     #[serde(default)]
     pub end_residual_px: f64,
+    /// The RMS of their boundaries' own scatter, pixels (as `noise_px`), by which their
+    /// residual limit widens.
+    #[serde(default)]
+    pub end_noise_px: f64,
     /// Samples of each capped end's rounded outline (proximal end, tip) where a boundary was
     /// found: where this camera sees the cap. An end the tube hides in this view (the tip
     /// folded over the shaft, or seen end-on) has none or few.
@@ -140,6 +157,10 @@ pub struct OutlineResiduals {
     pub p90_px: f64,
     /// Their RMS around the tube's free ends.
     pub end_residual_px: f64,
+    /// The share of the outline whose size lies beyond its own limit
+    /// ([`CameraCheck::outlying_share`]).
+    #[serde(default)]
+    pub outlying_share: f64,
 }
 
 /// The samples of each end's cap outline (proximal end, tip) in `measured` where a boundary
@@ -157,21 +178,44 @@ pub(crate) fn cap_found(measured: &[Measured]) -> [usize; 2] {
 /// Residual statistics of one camera's measured outline: samples, found, RMS and mean, each
 /// sample weighted by the outline length it stands for (a tube seen end-on crowds many
 /// samples into a few pixels).
-pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
+/// Each sample's size is held to `max_p90` widened by its boundary's `scatter`
+/// ([`CameraCheck::outlying_share`]). The RMS are over the `kept` share of the outline
+/// best explained (1: all of it).
+pub(crate) fn residual_stats(
+    measured: &[Measured],
+    scatter: &Scatter,
+    max_p90: f64,
+    kept: f64,
+) -> Residuals {
+    let limit = |m: &Measured| noisy_limit(max_p90, scatter.at(m.contrast), Z90);
     let found = || measured.iter().filter(|m| m.residual.is_some());
     let w = found().map(|m| m.point.weight).sum::<f64>().max(1e-12);
     let residual = |m: &Measured| m.residual.unwrap_or(0.0);
     let mut sizes: Vec<(f64, f64)> = Vec::with_capacity(measured.len());
     let mut spread = |size: &dyn Fn(&Measured) -> f64| {
+        let outlying = found()
+            .filter(|m| size(m) > limit(m))
+            .fold(0.0, |acc, m| acc + m.point.weight)
+            / w;
         sizes.clear();
         sizes.extend(found().map(|m| (size(m), m.point.weight)));
-        let rms = (sizes.iter().map(|(r, k)| k * r * r).sum::<f64>() / w).sqrt();
-        (rms, weighted_quantile(&mut sizes, 0.9, w))
+        let p90 = weighted_quantile(&mut sizes, 0.9, w);
+        // Over the smallest `kept` of the weight (sorted by now).
+        let (mut sum, mut acc) = (0.0, 0.0);
+        for &(r, k) in sizes.iter() {
+            if acc >= kept * w {
+                break;
+            }
+            sum += k * r * r;
+            acc += k;
+        }
+        ((sum / acc.max(1e-12)).sqrt(), p90, outlying)
     };
-    let (rms, p90) = spread(&|m| residual(m).abs());
-    let (rms_beyond, p90_beyond) =
+    let (rms, p90, outlying) = spread(&|m| residual(m).abs());
+    let (rms_beyond, p90_beyond, outlying_beyond) =
         spread(&|m| (residual(m).abs() - blur_allowance(m.ramp)).max(0.0));
-    let (rms_with, p90_with) = spread(&|m| residual(m).abs() + blur_allowance(m.ramp));
+    let (rms_with, p90_with, outlying_with) =
+        spread(&|m| residual(m).abs() + blur_allowance(m.ramp));
     // Over the boundaries whose rise was measured (one that never reaches ¾ has none).
     sizes.clear();
     sizes.extend(found().filter_map(|m| Some((m.ramp?, m.point.weight))));
@@ -190,6 +234,8 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
         rms,
         mean,
         p90,
+        outlying,
+        noise: scatter.over(measured),
         shift: shift(measured),
         lighter,
         ramp,
@@ -197,44 +243,130 @@ pub(crate) fn residual_stats(measured: &[Measured]) -> Residuals {
             residual_px: rms_beyond,
             p90_px: p90_beyond,
             end_residual_px: 0.0,
+            outlying_share: outlying_beyond,
         },
         with_blur: OutlineResiduals {
             residual_px: rms_with,
             p90_px: p90_with,
             end_residual_px: 0.0,
+            outlying_share: outlying_with,
         },
     }
 }
 
-/// Fewest pairs of neighbouring side samples that give [`boundary_noise`].
+/// Fewest pairs of neighbouring side samples that give a [`Scatter`].
 const NOISE_PAIRS: usize = 10;
 
-/// The scatter of one boundary's place that comes from the image alone, pixels (the image's
-/// noise against the tube's contrast, through the edge's rise): from the differences between
-/// neighbouring samples' residuals along each side of the outline. Samples are a few pixels
-/// apart, so each is a reading of other pixels, while what a wrong shape or calibration puts
-/// off the outline changes smoothly along it and cancels in the difference. The median size
-/// of the differences over 0.6745·√2 (a normal scatter's), which a few boundaries pulled off
-/// (a shadow's edge, a crossing) hardly move. 0 with fewer than [`NOISE_PAIRS`] pairs.
-pub(crate) fn boundary_noise(measured: &[Measured]) -> f64 {
-    let mut steps = Vec::new();
-    for side in [-1.0, 1.0] {
-        let mut along: Vec<(f64, f64)> = measured
-            .iter()
-            .filter(|m| matches!(m.point.part, crate::outline::Part::Side(_)))
-            .filter(|m| m.point.which == side)
-            .filter_map(|m| Some((m.point.u, m.residual?)))
-            .collect();
-        along.sort_by(|a, b| a.0.total_cmp(&b.0));
-        steps.extend(along.windows(2).map(|w| (w[1].1 - w[0].1).abs()));
+/// How far one boundary's place scatters from the image alone, pixels: a floor every
+/// boundary has (its sub-pixel phase, the shading the reading leaves) and the image's noise
+/// over the grey levels its coverage is read from ([`Measured::contrast`]), through the
+/// edge's slope. Over a backdrop of several colours (a chessboard under the tube) a boundary
+/// over a square of nearly the tube's colour scatters several times as far as one over a
+/// square far from it, and one figure for the outline holds the first to the second's.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct Scatter {
+    /// The floor, pixels.
+    pub floor: f64,
+    /// The noise's part at a contrast of one grey level, pixels × grey levels.
+    pub grey: f64,
+}
+
+impl Scatter {
+    /// Read from the outline itself: the differences between neighbouring samples' residuals
+    /// along each side. Samples are a few pixels apart, so each is a reading of other pixels,
+    /// while what a wrong shape or calibration puts off the outline changes smoothly along it
+    /// and cancels in the difference. A difference scatters by `σᵢ² + σⱼ²`, `2·floor² +
+    /// grey²·h` with `h = 1/Cᵢ² + 1/Cⱼ²`: the pairs are split at the median `h`, and each
+    /// half's median difference (over 0.6745, a normal scatter's), against its median `h`,
+    /// gives the two — medians, which a few boundaries pulled off (a shadow's edge, a
+    /// crossing) hardly move. Where the contrast hardly varies (the halves' `h` within half
+    /// again of each other) or the noise does not grow as it falls, the scatter is one figure
+    /// for every boundary, the median difference over 0.6745·√2. Nothing (0) with fewer than
+    /// [`NOISE_PAIRS`] pairs.
+    pub(crate) fn of(measured: &[Measured]) -> Scatter {
+        let mut pairs: Vec<(f64, f64)> = Vec::new();
+        let faint = |c: f64| 1.0 / c.max(1.0).powi(2);
+        for side in [-1.0, 1.0] {
+            let mut along: Vec<(f64, f64, f64)> = measured
+                .iter()
+                .filter(|m| matches!(m.point.part, crate::outline::Part::Side(_)))
+                .filter(|m| m.point.which == side)
+                .filter_map(|m| Some((m.point.u, m.residual?, m.contrast)))
+                .collect();
+            along.sort_by(|a, b| a.0.total_cmp(&b.0));
+            pairs.extend(
+                along
+                    .windows(2)
+                    .map(|w| ((w[1].1 - w[0].1).abs(), faint(w[0].2) + faint(w[1].2))),
+            );
+        }
+        if pairs.len() < NOISE_PAIRS {
+            return Scatter::default();
+        }
+        let variance = |d: f64| (d / 0.6745).powi(2);
+        let one_figure = |pairs: &[(f64, f64)]| Scatter {
+            floor: (variance(median(pairs.iter().map(|p| p.0))) / 2.0).sqrt(),
+            grey: 0.0,
+        };
+        pairs.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let (low, high) = pairs.split_at(pairs.len() / 2);
+        let half = |ps: &[(f64, f64)]| {
+            (
+                variance(median(ps.iter().map(|p| p.0))),
+                median(ps.iter().map(|p| p.1)),
+            )
+        };
+        let ((v_low, h_low), (v_high, h_high)) = (half(low), half(high));
+        if h_high <= 1.5 * h_low || v_high <= v_low {
+            return one_figure(&pairs);
+        }
+        let grey2 = (v_high - v_low) / (h_high - h_low);
+        let floor2 = (v_low - grey2 * h_low) / 2.0;
+        if floor2 < 0.0 {
+            // The noise alone: every difference over its own root of `h`.
+            let grey = median(pairs.iter().map(|p| p.0 / p.1.sqrt())) / 0.6745;
+            return Scatter { floor: 0.0, grey };
+        }
+        Scatter {
+            floor: floor2.sqrt(),
+            grey: grey2.sqrt(),
+        }
     }
-    if steps.len() < NOISE_PAIRS {
+
+    /// The scatter of a boundary read from `contrast` grey levels, pixels.
+    pub(crate) fn at(&self, contrast: f64) -> f64 {
+        self.floor.hypot(self.grey / contrast.max(1.0))
+    }
+
+    /// The RMS of the scatter over `measured`'s found samples, each weighted by the outline
+    /// it stands for, and its least and most there, pixels (0 for none).
+    pub(crate) fn over(&self, measured: &[Measured]) -> (f64, [f64; 2]) {
+        let (mut sum, mut w, mut range) = (0.0, 0.0, [f64::INFINITY, 0.0f64]);
+        for m in measured.iter().filter(|m| m.residual.is_some()) {
+            let s = self.at(m.contrast);
+            sum += m.point.weight * s * s;
+            w += m.point.weight;
+            range = [range[0].min(s), range[1].max(s)];
+        }
+        if w <= 0.0 {
+            return (0.0, [0.0; 2]);
+        }
+        ((sum / w).sqrt(), range)
+    }
+}
+
+/// The median of `values` (0 for none).
+fn median(values: impl Iterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.collect();
+    if v.is_empty() {
         return 0.0;
     }
-    let mid = steps.len() / 2;
-    let (_, median, _) = steps.select_nth_unstable_by(mid, f64::total_cmp);
-    *median / (0.6745 * std::f64::consts::SQRT_2)
+    let mid = v.len() / 2;
+    *v.select_nth_unstable_by(mid, f64::total_cmp).1
 }
+
+/// The 90th percentile of a normal scatter's sizes, in standard deviations.
+pub(crate) const Z90: f64 = 1.645;
 
 /// A residual limit (`limit`, what the setting allows a right shape on a quiet image) widened
 /// by what noise of `noise` pixels adds to the statistic in quadrature, `z` of it (1 for an
@@ -297,9 +429,24 @@ fn shift(measured: &[Measured]) -> [f64; 2] {
     a.try_inverse().map_or([0.0; 2], |inv| (inv * b).into())
 }
 
+/// The share of the outline around the free ends whose residuals' RMS is checked: all but the
+/// tenth farthest off, as the whole outline may keep a tenth beyond its limits
+/// ([`CameraCheck::outlying_share`]). An end has a dozen samples or so, and where the tube is
+/// faint against the backdrop (a dark tip over a black square) one of them may be read
+/// several pixels off, which alone lifts their RMS past its limit; an end that is not where
+/// the image has it is off at most of them.
+const END_KEPT: f64 = 0.9;
+
 /// Residual statistics of the outline samples around `tube`'s capped ends: the caps and the
-/// sides within two radii of them (`length` the centerline's, mm).
-pub(crate) fn end_stats(measured: &[Measured], tube: &Tube, length: f64) -> Residuals {
+/// sides within two radii of them (`length` the centerline's, mm); the RMS over
+/// [`END_KEPT`] of them.
+pub(crate) fn end_stats(
+    measured: &[Measured],
+    tube: &Tube,
+    length: f64,
+    scatter: &Scatter,
+    max_p90: f64,
+) -> Residuals {
     let reach = 2.0 * tube.radius / length.max(1e-9);
     let near_end: Vec<Measured> = measured
         .iter()
@@ -311,7 +458,7 @@ pub(crate) fn end_stats(measured: &[Measured], tube: &Tube, length: f64) -> Resi
         })
         .copied()
         .collect();
-    residual_stats(&near_end)
+    residual_stats(&near_end, scatter, max_p90, END_KEPT)
 }
 
 /// Residual statistics of one camera's outline.
@@ -323,6 +470,10 @@ pub(crate) struct Residuals {
     pub rms: f64,
     pub mean: f64,
     pub p90: f64,
+    /// [`CameraCheck::outlying_share`].
+    pub outlying: f64,
+    /// [`CameraCheck::noise_px`] and [`CameraCheck::noise_range_px`].
+    pub noise: (f64, [f64; 2]),
     /// [`CameraCheck::shift_px`].
     pub shift: [f64; 2],
     /// [`CameraCheck::lighter_share`].
@@ -747,9 +898,15 @@ mod tests {
     use super::*;
 
     /// Residuals along both sides (100 samples each): a smooth error of the shape (up to
-    /// 0.6 px, what a wrong shape or calibration gives) plus normal noise of `sigma` px
-    /// (Box–Muller from a linear congruential sequence), and a few boundaries pulled 2 px off.
-    fn outline(sigma: f64, pulled: usize) -> Vec<Measured> {
+    /// `smooth` px, what a wrong shape or calibration gives) plus normal noise of `sigma(C)` px
+    /// for a boundary read from `contrast(k)` grey levels (Box–Muller from a linear
+    /// congruential sequence), and a few boundaries pulled 2 px off.
+    fn outline_over(
+        smooth: f64,
+        contrast: impl Fn(usize) -> f64,
+        sigma: impl Fn(f64) -> f64,
+        pulled: usize,
+    ) -> Vec<Measured> {
         let mut x = 7u64;
         let mut uniform = || {
             x = x
@@ -767,18 +924,27 @@ mod tests {
                 } else {
                     0.0
                 };
-                let r = 0.6 * (3.0 * u).sin() * side + sigma * n + pull;
-                out.push(crate::solve::made_up::side(u, side, Some(r)));
+                let c = contrast(k);
+                let r = smooth * (3.0 * u).sin() * side + sigma(c) * n + pull;
+                let mut m = crate::solve::made_up::side(u, side, Some(r));
+                m.contrast = c;
+                out.push(m);
             }
         }
         out
     }
 
+    /// [`outline_over`] a backdrop of one colour (150 grey levels from the tube), `sigma` px
+    /// of noise and a smooth error of 0.6 px.
+    fn outline(sigma: f64, pulled: usize) -> Vec<Measured> {
+        outline_over(0.6, |_| 150.0, |_| sigma, pulled)
+    }
+
     #[test]
-    fn boundary_noise_reads_the_scatter_not_the_shapes_error() {
+    fn the_scatter_is_read_from_the_noise_not_the_shapes_error() {
         for sigma in [0.05, 0.1, 0.2] {
-            let got = boundary_noise(&outline(sigma, 0));
-            let pulled = boundary_noise(&outline(sigma, 6));
+            let got = Scatter::of(&outline(sigma, 0)).at(150.0);
+            let pulled = Scatter::of(&outline(sigma, 6)).at(150.0);
             println!("σ {sigma}: {got:.4}, {pulled:.4} with boundaries pulled off");
             assert!((got / sigma - 1.0).abs() < 0.2, "σ {sigma}: {got}");
             // Six boundaries of each side pulled 2 px off (12 of 198 differences) move it by
@@ -787,9 +953,77 @@ mod tests {
         }
         // The shape's smooth error alone: hardly any scatter (0.6 px at most, 0.02 px
         // between neighbours).
-        assert!(boundary_noise(&outline(0.0, 0)) < 0.02);
+        assert!(Scatter::of(&outline(0.0, 0)).at(150.0) < 0.02);
         // Too few samples tell nothing.
-        assert_eq!(boundary_noise(&outline(0.1, 0)[..5]), 0.0);
+        assert_eq!(Scatter::of(&outline(0.1, 0)[..5]), Scatter::default());
+    }
+
+    /// A chessboard's squares behind the tube: boundaries read from 8 grey levels over the
+    /// dark squares and 150 over the light ones, ten samples a square.
+    fn squares(k: usize) -> f64 {
+        if (k / 10).is_multiple_of(2) {
+            8.0
+        } else {
+            150.0
+        }
+    }
+
+    /// A floor of 0.07 px and 1.8 px·grey levels of noise: what the simulator's dark-blue
+    /// tube over a chessboard shows (0.2 px over the dark squares, 0.07 over the light).
+    fn chessboard_sigma(c: f64) -> f64 {
+        0.07f64.hypot(1.8 / c)
+    }
+
+    #[test]
+    fn the_scatter_grows_where_the_backdrop_takes_the_tubes_contrast() {
+        let scatter = Scatter::of(&outline_over(0.6, squares, chessboard_sigma, 0));
+        println!("{scatter:?}");
+        for c in [8.0, 150.0] {
+            let (got, want) = (scatter.at(c), chessboard_sigma(c));
+            assert!(
+                (got / want - 1.0).abs() < 0.25,
+                "{c} grey levels: {got} for {want}"
+            );
+        }
+        // One figure for both (the median's) would put the faint boundaries' at about half
+        // what it is, and the clear ones' at about twice.
+        let one = Scatter::of(&outline_over(0.6, |_| 150.0, |_| 0.0, 0));
+        assert!(one.at(8.0) < 0.02);
+    }
+
+    #[test]
+    fn each_boundary_is_held_to_its_own_scatter() {
+        let held = |m: &[Measured]| residual_stats(m, &Scatter::of(m), 0.25, 1.0);
+        // Right over the chessboard: half the outline faint, scattering 0.2 px.
+        let right = outline_over(0.0, squares, chessboard_sigma, 0);
+        let stats = held(&right);
+        println!("right: {:.3} outlying", stats.outlying);
+        assert!(stats.outlying <= 0.1, "{}", stats.outlying);
+        // A smooth error of 0.6 px (a wrong shape) is outlying wherever the boundaries are
+        // clear, and over the faint squares too where it passes their scatter.
+        let wrong = outline_over(0.6, squares, chessboard_sigma, 0);
+        let stats = held(&wrong);
+        println!("wrong: {:.3} outlying", stats.outlying);
+        assert!(stats.outlying > 0.3, "{}", stats.outlying);
+    }
+
+    #[test]
+    fn an_ends_residual_leaves_its_tenth_farthest_off_out() {
+        // Twelve boundaries 0.1 px off and one 3 px (read off a printed edge): the RMS over
+        // all 0.84 px, over nine tenths 0.1.
+        let mut m: Vec<Measured> = (0..13)
+            .map(|k| crate::solve::made_up::side(k as f64 / 12.0, 1.0, Some(0.1)))
+            .collect();
+        m[6].residual = Some(3.0);
+        let all = residual_stats(&m, &Scatter::default(), 0.25, 1.0);
+        let kept = residual_stats(&m, &Scatter::default(), 0.25, END_KEPT);
+        assert!((all.rms - 0.841).abs() < 0.01, "{}", all.rms);
+        assert!((kept.rms - 0.1).abs() < 1e-9, "{}", kept.rms);
+        // Three of them off (an end that is not there): the RMS still shows it.
+        m[2].residual = Some(3.0);
+        m[9].residual = Some(3.0);
+        let kept = residual_stats(&m, &Scatter::default(), 0.25, END_KEPT);
+        assert!(kept.rms > 1.0, "{}", kept.rms);
     }
 
     #[test]

@@ -51,7 +51,11 @@ pub(crate) struct Edge {
     /// Where the coverage crosses ½, pixels along the line's direction from its origin
     /// (positive: outward of the predicted outline).
     pub offset: f64,
-    /// Colour contrast between the tube's surface and the background there, grey levels.
+    /// The grey levels the coverage is read from: how far the colour moves, along what the
+    /// coverage measures, from the backdrop to the tube — `‖S − E‖` where it is projected on
+    /// the surface's colour, the backdrop's colour across the surface's hue where it is
+    /// unmixed. The image's noise moves the coverage by the noise over this, and the boundary
+    /// by that over the coverage's slope.
     pub contrast: f64,
     /// Whether the surface there is lighter than the background (their difference summed
     /// over the channels is positive).
@@ -343,20 +347,21 @@ impl<'a> EdgeImage<'a> {
         let contrast = (norm2(&diffs[surface]) as f64).sqrt();
         // Read pixel by pixel where the backdrop changes along the line.
         let varies = backdrop_varies(&range, contrast as f32);
-        let ((k, frac), ramp) = match unmixing(raw, &bg(0), min_contrast) {
+        let ((k, frac), ramp, evidence) = match unmixing(raw, &bg(0), min_contrast) {
             Some(unmix) => {
                 // The unmixed crossing lies near the projected one (shading moves it by a
                 // pixel or so): searched from there, it reads a few samples, not the line.
                 let (near, _) = crossing(count, &projected)?;
                 let coverage = |k: usize| unmix(&diffs[k], &bg(k));
                 let found = crossing_near(near, count, coverage)?;
-                if varies {
+                let found = if varies {
                     let coverage = |k: usize| self.pixelwise(at(k), shadow(k), &unmix);
                     let found = crossing_near(found.0, count, coverage)?;
                     (found, ramp(found.0, count, coverage))
                 } else {
                     (found, ramp(found.0, count, coverage))
-                }
+                };
+                (found.0, found.1, across(&raw, &bg(found.0.0)))
             }
             None => {
                 // Without a hue to unmix by, the boundary pixel mixes the backdrop with the
@@ -372,7 +377,8 @@ impl<'a> EdgeImage<'a> {
                     .unwrap_or(surface);
                 let projected = projection(diffs, &diffs[rim], min_contrast)?;
                 let found = crossing(count, &projected)?;
-                if varies {
+                let evidence = f64::from(norm2(&diffs[rim]).sqrt());
+                let (found, ramp) = if varies {
                     // The rim's own colour, projected on against each pixel's backdrop.
                     let e = bg(rim);
                     let colour: [f32; 3] = std::array::from_fn(|c| diffs[rim][c] + e[c]);
@@ -385,7 +391,8 @@ impl<'a> EdgeImage<'a> {
                     (found, ramp(found.0, count, coverage))
                 } else {
                     (found, ramp(found.0, count, projected))
-                }
+                };
+                (found, ramp, evidence)
             }
         };
         // Where the backdrop behind some sample is of the surface's colour, the tube there
@@ -408,7 +415,7 @@ impl<'a> EdgeImage<'a> {
             });
         let edge = Edge {
             offset: (outer - k as i32 + 1) as f64 * STEP - frac * STEP,
-            contrast,
+            contrast: evidence,
             lighter: diffs[surface].iter().sum::<f32>() > 0.0,
             ramp,
         };
@@ -496,6 +503,14 @@ fn unmixing(
         let det = (a11 * b22 - b12 * b12).max(1e-6);
         (b12 * dot(&raw, d) - a11 * dot(e, d)) / det
     })
+}
+
+/// The grey levels the backdrop `e` loses across the surface's hue (`raw`, its colour) where
+/// a surface covers it: what unmixing reads the coverage from, so the noise moves the coverage
+/// by the noise over this much.
+fn across(raw: &[f32; 3], e: &[f32; 3]) -> f64 {
+    let (a11, a12, a22) = (norm2(raw), dot(raw, e), norm2(e));
+    f64::from(((a11 * a22 - a12 * a12) / a11.max(1e-6)).max(0.0).sqrt())
 }
 
 /// Largest brightness of a shadowed backdrop, as a share of the lit one, that counts as a

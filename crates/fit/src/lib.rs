@@ -406,8 +406,9 @@ impl TubeFitter {
             .zip(&spheres)
             .zip(&images)
             .map(|(((((cam, name), view), m), spheres), img)| {
-                let res = check::residual_stats(m);
-                let ends = check::end_stats(m, &tube, length);
+                let scatter = check::Scatter::of(m);
+                let res = check::residual_stats(m, &scatter, s.max_p90_px, 1.0);
+                let ends = check::end_stats(m, &tube, length, &scatter, s.max_p90_px);
                 let widths = if s.free_width() {
                     WidthProfile::of(m)
                 } else {
@@ -429,7 +430,9 @@ impl TubeFitter {
                     offset_px: res.mean,
                     shift_px: res.shift,
                     p90_px: res.p90,
-                    noise_px: check::boundary_noise(m),
+                    noise_px: res.noise.0,
+                    noise_range_px: res.noise.1,
+                    outlying_share: res.outlying,
                     iou: overlap.iou,
                     iou_limit,
                     iou_outlined: overlap.iou_outlined,
@@ -439,6 +442,7 @@ impl TubeFitter {
                     end_found: ends.found,
                     end_unseen: ends.unseen,
                     end_residual_px: ends.rms,
+                    end_noise_px: ends.noise.0,
                     cap_found: check::cap_found(m),
                     goes_on: self.goes_on(cam, img, &tube, &rendered.0),
                     // A mask's object is white on black: no colour to speak of.

@@ -74,10 +74,10 @@ pub struct FitSettings {
     /// Self-check: largest outline residual RMS in any camera, pixels, on a quiet image
     /// (widened by each camera's boundary noise, [`crate::CameraCheck::noise_px`]).
     pub max_residual_px: f64,
-    /// Self-check: largest 90th percentile of the outline residuals' size in any camera,
-    /// pixels, on a quiet image (sharp, low-noise images keep it near 0.1; the limit widens by
-    /// each camera's boundary noise, [`crate::CameraCheck::noise_px`]; raise it for blurred
-    /// ones).
+    /// Self-check: the limit nine tenths of each camera's outline residuals keep their size
+    /// within, pixels, on a quiet image (sharp, low-noise images keep them near 0.1; each
+    /// boundary's limit widens by its own scatter, [`crate::CameraCheck::outlying_share`];
+    /// raise it for blurred ones).
     pub max_p90_px: f64,
     /// Self-check: largest image translation between a camera's fitted and measured outline
     /// ([`crate::CameraCheck::shift_px`]), pixels. Noise scatters single boundaries, not a

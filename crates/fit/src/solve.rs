@@ -34,6 +34,9 @@ pub(crate) struct Measured {
     pub lighter: bool,
     /// The boundary's ¼–¾ rise, pixels ([`crate::edges::Edge::ramp`]).
     pub ramp: Option<f64>,
+    /// The grey levels the coverage was read from there ([`crate::edges::Edge::contrast`]; 0
+    /// where no boundary was found).
+    pub contrast: f64,
     /// With free widths, how much narrower the silhouette is than the tube's image here,
     /// taken out of `residual` (pixels; 0 when widths follow the tube).
     pub narrowing: f64,
@@ -80,6 +83,7 @@ pub(crate) fn measure(
                     edge: edge.map(|e| (p.pixel + p.normal * e.offset, p.normal)),
                     lighter: edge.is_some_and(|e| e.lighter),
                     ramp: edge.and_then(|e| e.ramp),
+                    contrast: edge.map_or(0.0, |e| e.contrast),
                     narrowing: 0.0,
                     unseen,
                 }
@@ -125,6 +129,7 @@ pub(crate) fn against(
                         edge: m.edge,
                         lighter: m.lighter,
                         ramp: m.ramp,
+                        contrast: m.contrast,
                         narrowing: 0.0,
                         unseen: false,
                     })
@@ -510,6 +515,7 @@ pub(crate) mod made_up {
             edge: None,
             lighter: false,
             ramp: None,
+            contrast: 0.0,
             narrowing: 0.0,
             unseen: false,
         }

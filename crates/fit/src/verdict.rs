@@ -406,10 +406,12 @@ impl TubeFitter {
         let i = &c.camera;
         self.outline_placed(c, o)
             .or_else(|| {
-                let limit = check::noisy_limit(s.max_p90_px, c.noise_px, Z90);
-                (o.p90 > limit).then(|| format!(
-                    "camera {i}: a tenth of the outline lies more than {:.2} px from the image's boundary (limit {limit:.2}{}): the shape does not explain this camera, or its calibration is off",
-                    o.p90, with_noise(c)
+                (o.outlying > OUTLYING_SHARE).then(|| format!(
+                    "camera {i}: {:.0} % of the outline lies farther from the image's boundary than its limit (at most {:.0} %; a tenth lies more than {:.2} px off, limit {}): the shape does not explain this camera, or its calibration is off",
+                    o.outlying * 100.0,
+                    OUTLYING_SHARE * 100.0,
+                    o.p90,
+                    p90_limits(s, c)
                 ))
             })
             .or_else(|| {
@@ -459,7 +461,7 @@ impl TubeFitter {
             format!(
                 "camera {i}: outline residual {:.2} px RMS (limit {limit:.2}{}; mean {:+.2} px)",
                 o.residual,
-                with_noise(c),
+                with_noise(c.noise_px),
                 c.offset_px
             )
         })
@@ -474,7 +476,7 @@ impl TubeFitter {
             return None;
         }
         let found = seen_share(c.end_found, c.end_samples, c.end_unseen);
-        let limit = residual_limit(s, c);
+        let limit = check::noisy_limit(s.max_residual_px, c.end_noise_px, 1.0);
         (found < s.min_found || o.end_residual > limit).then(|| format!(
             "camera {}: the outline around the tube's free end is not where the image shows it (boundary found at {}/{} samples, residual {:.2} px RMS; limits {:.0} %, {limit:.2} px{}): the tip has moved farther than the fit could follow, or is hidden",
             c.camera,
@@ -482,7 +484,7 @@ impl TubeFitter {
             c.end_samples,
             o.end_residual,
             s.min_found * 100.0,
-            with_noise(c)
+            with_noise(c.end_noise_px)
         ))
     }
 }
@@ -522,24 +524,39 @@ fn seen_share(found: usize, samples: usize, unseen: usize) -> f64 {
     found as f64 / samples.saturating_sub(unseen).max(1) as f64
 }
 
-/// The 90th percentile of a normal scatter's sizes, in standard deviations.
-const Z90: f64 = 1.645;
-
 /// The limit on camera `c`'s outline residual RMS (the whole outline's and its free ends'):
 /// `max_residual_px` widened by the camera's boundary noise.
 fn residual_limit(s: &FitSettings, c: &CameraCheck) -> f64 {
     check::noisy_limit(s.max_residual_px, c.noise_px, 1.0)
 }
 
-/// How a limit widened by camera `c`'s boundary noise says so (empty without any).
-fn with_noise(c: &CameraCheck) -> String {
-    if c.noise_px > 0.0 {
-        format!(
-            ", with {:.2} px of scatter the image's noise gives each boundary",
-            c.noise_px
-        )
+/// How a limit widened by boundaries' scatter of `noise` pixels (RMS) says so (empty
+/// without any).
+fn with_noise(noise: f64) -> String {
+    if noise > 0.0 {
+        format!(", with {noise:.2} px of scatter the image's noise gives each boundary")
     } else {
         String::new()
+    }
+}
+
+/// Largest share of the outline whose size may lie beyond its own limit: a tenth (the
+/// outline's 90th percentile, each boundary held to its own scatter).
+const OUTLYING_SHARE: f64 = 0.1;
+
+/// The limits camera `c`'s boundaries are held to ([`CameraCheck::outlying_share`]), said:
+/// one figure where they are all the same, else the range, with the scatter behind them.
+fn p90_limits(s: &FitSettings, c: &CameraCheck) -> String {
+    let [lo, hi] = c
+        .noise_range_px
+        .map(|n| check::noisy_limit(s.max_p90_px, n, check::Z90));
+    let [nlo, nhi] = c.noise_range_px;
+    if hi - lo < 0.005 {
+        format!("{hi:.2}{}", with_noise(nhi))
+    } else {
+        format!(
+            "{lo:.2}–{hi:.2} px, with {nlo:.2}–{nhi:.2} px of scatter the image's noise gives each boundary against the backdrop behind it"
+        )
     }
 }
 
@@ -580,6 +597,7 @@ fn goes_on(cameras: &[CameraCheck]) -> Option<String> {
 struct Outline {
     residual: f64,
     p90: f64,
+    outlying: f64,
     end_residual: f64,
 }
 
@@ -588,6 +606,7 @@ impl Outline {
         Outline {
             residual: c.residual_px,
             p90: c.p90_px,
+            outlying: c.outlying_share,
             end_residual: c.end_residual_px,
         }
     }
@@ -604,6 +623,7 @@ impl Outline {
         Outline {
             residual: r.residual_px,
             p90: r.p90_px,
+            outlying: r.outlying_share,
             end_residual: r.end_residual_px,
         }
     }

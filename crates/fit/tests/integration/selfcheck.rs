@@ -40,7 +40,7 @@ fn a_miscalibrated_camera_makes_frames_inconsistent() {
             match &b.fitted.status {
                 Status::Inconsistent { reason } => {
                     assert!(reason.contains("camera cam"), "{reason}");
-                    tenth += usize::from(reason.contains("a tenth of the outline"));
+                    tenth += usize::from(reason.contains("of the outline lies farther"));
                 }
                 other => panic!("frame {n}: {other:?}"),
             }
