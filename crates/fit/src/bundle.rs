@@ -8,9 +8,17 @@
 //! a camera's error, and along the directions the images pin down weakly it had not arrived
 //! after 40 rounds.
 //!
-//! Gauge: one camera is held (the world frame stays attached to it), and the rig's scale —
-//! the other cameras' summed distance from it — is kept: the images show it only through the
-//! tube's width of a few pixels, while the calibration target fixed it well.
+//! Gauge: the cameras not free are held (the world frame stays attached to them). With one
+//! held, the rig's scale — the other cameras' summed distance from it — is kept too: the
+//! images show it only through the tube's width of a few pixels, while the calibration target
+//! fixed it well.
+//!
+//! Prior: every free camera's pose is drawn toward where the calibration put it, a move of
+//! `prior_px` at the tube counting as much as a boundary `sigma_px` off. Along the directions
+//! the outlines pin down (thousands of boundaries) that weighs nothing; along those they
+//! hardly see (a camera sliding along its line of sight, two cameras' baseline turning about
+//! the tube) it holds the pose where it was, instead of letting it drift wherever the noise
+//! leads — moving the world frame the lab registered its robot in.
 
 use flexshape_camera::Camera;
 use nalgebra::{DMatrix, DVector, Point3, Vector6};
@@ -34,9 +42,30 @@ pub struct Bundle {
     pub measurements: usize,
     /// Per camera (rig order), how well the images pin its pose down: the 1-σ move along the
     /// least determined combination of its six pose parameters, its turn counted as the move
-    /// it makes at the tube, mm (0 for the held camera). From the joint normal equations and
-    /// the outline residuals' scatter; the scale held.
+    /// it makes at the tube, mm (0 for a held camera). From the joint normal equations, the
+    /// prior and the outline residuals' scatter; the scale held.
     pub sigma_mm: Vec<f64>,
+    /// Per camera (rig order), how many of its pose's six directions (eigenvectors of its
+    /// block of the outlines' normal equations, the other cameras as they are) the outlines
+    /// pin down less well than the prior does: those stay where the calibration put them
+    /// (0 for a held camera).
+    pub held_directions: Vec<usize>,
+    /// RMS of the outline residuals over every frame and camera at the end, pixels (each
+    /// boundary weighted as the fit weighs it).
+    pub rms_px: f64,
+}
+
+/// How far the calibration may have put a pose from the truth, and what a boundary's place
+/// scatters by: together they weigh the pose's prior against the outlines.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PosePrior<'a> {
+    /// The poses the calibration gave, rig order (also the scale kept with one camera held).
+    pub poses: &'a [Camera],
+    /// A pose's 1-σ error at the tube, pixels of its own image (each of its six directions,
+    /// a turn counted as the move it makes at the tube).
+    pub prior_px: f64,
+    /// One boundary's scatter, pixels.
+    pub sigma_px: f64,
 }
 
 /// Boundary measurements at most.
@@ -71,25 +100,37 @@ struct FrameSystem {
 }
 
 impl TubeFitter {
-    /// Fits the cameras' poses (all but `hold`, rig order) and every frame's tube together:
-    /// `frames` holds each frame's views, `tubes` each frame's tube fitted with the rig's
-    /// poses (the start). The radius is fitted per frame if `fit_radius`.
+    /// Fits the `free` cameras' poses (rig order; the others held, at least one) and every
+    /// frame's tube together, from the fitter's poses, each free pose drawn toward the
+    /// calibrated one by `prior`: `frames`
+    /// holds each frame's views, `tubes` each frame's tube fitted with the rig's poses (the
+    /// start). The radius is fitted per frame if `fit_radius`. With no camera free, the tubes
+    /// alone are fitted.
     pub fn bundle(
         &self,
         frames: &[Vec<View<'_>>],
         tubes: &[Tube],
-        hold: usize,
+        free: &[usize],
+        prior: PosePrior<'_>,
         fit_radius: bool,
     ) -> Result<Bundle, FitError> {
-        if frames.len() != tubes.len() || hold >= self.cameras.len() {
+        let n = self.cameras.len();
+        let held: Vec<usize> = (0..n).filter(|c| !free.contains(c)).collect();
+        if frames.len() != tubes.len() || held.is_empty() || free.iter().any(|&c| c >= n) {
             return Err(FitError::Input {
-                camera: hold,
+                camera: free.iter().copied().find(|&c| c >= n).unwrap_or(0),
                 problem: format!(
-                    "{} frames with {} tubes, camera {hold} held of {}",
+                    "{} frames with {} tubes, cameras {free:?} free of {n}",
                     frames.len(),
                     tubes.len(),
-                    self.cameras.len()
                 ),
+            });
+        }
+        let hold = held[0];
+        if prior.poses.len() != n {
+            return Err(FitError::Input {
+                camera: 0,
+                problem: format!("{} calibrated poses for {n} cameras", prior.poses.len()),
             });
         }
         let images = frames
@@ -99,19 +140,29 @@ impl TubeFitter {
         let s = &self.settings;
         // Free widths say nothing of the radius (see `width`).
         let fit_radius = fit_radius && !s.free_width();
-        let free: Vec<usize> = (0..self.cameras.len()).filter(|&c| c != hold).collect();
         let depths: Vec<f64> = self
             .cameras
             .iter()
             .map(|cam| mean_depth(cam, tubes))
             .collect();
-        let rig = self.cameras.clone();
+        let rig = prior.poses;
         let mut cameras = self.cameras.clone();
         let mut tubes = tubes.to_vec();
         let starts = tubes.clone();
         let (mut steps, mut measurements) = (0, 0);
-        // The last reduced system and the residuals' variance, for the poses' uncertainty.
-        let mut last: Option<(DMatrix<f64>, f64)> = None;
+        // The prior's weight per free camera (pixels² per mm²): a move of `prior_px` of its
+        // image at the tube counts as a boundary `sigma_px` off.
+        let stiffness: Vec<f64> = free
+            .iter()
+            .map(|&c| {
+                let prior_mm = prior.prior_px * depths[c] / self.cameras[c].intrinsics.fx;
+                (prior.sigma_px / prior_mm.max(1e-9)).powi(2)
+            })
+            .collect();
+        // The last reduced system, its outlines' part, and the residuals' variance, for the
+        // poses' uncertainty; the last cost and rows.
+        let mut last: Option<(DMatrix<f64>, DMatrix<f64>, f64)> = None;
+        let mut fitted = (0.0, 0usize);
         'outer: for _ in 0..MEASUREMENTS {
             let measured: Vec<Vec<Vec<Measured>>> = tubes
                 .par_iter()
@@ -126,7 +177,7 @@ impl TubeFitter {
                     .zip(&starts)
                     .zip(&current)
                     .map(|((tube, start), m)| {
-                        self.frame_system(&cameras, &free, &depths, tube, start, m, fit_radius)
+                        self.frame_system(&cameras, free, &depths, tube, start, m, fit_radius)
                     })
                     .collect();
                 let np = 6 * free.len();
@@ -136,14 +187,33 @@ impl TubeFitter {
                     s_total += &sys.s;
                     rhs += &sys.rhs;
                 }
+                let outlines = s_total.clone();
+                for (i, &c) in free.iter().enumerate() {
+                    let off = offset(&rig[c], &cameras[c], depths[c]);
+                    for k in 0..6 {
+                        s_total[(6 * i + k, 6 * i + k)] += stiffness[i];
+                        rhs[6 * i + k] += stiffness[i] * off[k];
+                    }
+                }
                 for k in 0..np {
                     s_total[(k, k)] += DAMPING * s_total[(k, k)].max(1e-9);
                 }
-                hold_scale(&mut s_total, &mut rhs, &cameras, &rig, &free, hold);
-                let (cost, dof) = systems.iter().flatten().fold((0.0, 0.0), |(c, d), sys| {
-                    (c + sys.cost, d + sys.rows as f64 - sys.params as f64)
-                });
-                last = Some((s_total.clone(), cost / (dof - np as f64).max(1.0)));
+                if held.len() == 1 {
+                    hold_scale(&mut s_total, &mut rhs, &cameras, rig, free, hold);
+                }
+                let (cost, rows, dof) =
+                    systems
+                        .iter()
+                        .flatten()
+                        .fold((0.0, 0, 0.0), |(c, r, d), sys| {
+                            (
+                                c + sys.cost,
+                                r + sys.rows,
+                                d + sys.rows as f64 - sys.params as f64,
+                            )
+                        });
+                fitted = (cost, rows);
+                last = Some((s_total.clone(), outlines, cost / (dof - np as f64).max(1.0)));
                 let Some(chol) = s_total.cholesky() else {
                     break 'outer;
                 };
@@ -168,7 +238,9 @@ impl TubeFitter {
                     let step = Vector6::from_iterator(dp.rows(6 * i, 6).iter().copied());
                     cameras[c].pose = moved(&cameras[c].pose, &step, depths[c]);
                 }
-                keep_scale(&mut cameras, &rig, hold);
+                if held.len() == 1 {
+                    keep_scale(&mut cameras, rig, hold);
+                }
                 let mut across = dp.amax();
                 for (tube, dt) in tubes.iter_mut().zip(&dts) {
                     if dt.is_empty() {
@@ -191,20 +263,34 @@ impl TubeFitter {
                     .collect();
             }
         }
-        let mut sigma_mm = vec![0.0; cameras.len()];
-        if let Some(cov) = last.and_then(|(s, var)| s.try_inverse().map(|i| i * var)) {
+        let mut sigma_mm = vec![0.0; n];
+        let mut held_directions = vec![0; n];
+        if let Some((s, outlines, var)) = last {
+            if let Some(cov) = s.try_inverse().map(|i| i * var) {
+                for (i, &c) in free.iter().enumerate() {
+                    let block = cov.view((6 * i, 6 * i), (6, 6)).into_owned();
+                    let largest = block.symmetric_eigenvalues().amax();
+                    sigma_mm[c] = largest.max(0.0).sqrt();
+                }
+            }
             for (i, &c) in free.iter().enumerate() {
-                let block = cov.view((6 * i, 6 * i), (6, 6)).into_owned();
-                let largest = block.symmetric_eigenvalues().amax();
-                sigma_mm[c] = largest.max(0.0).sqrt();
+                let block = outlines.view((6 * i, 6 * i), (6, 6)).into_owned();
+                held_directions[c] = block
+                    .symmetric_eigenvalues()
+                    .iter()
+                    .filter(|&&e| e < stiffness[i])
+                    .count();
             }
         }
+        let rms_px = (fitted.0 / (fitted.1 as f64).max(1.0)).sqrt();
         Ok(Bundle {
             cameras,
             tubes,
             steps,
             measurements,
             sigma_mm,
+            held_directions,
+            rms_px,
         })
     }
 
@@ -264,6 +350,22 @@ impl TubeFitter {
             dinv_b,
         })
     }
+}
+
+/// The pose step (as [`moved`] takes it: turn scaled by `depth` mm, then translation mm,
+/// camera frame) that takes `from` to `to`, to first order for the translation's part.
+fn offset(from: &Camera, to: &Camera, depth: f64) -> Vector6<f64> {
+    let turn = to.pose.rotation * from.pose.rotation.inverse();
+    let omega = turn.scaled_axis();
+    let tau = to.pose.translation - turn * from.pose.translation;
+    Vector6::new(
+        omega[0] * depth,
+        omega[1] * depth,
+        omega[2] * depth,
+        tau[0],
+        tau[1],
+        tau[2],
+    )
 }
 
 /// Mean depth of the tubes' centerline points in `camera`, mm (600 when it sees none).

@@ -81,7 +81,7 @@ use image::RgbImage;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use thiserror::Error;
 
-pub use bundle::Bundle;
+pub use bundle::{Bundle, PosePrior};
 pub use check::{CameraCheck, OutlineResiduals, STILL_RAMP_PX, debug_image};
 pub use settings::{FitSettings, Method, OutlineWidth};
 pub use tube::Tube;

@@ -419,7 +419,10 @@ pub struct RigRefineArgs {
     /// --overwrite.
     #[arg(long, short = 'o', value_name = "DIR")]
     pub out: PathBuf,
-    /// The camera held fixed: the world frame stays attached to it (default: the rig's first).
+    /// A camera known to be right: it is never moved, and the world frame stays attached to
+    /// it. Without it, as few cameras move as explain the frames, and where the images cannot
+    /// tell which moved (two cameras, or two of three knocked) the report says so and the
+    /// rig's first camera stays.
     #[arg(long, value_name = "NAME")]
     pub hold: Option<String>,
     /// Frames used at most, spread evenly over the input.

@@ -59,7 +59,7 @@ pub use record::{
     TrackRecord, TrackSummary, quantile, stage_summaries,
 };
 pub use refine::{
-    CameraRefinement, MAX_SIGMA_MM, MIN_FRAMES, MIN_GAIN, OutlineResiduals, Refinement, Verdict,
+    CameraRefinement, MIN_FRAMES, MIN_GAIN, OutlineResiduals, PRIOR_PX, Refinement, Verdict,
     refine_cameras, refined_camera_file, sample_frames,
 };
 pub use runner::{Processed, Recent, RunEnd, run};

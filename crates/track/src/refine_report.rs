@@ -3,7 +3,7 @@
 
 use std::fmt;
 
-use crate::refine::{MAX_SIGMA_MM, OutlineResiduals, Refinement, Verdict};
+use crate::refine::{OutlineResiduals, PRIOR_PX, Refinement, Verdict};
 
 /// The frames used, and per camera its outline RMS, image shift, rotation and move, before
 /// and after.
@@ -61,10 +61,37 @@ impl Refinement {
                 "the rig's poses already explain the outlines ({before:.3} → {after:.3} px RMS, {gain:.0} % better, {} → {} frames right): the refinement is within its own noise; keep the rig (nothing written)",
                 self.right_before, self.right_after
             )),
-            Verdict::Undetermined { camera, sigma_mm } => Some(format!(
-                "the frames do not pin camera {camera}'s pose down (±{sigma_mm:.2} mm at the tube, 1 σ; at most {MAX_SIGMA_MM}): the tubes fit a family of poses — with two cameras they always do; with more, record the tube in more varied shapes across the volume. Nothing written: calibrate the rig again instead"
-            )),
         }
+    }
+
+    /// What the images could not decide, one line each: which cameras moved (when other
+    /// cameras' moving explains the frames as well), and the directions of a moved pose kept
+    /// as calibrated.
+    pub fn undecided(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if !self.alternatives.is_empty() {
+            let moved: Vec<&str> = self
+                .cameras
+                .iter()
+                .filter(|c| !c.held)
+                .map(|c| c.name.as_str())
+                .collect();
+            let others: Vec<String> = self.alternatives.iter().map(|a| a.join(" and ")).collect();
+            out.push(format!(
+                "the images cannot tell which cameras moved: moving {} explains the frames as well as moving {} does. {} moved, and the world frame stays with the others; if one of those was knocked instead, the world frame moved with it by about {:.2} mm (--hold NAME keeps a camera you know is right in place)",
+                others.join(", or "),
+                moved.join(" and "),
+                moved.join(" and "),
+                self.world_open_mm
+            ));
+        }
+        for c in self.cameras.iter().filter(|c| c.held_directions > 0) {
+            out.push(format!(
+                "camera {}: the outlines pin {} of its pose's 6 directions down less well than the calibration does (±{PRIOR_PX} px at the tube), and they stay as calibrated: record the tube in more varied shapes across the volume to refine them too",
+                c.name, c.held_directions
+            ));
+        }
+        out
     }
 
     /// A warning per camera the refined pose still leaves more than `limit_px` (the

@@ -33,10 +33,13 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
     for note in &left_out {
         eprintln!("{note}");
     }
+    let held = match hold {
+        Some(h) => format!(", never {}", input.rig.cameras[h].name),
+        None => String::new(),
+    };
     eprintln!(
-        "refining the poses from {} frames: {} held (the world frame stays attached to it), and the rig's scale (the other cameras' summed distance from it) kept as calibrated …",
+        "refining the poses from {} frames: as few cameras move as explain them{held}, the others hold the world frame where the calibration put it …",
         frames.len(),
-        input.rig.cameras[hold].name
     );
     let refinement = refine_cameras(&pipeline, &frames, hold)
         .with_context(|| format!("rig {}", input.rig_name))?;
@@ -44,6 +47,9 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
         bail!("interrupted: nothing written");
     }
     print!("{refinement}");
+    for note in refinement.undecided() {
+        println!("{note}");
+    }
     for w in refinement.warnings(pipeline.fit_settings().max_residual_px) {
         eprintln!("warning: {w}");
     }
@@ -69,14 +75,15 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The camera `--hold` names (rig order), the first by default.
-fn held_camera(rig: &Rig, hold: Option<&str>) -> anyhow::Result<usize> {
+/// The camera `--hold` names (rig order), if it names one.
+fn held_camera(rig: &Rig, hold: Option<&str>) -> anyhow::Result<Option<usize>> {
     let Some(name) = hold else {
-        return Ok(0);
+        return Ok(None);
     };
     rig.cameras
         .iter()
         .position(|c| c.name == name)
+        .map(Some)
         .with_context(|| {
             format!(
                 "--hold {name}: the rig has no such camera (its cameras: {})",

@@ -127,7 +127,7 @@ fn cameras_a_few_pixels_off_come_back() {
     }
     let before: Vec<f64> = (1..3).map(|i| worst_apart(&cams[i], &off[i])).collect();
     let pipeline = truth.with_cameras(off.clone()).unwrap();
-    let r = refine_cameras(&pipeline, &images, 0).unwrap();
+    let r = refine_cameras(&pipeline, &images, Some(0)).unwrap();
     print(&r);
     let refined: Vec<Camera> = r.cameras.iter().map(|c| c.camera.clone()).collect();
     let after: Vec<f64> = (1..3).map(|i| worst_apart(&cams[i], &refined[i])).collect();
@@ -169,7 +169,7 @@ fn cameras_a_few_pixels_off_come_back() {
 fn a_rig_that_is_right_is_not_worth_refining() {
     let (sim, truth) = common::simulated_chain();
     let (_, images) = frames(&sim, 12);
-    let r = refine_cameras(&truth, &images, 0).unwrap();
+    let r = refine_cameras(&truth, &images, None).unwrap();
     print(&r);
     assert_eq!(r.verdict(), Verdict::NoBetter);
     assert!(
@@ -187,16 +187,18 @@ fn a_rig_that_is_right_is_not_worth_refining() {
 fn too_few_frames_are_refused() {
     let (sim, truth) = common::simulated_chain();
     let (_, images) = frames(&sim, 12);
-    let e = refine_cameras(&truth, &images[..2], 0).unwrap_err();
+    let e = refine_cameras(&truth, &images[..2], None).unwrap_err();
     assert!(e.to_string().contains("2 of 2 frames"), "{e}");
-    let e = refine_cameras(&truth, &images, 3).unwrap_err();
+    let e = refine_cameras(&truth, &images, Some(3)).unwrap_err();
     assert!(e.to_string().contains("number 4 but the rig has 3"), "{e}");
 }
 
 #[test]
-fn two_cameras_do_not_pin_a_pose_down() {
-    // Two cameras see a tube consistently from a family of relative poses: one refinement of
-    // this kind explained every frame at the noise level and left the shapes 1.5 mm off.
+fn two_cameras_leave_what_they_cannot_see_as_calibrated() {
+    // Two cameras see a tube consistently from a family of relative poses: before the pose
+    // prior, one refinement of this kind explained every frame at the noise level and left
+    // the shapes 1.5 mm off. Now the directions the outlines hardly see stay as calibrated,
+    // and the report says which camera it cannot tell moved.
     let (sim, truth) = common::chain_of(SimConfig {
         rig: SimRigConfig {
             cameras: 2,
@@ -204,17 +206,86 @@ fn two_cameras_do_not_pin_a_pose_down() {
         },
         ..SimConfig::default()
     });
-    let (_, images) = frames(&sim, 16);
+    let (rendered, images) = frames(&sim, 16);
     let cams = truth.cameras().to_vec();
     let off = vec![
         cams[0].clone(),
         disturbed(&cams[1], [0.002, -0.0015, 0.001], [0.0; 3]),
     ];
-    let r = refine_cameras(&truth.with_cameras(off).unwrap(), &images, 0).unwrap();
+    let r = refine_cameras(&truth.with_cameras(off.clone()).unwrap(), &images, None).unwrap();
     print(&r);
-    assert!(
-        matches!(r.verdict(), Verdict::Undetermined { ref camera, sigma_mm } if camera == "cam1" && sigma_mm > 0.25),
-        "{:?}",
-        r.verdict()
-    );
+    for line in r.undecided() {
+        println!("{line}");
+    }
+    // Either camera may have moved: the rig's first stays.
+    assert!(r.cameras[0].held && r.cameras[0].camera == off[0]);
+    assert_eq!(r.alternatives, vec![vec!["cam0".to_string()]]);
+    assert!(r.world_open_mm > 0.0);
+    assert!(r.cameras[1].held_directions > 0, "{:?}", r.cameras[1]);
+    // No drift: the shapes are no farther from the truth than with the knocked rig.
+    let refined: Vec<Camera> = r.cameras.iter().map(|c| c.camera.clone()).collect();
+    let e_off = errors(&truth, off, &sim, &rendered, &images);
+    let e = errors(&truth, refined, &sim, &rendered, &images);
+    println!("centerline rms median {:.3} → {:.3} mm", e_off[8], e[8]);
+    assert!(e[8] <= e_off[8] + 0.05, "{e:?} against {e_off:?}");
+}
+
+/// A three-camera rig `knocked`: camera `which` turned and shifted a few pixels' worth.
+fn knocked(truth: &Pipeline, which: usize) -> Vec<Camera> {
+    let mut cams = truth.cameras().to_vec();
+    cams[which] = disturbed(&cams[which], [0.0015, -0.002, 0.001], [0.5, -0.3, 0.8]);
+    cams
+}
+
+#[test]
+fn a_knocked_camera_moves_alone_and_the_world_stays_where_it_was() {
+    // Issue 50: the refinement used to hold the first camera and move the rest, and moved a
+    // camera that was right by 0.7–4 mm; the shapes, explained at the noise level, sat 0.4 mm
+    // off in the world frame. Whichever camera was knocked, it alone moves now.
+    let (sim, truth) = common::simulated_chain();
+    let (rendered, images) = frames(&sim, 12);
+    let cams = truth.cameras().to_vec();
+    for which in [2, 0] {
+        let off = knocked(&truth, which);
+        let moved_px = worst_apart(&cams[which], &off[which]);
+        let r = refine_cameras(&truth.with_cameras(off.clone()).unwrap(), &images, None).unwrap();
+        print(&r);
+        for line in r.undecided() {
+            println!("{line}");
+        }
+        let refined: Vec<Camera> = r.cameras.iter().map(|c| c.camera.clone()).collect();
+        let apart = worst_apart(&cams[which], &refined[which]);
+        let e_off = errors(&truth, off.clone(), &sim, &rendered, &images);
+        let e = errors(&truth, refined.clone(), &sim, &rendered, &images);
+        println!(
+            "cam{which} knocked {moved_px:.2} px → {apart:.2} px from the truth; centerline rms median {:.3} → {:.3} mm, worst {:.3}",
+            e_off[6], e[6], e[11]
+        );
+        assert!(moved_px > 1.5, "the knock is a few pixels");
+        assert_eq!(r.verdict(), Verdict::Better);
+        for (i, c) in r.cameras.iter().enumerate() {
+            // The cameras that were right do not move at all.
+            assert_eq!(c.held, i != which, "{}", c.name);
+            if i != which {
+                assert_eq!(c.camera, cams[i], "{}", c.name);
+            }
+        }
+        assert!(apart < 0.5, "{apart} px");
+        // In the world frame the calibration gave, with no alignment.
+        assert!(e[6] < 0.05 && e[11] < 0.07, "{e:?}");
+        assert_eq!(r.right_after, 12);
+        // The two others moved together would explain the frames too: said, and how far the
+        // world frame would then have gone.
+        assert_eq!(r.alternatives.len(), 1, "{:?}", r.alternatives);
+        assert!(r.world_open_mm > 0.0);
+    }
+    // A camera named as right is never moved, even where moving it would explain the frames.
+    let r = refine_cameras(
+        &truth.with_cameras(knocked(&truth, 2)).unwrap(),
+        &images,
+        Some(2),
+    )
+    .unwrap();
+    assert!(r.cameras[2].held && !r.cameras[0].held && !r.cameras[1].held);
+    assert!(r.alternatives.is_empty(), "{:?}", r.alternatives);
 }
