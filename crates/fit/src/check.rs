@@ -178,6 +178,7 @@ pub(crate) fn cap_found(measured: &[Measured]) -> [usize; 2] {
 /// Residual statistics of one camera's measured outline: samples, found, RMS and mean, each
 /// sample weighted by the outline length it stands for (a tube seen end-on crowds many
 /// samples into a few pixels).
+///
 /// Each sample's size is held to `max_p90` widened by its boundary's `scatter`
 /// ([`CameraCheck::outlying_share`]). The RMS are over the `kept` share of the outline
 /// best explained (1: all of it).

@@ -278,17 +278,6 @@ pub fn refine_cameras(
     };
     let mut tracked = track(pipeline)?;
     let right_before = tracked.iter().filter(|t| t.shape.status.is_right()).count();
-    // The usable frames and their fits.
-    let usable_frames = |tracked: &[Tracked]| -> (Vec<usize>, Vec<Tube>) {
-        tracked
-            .iter()
-            .enumerate()
-            .filter_map(|(i, t)| {
-                let fit = t.fit.as_ref().filter(|f| usable(f, &t.shape.status))?;
-                Some((i, fit.tube.clone()))
-            })
-            .unzip()
-    };
     // The residuals are compared over the frames used at first.
     let (first, _) = usable_frames(&tracked);
     if first.len() < MIN_FRAMES {
@@ -308,20 +297,8 @@ pub fn refine_cameras(
         sigma_px: boundary_scatter(first.iter().filter_map(|&i| tracked[i].fit.as_ref())),
     };
     let (free, alternatives) = {
-        let (kept, tubes) = usable_frames(&tracked);
-        let images: Vec<Vec<&RgbImage>> =
-            kept.iter().map(|&i| frames[i].iter().collect()).collect();
-        let backgrounds = pipeline.backgrounds();
-        let views: Vec<_> = kept
-            .iter()
-            .zip(&images)
-            .map(|(&i, im)| pipeline.views(im, &tracked[i].silhouettes, &backgrounds))
-            .collect();
-        let fitter = pipeline.fitter();
         let rms = |free: &[usize]| {
-            fitter
-                .bundle(&views, &tubes, free, prior, fit_radius)
-                .map(|b| b.rms_px)
+            bundle_frames(pipeline, frames, &tracked, free, prior, fit_radius).map(|b| b.rms_px)
         };
         to_move(names.len(), hold, rms)?
     };
@@ -337,19 +314,8 @@ pub fn refine_cameras(
         if free.is_empty() {
             break;
         }
-        let (kept, tubes) = usable_frames(&tracked);
-        let images: Vec<Vec<&RgbImage>> =
-            kept.iter().map(|&i| frames[i].iter().collect()).collect();
-        let backgrounds = current.backgrounds();
-        let views: Vec<_> = kept
-            .iter()
-            .zip(&images)
-            .map(|(&i, im)| current.views(im, &tracked[i].silhouettes, &backgrounds))
-            .collect();
         // From the last pass's poses, drawn toward the rig's.
-        let bundle = current
-            .fitter()
-            .bundle(&views, &tubes, &free, prior, fit_radius)?;
+        let bundle = bundle_frames(&current, frames, &tracked, &free, prior, fit_radius)?;
         steps += bundle.steps;
         sigma_mm = bundle.sigma_mm;
         held_directions = bundle.held_directions;
@@ -482,6 +448,41 @@ fn boundary_scatter<'a>(fits: impl Iterator<Item = &'a Fit>) -> f64 {
     }
     let mid = noise.len() / 2;
     *noise.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// The usable frames of `tracked` (indices) and their fitted tubes.
+fn usable_frames(tracked: &[Tracked]) -> (Vec<usize>, Vec<Tube>) {
+    tracked
+        .iter()
+        .enumerate()
+        .filter_map(|(i, t)| {
+            let fit = t.fit.as_ref().filter(|f| usable(f, &t.shape.status))?;
+            Some((i, fit.tube.clone()))
+        })
+        .unzip()
+}
+
+/// The usable frames of `tracked` (`frames`' images) fitted together with the `free` cameras'
+/// poses by `pipeline`'s fitter, from its poses ([`flexshape_fit::TubeFitter::bundle`]).
+fn bundle_frames(
+    pipeline: &Pipeline,
+    frames: &[Vec<RgbImage>],
+    tracked: &[Tracked],
+    free: &[usize],
+    prior: PosePrior<'_>,
+    fit_radius: bool,
+) -> Result<flexshape_fit::Bundle, flexshape_fit::FitError> {
+    let (kept, tubes) = usable_frames(tracked);
+    let images: Vec<Vec<&RgbImage>> = kept.iter().map(|&i| frames[i].iter().collect()).collect();
+    let backgrounds = pipeline.backgrounds();
+    let views: Vec<_> = kept
+        .iter()
+        .zip(&images)
+        .map(|(&i, im)| pipeline.views(im, &tracked[i].silhouettes, &backgrounds))
+        .collect();
+    pipeline
+        .fitter()
+        .bundle(&views, &tubes, free, prior, fit_radius)
 }
 
 /// Whether a frame's fit can serve: its shape not left undecided (a ghost or a loose fit may
