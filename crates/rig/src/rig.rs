@@ -88,6 +88,22 @@ pub struct Rig {
     pub volume: Volume,
     /// Per-stage settings (`[processing.<stage>]` tables), interpreted by each stage.
     pub processing: toml::Table,
+    /// What `flexshape rig refine` did to the poses, when this rig came from it
+    /// (`[refined]`).
+    pub refined: Option<Refined>,
+}
+
+/// The `[refined]` table a refined rig carries: which cameras `flexshape rig refine` moved,
+/// and how far the world frame may have moved with them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Refined {
+    /// The cameras whose poses were refined, by name; the others kept their calibrated poses.
+    pub moved: Vec<String>,
+    /// How far the world frame may have moved, mm at the tubes: 0 when the images told which
+    /// cameras had moved (the held ones keep the world frame where the calibration put it);
+    /// otherwise how far it would have gone had a held camera been the one knocked.
+    pub world_open_mm: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -98,6 +114,7 @@ struct RawRig {
     cameras: Vec<RawRigCamera>,
     #[serde(default)]
     processing: toml::Table,
+    refined: Option<Refined>,
 }
 
 #[derive(Debug, Deserialize, Serialize)]
@@ -129,6 +146,8 @@ struct RigOut<'a> {
     volume: RawVolume,
     cameras: Vec<RawRigCamera>,
     processing: &'a toml::Table,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    refined: Option<&'a Refined>,
 }
 
 impl Rig {
@@ -240,6 +259,7 @@ impl Rig {
             cameras,
             volume,
             processing: raw.processing,
+            refined: raw.refined,
         })
     }
 
@@ -343,6 +363,7 @@ impl Rig {
                 })
                 .collect(),
             processing: &self.processing,
+            refined: self.refined.as_ref(),
         };
         let body = toml::to_string(&out).unwrap_or_default();
         format!(

@@ -282,6 +282,7 @@ fn write_rig(dir: &Path) -> PathBuf {
         cameras: cams,
         volume: Volume::new([-100.0, -90.0, -80.0], [0.5, 0.5, 1.0], [400, 360, 160]).unwrap(),
         processing,
+        refined: None,
     };
     let path = dir.join("rig.toml");
     rig.save(&path).unwrap();

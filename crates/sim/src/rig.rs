@@ -219,6 +219,7 @@ impl SimRigConfig {
             cameras,
             volume: self.volume,
             processing: ProcessingTable::new(),
+            refined: None,
         })
     }
 }

@@ -527,6 +527,7 @@ impl Tally {
             startup_s: None,
             direction_guessed: self.direction_guessed,
             shadow_frames: self.shadow_frames,
+            refined_rig: None,
         }
     }
 }
@@ -570,6 +571,11 @@ pub struct TrackSummary {
     /// once what makes such shadows.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub shadow_frames: usize,
+    /// The rig's `[refined]` table, when `flexshape rig refine` made it (additive): which
+    /// cameras moved, and how far the world frame may have moved with them; the summary line
+    /// then says so when that is not 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refined_rig: Option<flexshape_rig::Refined>,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -645,6 +651,21 @@ impl TrackSummary {
                 .join(", ")
         ) + &self.direction_advice()
             + &self.shadow_advice()
+            + &self.refined_advice()
+    }
+
+    /// Once per run, on a refined rig whose refinement could not tell which cameras moved:
+    /// how far the world frame may have gone with them.
+    fn refined_advice(&self) -> String {
+        match &self.refined_rig {
+            Some(r) if r.world_open_mm > 0.0 => format!(
+                "
+the rig was refined ({} moved), and the images could not tell which cameras had been knocked: positions may be off by up to {:.2} mm in the world frame the calibration gave (shapes are not); refine with --hold NAME naming a camera known to be right, or register to your robot",
+                r.moved.join(", "),
+                r.world_open_mm
+            ),
+            _ => String::new(),
+        }
     }
 
     /// Once per run, when hulls held a sharp shadow's voxels: what throws such shadows.
@@ -714,5 +735,30 @@ mod tests {
         assert!(line.contains("2 of 3 frames' hulls"), "{line}");
         let json = serde_json::to_string(&summary).unwrap();
         assert!(json.contains("\"shadow_frames\":2"), "{json}");
+    }
+
+    #[test]
+    fn a_refined_rig_that_could_not_tell_which_camera_moved_says_how_far_the_world_may_have() {
+        let refined = |world_open_mm| TrackSummary {
+            refined_rig: Some(flexshape_rig::Refined {
+                moved: vec!["cam2".into()],
+                world_open_mm,
+            }),
+            ..Tally::new().summary(&RunEnd::default())
+        };
+        let line = refined(1.92).line(false, false);
+        assert!(
+            line.contains("cam2 moved") && line.contains("1.92 mm"),
+            "{line}"
+        );
+        let json = serde_json::to_string(&refined(1.92)).unwrap();
+        assert!(
+            json.contains("\"refined_rig\":{\"moved\":[\"cam2\"]"),
+            "{json}"
+        );
+        // Decided by the images: the field, but nothing to say.
+        assert!(!refined(0.0).line(false, false).contains("refined"));
+        let plain = Tally::new().summary(&RunEnd::default());
+        assert!(!serde_json::to_string(&plain).unwrap().contains("refined"));
     }
 }

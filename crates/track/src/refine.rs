@@ -99,7 +99,8 @@ pub const MIN_GAIN: f64 = 0.1;
 
 impl Refinement {
     /// The refined rig: every camera at its refined pose, its file
-    /// `calibration/NAME.yml` beside the rig file, with `volume` and `processing` kept.
+    /// `calibration/NAME.yml` beside the rig file, with `volume` and `processing` kept, and
+    /// `[refined]` saying which cameras moved and how far the world frame may have.
     pub fn rig(
         &self,
         volume: flexshape_rig::Volume,
@@ -117,6 +118,16 @@ impl Refinement {
                 .collect(),
             volume,
             processing,
+            refined: Some(flexshape_rig::Refined {
+                moved: self
+                    .cameras
+                    .iter()
+                    .filter(|c| !c.held)
+                    .map(|c| c.name.clone())
+                    .collect(),
+                // To the micrometre: what the file says need not carry float noise.
+                world_open_mm: (self.world_open_mm * 1e3).round() / 1e3,
+            }),
         }
     }
 

@@ -261,6 +261,7 @@ pub fn calibrate_rig(
         cameras: cameras_in_world,
         volume: Volume::default(),
         processing: ProcessingTable::new(),
+        refined: None,
     };
     notes.extend(seen_volume(&mut rig));
     let reports = cameras

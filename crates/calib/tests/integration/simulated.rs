@@ -222,6 +222,7 @@ fn simulated_rig_is_recovered() {
             .collect(),
         volume: flexshape_rig::Volume::default(),
         processing: flexshape_rig::ProcessingTable::new(),
+        refined: None,
     };
     let path = dir.path().join("rig.toml");
     rig.save(&path).unwrap();

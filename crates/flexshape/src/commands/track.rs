@@ -65,6 +65,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     frames.bar.finish_and_clear();
     let summary = TrackSummary {
         startup_s: Some(startup_s),
+        refined_rig: input.rig.refined.clone(),
         ..frames.tally.summary(&end)
     };
     frames.sinks.finish(&SummaryLine {

@@ -124,6 +124,7 @@ pub fn rig_of(cameras: Vec<Imported>, volume: Volume, source: &Path) -> Result<R
             .collect(),
         volume,
         processing: Default::default(),
+        refined: None,
     })
 }
 

@@ -278,6 +278,15 @@ fn a_knocked_camera_moves_alone_and_the_world_stays_where_it_was() {
         // world frame would then have gone.
         assert_eq!(r.alternatives.len(), 1, "{:?}", r.alternatives);
         assert!(r.world_open_mm > 0.0);
+        // The refined rig says so, and reads back as it was written.
+        let rig = r.rig(flexshape_rig::Volume::default(), Default::default());
+        let refined = rig.refined.clone().expect("a refined rig says what moved");
+        assert_eq!(refined.moved, vec![format!("cam{which}")]);
+        assert!((refined.world_open_mm - r.world_open_mm).abs() < 1e-3);
+        let dir = tempfile::tempdir().unwrap();
+        rig.save(&dir.path().join("rig.toml")).unwrap();
+        let back = flexshape_rig::Rig::load(&dir.path().join("rig.toml")).unwrap();
+        assert_eq!(back.refined, Some(refined));
     }
     // A camera named as right is never moved, even where moving it would explain the frames.
     let r = refine_cameras(
