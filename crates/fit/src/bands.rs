@@ -389,9 +389,7 @@ fn mean(v: &[Edge]) -> Option<f64> {
 }
 
 fn median(v: &[Option<f64>]) -> f64 {
-    let mut s: Vec<f64> = v.iter().flatten().copied().collect();
-    s.sort_by(f64::total_cmp);
-    s.get(s.len() / 2).copied().unwrap_or(0.0)
+    crate::median(v.iter().flatten().copied())
 }
 
 /// RGB at a sub-pixel position, bilinear.

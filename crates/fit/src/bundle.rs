@@ -102,10 +102,9 @@ struct FrameSystem {
 impl TubeFitter {
     /// Fits the `free` cameras' poses (rig order; the others held, at least one) and every
     /// frame's tube together, from the fitter's poses, each free pose drawn toward the
-    /// calibrated one by `prior`: `frames`
-    /// holds each frame's views, `tubes` each frame's tube fitted with the rig's poses (the
-    /// start). The radius is fitted per frame if `fit_radius`. With no camera free, the tubes
-    /// alone are fitted.
+    /// calibrated one by `prior`: `frames` holds each frame's views, `tubes` each frame's tube
+    /// fitted with the rig's poses (the start). The radius is fitted per frame if
+    /// `fit_radius`. With no camera free, the tubes alone are fitted.
     pub fn bundle(
         &self,
         frames: &[Vec<View<'_>>],

@@ -9,6 +9,7 @@ use flexshape_silhouette::BitMask;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::median;
 use crate::outline::Spheres;
 use crate::solve::Measured;
 use crate::tube::Tube;
@@ -354,16 +355,6 @@ impl Scatter {
         }
         ((sum / w).sqrt(), range)
     }
-}
-
-/// The median of `values` (0 for none).
-fn median(values: impl Iterator<Item = f64>) -> f64 {
-    let mut v: Vec<f64> = values.collect();
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mid = v.len() / 2;
-    *v.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 /// The 90th percentile of a normal scatter's sizes, in standard deviations.

@@ -493,8 +493,7 @@ fn unmixing(
 ) -> Option<impl Fn(&[f32; 3], &[f32; 3]) -> f32> {
     let (a11, a12, a22) = (norm2(&raw), dot(&raw, outside), norm2(outside));
     let det = a11 * a22 - a12 * a12;
-    let across = (det / a11.max(1e-6)) as f64;
-    if det < MIN_HUE_SIN2 * a11 * a22 || across < (min_contrast / 4.0).powi(2) {
+    if det < MIN_HUE_SIN2 * a11 * a22 || across(&raw, outside) < min_contrast / 4.0 {
         return None;
     }
     // Least squares of `d = a·raw − c·e` in (a, c).

@@ -86,6 +86,16 @@ pub use check::{CameraCheck, OutlineResiduals, STILL_RAMP_PX, debug_image};
 pub use settings::{FitSettings, Method, OutlineWidth};
 pub use tube::Tube;
 
+/// The median of `values` (the upper one of an even count; 0 for none).
+pub(crate) fn median(values: impl Iterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mid = v.len() / 2;
+    *v.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
 use edges::EdgeImage;
 use outline::Spheres;
 use solve::{against, measure, normal_equations};

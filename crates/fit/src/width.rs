@@ -59,12 +59,7 @@ impl WidthProfile {
 
     /// The median narrowing over the stations, pixels (0 with none).
     pub(crate) fn median(&self) -> f64 {
-        let mut v: Vec<f64> = self.stations.iter().map(|s| s.1).collect();
-        if v.is_empty() {
-            return 0.0;
-        }
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
+        crate::median(self.stations.iter().map(|s| s.1))
     }
 }
 

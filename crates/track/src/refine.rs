@@ -19,7 +19,7 @@
 //! toward the rig's ([`PosePrior`]): what the outlines hardly see stays as calibrated.
 
 use flexshape_camera::Camera;
-use flexshape_fit::{Fit, PosePrior, Tube};
+use flexshape_fit::{Bundle, Fit, PosePrior, Tube};
 use flexshape_shape::Status;
 use image::RgbImage;
 use rayon::prelude::*;
@@ -307,12 +307,9 @@ pub fn refine_cameras(
         prior_px: PRIOR_PX,
         sigma_px: boundary_scatter(first.iter().filter_map(|&i| tracked[i].fit.as_ref())),
     };
-    let (free, alternatives) = {
-        let rms = |free: &[usize]| {
-            bundle_frames(pipeline, frames, &tracked, free, prior, fit_radius).map(|b| b.rms_px)
-        };
-        to_move(names.len(), hold, rms)?
-    };
+    let (free, mut first_pass, alternatives) = to_move(names.len(), hold, |free: &[usize]| {
+        bundle_frames(pipeline, frames, &tracked, free, prior, fit_radius)
+    })?;
     let alternatives: Vec<Vec<String>> = alternatives
         .iter()
         .map(|set| set.iter().map(|&c| names[c].clone()).collect())
@@ -325,8 +322,12 @@ pub fn refine_cameras(
         if free.is_empty() {
             break;
         }
-        // From the last pass's poses, drawn toward the rig's.
-        let bundle = bundle_frames(&current, frames, &tracked, &free, prior, fit_radius)?;
+        // From the last pass's poses, drawn toward the rig's (the first pass's, from the
+        // rig's own, was fitted while choosing the cameras to move).
+        let bundle = match first_pass.take() {
+            Some(bundle) => bundle,
+            None => bundle_frames(&current, frames, &tracked, &free, prior, fit_radius)?,
+        };
         steps += bundle.steps;
         sigma_mm = bundle.sigma_mm;
         held_directions = bundle.held_directions;
@@ -394,15 +395,19 @@ pub fn refine_cameras(
     })
 }
 
-/// The cameras to move (rig order), and the other sets that explain the frames as well
-/// (module doc; none that merely adds cameras to the chosen one): `rms(set)` fits the frames
-/// with that set free and the rest held, the outlines' RMS after. Every set up to all but one
-/// camera is tried ([`EVERY_SET_UP_TO`]). Empty when the rig's poses already explain them.
+/// [`to_move`]'s answer: the cameras to move, their fit from the rig's poses, and the
+/// other sets of cameras that explain the frames as well.
+type Choice = (Vec<usize>, Option<Bundle>, Vec<Vec<usize>>);
+
+/// The cameras to move (rig order) and their fit, and the other sets that explain the frames
+/// as well (module doc; none that merely adds cameras to the chosen one): `fit(set)` fits the
+/// frames with that set free and the rest held. Every set up to all but one camera is tried
+/// ([`EVERY_SET_UP_TO`]). Empty when the rig's poses already explain them.
 fn to_move(
     cameras: usize,
     hold: Option<usize>,
-    rms: impl Fn(&[usize]) -> Result<f64, flexshape_fit::FitError>,
-) -> Result<(Vec<usize>, Vec<Vec<usize>>), TrackError> {
+    fit: impl Fn(&[usize]) -> Result<Bundle, flexshape_fit::FitError>,
+) -> Result<Choice, TrackError> {
     let mut sets: Vec<Vec<usize>> = if cameras <= EVERY_SET_UP_TO {
         (0..1u32 << cameras)
             .map(|bits| (0..cameras).filter(|c| bits >> c & 1 == 1).collect())
@@ -420,12 +425,15 @@ fn to_move(
     sets.sort_by_key(|set| set.len());
     let tried = sets
         .into_iter()
-        .map(|set| Ok((rms(&set)?, set)))
+        .map(|set| Ok((fit(&set)?, set)))
         .collect::<Result<Vec<_>, flexshape_fit::FitError>>()?;
-    let best = tried.iter().map(|t| t.0).fold(f64::INFINITY, f64::min);
-    let mut explaining: Vec<(f64, Vec<usize>)> = tried
+    let best = tried
+        .iter()
+        .map(|t| t.0.rms_px)
+        .fold(f64::INFINITY, f64::min);
+    let mut explaining: Vec<(Bundle, Vec<usize>)> = tried
         .into_iter()
-        .filter(|t| (1.0 - MIN_GAIN) * t.0 <= best)
+        .filter(|t| (1.0 - MIN_GAIN) * t.0.rms_px <= best)
         .collect();
     // Without the held camera if any set is; the smallest; with the rig's first camera held
     // where sets are alike (the one calibrations take as the reference); the lower RMS.
@@ -436,15 +444,19 @@ fn to_move(
             .cmp(&(any_without && keeps(&b.1, hold)))
             .then(a.1.len().cmp(&b.1.len()))
             .then(keeps(&a.1, Some(0)).cmp(&keeps(&b.1, Some(0))))
-            .then(a.0.total_cmp(&b.0))
+            .then(a.0.rms_px.total_cmp(&b.0.rms_px))
     });
-    let mut sets = explaining.into_iter().map(|t| t.1);
-    let chosen = sets.next().unwrap_or_default();
+    let mut sets = explaining.into_iter();
+    let (bundle, chosen) = match sets.next() {
+        Some((bundle, set)) => (Some(bundle), set),
+        None => (None, Vec::new()),
+    };
     // A camera the user holds is known to be right: sets moving it are no alternative.
     let others = sets
+        .map(|t| t.1)
         .filter(|set| !chosen.iter().all(|c| set.contains(c)) && !keeps(set, hold))
         .collect();
-    Ok((chosen, others))
+    Ok((chosen, bundle, others))
 }
 
 /// The boundaries' scatter over the tracked fits: the median of their cameras' (or
@@ -482,7 +494,7 @@ fn bundle_frames(
     free: &[usize],
     prior: PosePrior<'_>,
     fit_radius: bool,
-) -> Result<flexshape_fit::Bundle, flexshape_fit::FitError> {
+) -> Result<Bundle, flexshape_fit::FitError> {
     let (kept, tubes) = usable_frames(tracked);
     let images: Vec<Vec<&RgbImage>> = kept.iter().map(|&i| frames[i].iter().collect()).collect();
     let backgrounds = pipeline.backgrounds();
