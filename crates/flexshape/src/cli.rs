@@ -845,6 +845,22 @@ pub struct SimulateArgs {
     /// camera's exposure blurs it; the truth is the middle of the exposure.
     #[arg(long, default_value_t = 0.0, requires = "motion")]
     pub shutter: f64,
+    /// With `--motion`: cameras that are not triggered together. Each camera's capture delay
+    /// after the frame's instant, ms, comma-separated in rig order (e.g. `0,12.5,-7`; cameras
+    /// left out capture at the instant). Each camera's capture times are written to
+    /// `timestamps/<cam>.csv`; the truth stays at the frame's instant.
+    #[arg(
+        long,
+        value_name = "MS,…",
+        value_delimiter = ',',
+        allow_negative_numbers = true,
+        requires = "motion"
+    )]
+    pub phases: Vec<f64>,
+    /// With `--motion`: every capture moreover early or late by up to this, ms (uniformly, each
+    /// camera and frame on its own), as free-running cameras' frames are.
+    #[arg(long, value_name = "MS", default_value_t = 0.0, requires = "motion")]
+    pub jitter: f64,
     /// Instead of camera frames, masks as another tool draws them: the catheter's whole
     /// centerline stroked this many pixels wide with round ends, whatever its radius and depth
     /// (a reconstruction tool's fixed-width masks, a line drawn by hand), written to `masks/`
@@ -853,7 +869,7 @@ pub struct SimulateArgs {
     #[arg(
         long,
         value_name = "WIDTH_PX",
-        conflicts_with_all = ["model", "shutter"]
+        conflicts_with_all = ["model", "shutter", "phases", "jitter"]
     )]
     pub drawn_masks: Option<f64>,
     #[command(flatten)]

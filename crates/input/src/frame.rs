@@ -146,6 +146,10 @@ pub struct FrameSet {
     pub captured: Instant,
     /// When the frame was captured, in wall-clock terms, where the input knows it.
     pub capture_time: Option<CaptureTime>,
+    /// Each camera's own capture time, rig order, seconds in `capture_time`'s time base, where
+    /// the input knows them: cameras that are not triggered together (live cameras, each
+    /// frame's arrival; a recording's `timestamps/<cam>.csv`).
+    pub camera_times: Option<Vec<f64>>,
     /// The commanded tendon displacements (recordings of model experiments).
     pub command: Option<Command>,
     /// Ground truth (simulated recordings).
@@ -163,6 +167,7 @@ impl FrameSet {
             images,
             captured: Instant::now(),
             capture_time: None,
+            camera_times: None,
             command: None,
             truth: None,
             warnings: Vec::new(),

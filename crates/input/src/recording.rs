@@ -12,6 +12,9 @@ pub struct RecordingSource {
     next: usize,
     /// Capture times from `timestamps.csv`, or why they could not be read.
     timestamps: Result<BTreeMap<u64, f64>, String>,
+    /// Each camera's own capture times from `timestamps/<cam>.csv` (none: triggered
+    /// together), or why they could not be read.
+    camera_times: Result<Option<Vec<BTreeMap<u64, f64>>>, String>,
 }
 
 impl RecordingSource {
@@ -19,10 +22,12 @@ impl RecordingSource {
     /// `timestamps.csv`, else from the first camera's file times.
     pub fn new(reader: RecordingReader) -> Self {
         let timestamps = reader.read_timestamps().map_err(|e| e.to_string());
+        let camera_times = reader.read_camera_timestamps().map_err(|e| e.to_string());
         RecordingSource {
             reader,
             next: 0,
             timestamps,
+            camera_times,
         }
     }
 
@@ -68,6 +73,27 @@ impl FrameSource for RecordingSource {
             Some(FrameImage::File(path)) => CaptureTime::of_file(path),
             _ => None,
         });
+        set.camera_times = match &self.camera_times {
+            Ok(None) => None,
+            Ok(Some(cameras)) => {
+                let times: Option<Vec<f64>> =
+                    cameras.iter().map(|t| t.get(&frame).copied()).collect();
+                if times.is_none() {
+                    set.warnings.push(format!(
+                        "frame {frame} is missing from a camera's timestamps/ file: its \
+                         cameras are taken as captured together"
+                    ));
+                }
+                times
+            }
+            Err(e) => {
+                if self.next == 1 {
+                    set.warnings
+                        .push(format!("{e}; the cameras are taken as captured together"));
+                }
+                None
+            }
+        };
         match self.reader.read_command(frame) {
             Ok(command) => set.command = command,
             Err(e) => set

@@ -9,8 +9,8 @@ use flexshape_calib::{Board, Pattern};
 use flexshape_model::{CommandedPose, ExperimentPlan, Model, Role};
 use flexshape_recording::{PoseRole, RecordingWriter, Truth};
 use flexshape_sim::{
-    BoardRenderer, CatheterPose, PrintedBoard, PrintedMarkers, PrintedPattern, SimConfig, SimFrame,
-    Simulator, calibration_views,
+    BoardRenderer, CatheterPose, FreeRunning, PrintedBoard, PrintedMarkers, PrintedPattern,
+    SimConfig, SimFrame, Simulator, calibration_views,
 };
 
 use crate::LabError;
@@ -34,6 +34,10 @@ pub enum Scenario {
         /// blurred along its path (rendered at [`EXPOSURE_INSTANTS`] instants and averaged).
         /// 0 films each frame at its instant.
         shutter: f64,
+        /// Cameras that are not triggered together: each captures frame n at its own time
+        /// (written to `timestamps/<cam>.csv`; the truth and `timestamps.csv` keep n / rate).
+        /// `None`: every camera at the frame's instant.
+        clocks: Option<FreeRunning>,
     },
     /// The paper's experiment for `model` (reference, registration and workspace poses), the
     /// catheter made as the model describes it; the commands are written beside the frames.
@@ -92,6 +96,36 @@ pub fn simulate_recording(
             frames,
             rate_hz,
             shutter,
+            clocks: Some(clocks),
+        } => {
+            let steps = if *shutter > 0.0 { EXPOSURE_INSTANTS } else { 1 };
+            let (exposures, times): (Vec<_>, Vec<_>) = sim
+                .free_running_exposures(*frames, *rate_hz, *shutter, steps, clocks)
+                .into_iter()
+                .unzip();
+            let truth_poses = sim.motion(*frames, *rate_hz);
+            let written = sim
+                .write_free_running_recording(out, &exposures, &truth_poses, overwrite, on_frame)
+                .map_err(write_error(out))?;
+            write_timestamps(out, written, *rate_hz)?;
+            let writer = RecordingWriter::reopen(out);
+            for (k, cam) in sim.rig().cameras.iter().enumerate() {
+                let own: Vec<(u64, f64)> =
+                    (0..written).map(|n| (n, times[n as usize][k])).collect();
+                writer
+                    .write_camera_timestamps(&cam.name, &own)
+                    .map_err(|e| LabError::Write {
+                        path: out.to_path_buf(),
+                        reason: format!("camera {}'s timestamps: {e}", cam.name),
+                    })?;
+            }
+            return Ok((written, exposures.len()));
+        }
+        Scenario::Motion {
+            frames,
+            rate_hz,
+            shutter,
+            ..
         } if *shutter > 0.0 => {
             let exposures = sim.motion_exposures(*frames, *rate_hz, *shutter, EXPOSURE_INSTANTS);
             let written = sim

@@ -217,6 +217,7 @@ pub(crate) fn simulate(
             frames,
             rate_hz: r,
             shutter: 0.0,
+            clocks: None,
         },
         (Some(r), None) => {
             return Err(PyValueError::new_err(format!(

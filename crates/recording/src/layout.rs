@@ -67,6 +67,13 @@ impl Layout {
         self.root.join("timestamps.csv")
     }
 
+    /// `DIR/timestamps/<cam>.csv`: camera `cam`'s own capture time of each of its frames
+    /// (`frame,seconds`, in `timestamps.csv`'s time base), when the cameras are not triggered
+    /// together and the recorder wrote them.
+    pub fn camera_timestamps(&self, cam: &str) -> PathBuf {
+        self.root.join("timestamps").join(format!("{cam}.csv"))
+    }
+
     /// `DIR/truth/<frame:06>.json`.
     pub fn truth(&self, frame: u64) -> PathBuf {
         self.root.join("truth").join(format!("{frame:06}.json"))

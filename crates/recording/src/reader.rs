@@ -1,6 +1,6 @@
 //! Reading a recording folder, checking its structure up front.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use flexshape_rig::{Rig, SkippedFile, Volume};
@@ -197,39 +197,42 @@ impl RecordingReader {
 
     /// Each frame's capture time from `timestamps.csv` (lines `frame,seconds`; a header line
     /// and `#` comments are skipped), or an empty map when there is none.
-    pub fn read_timestamps(&self) -> Result<std::collections::BTreeMap<u64, f64>, RecordingError> {
-        let path = self.layout.timestamps();
-        let mut out = std::collections::BTreeMap::new();
-        if !path.exists() {
-            return Ok(out);
+    pub fn read_timestamps(&self) -> Result<BTreeMap<u64, f64>, RecordingError> {
+        read_times(&self.layout.timestamps())
+    }
+
+    /// Each camera's own capture times, rig order, from `timestamps/<cam>.csv` (as
+    /// `timestamps.csv`), or `None` when no camera has such a file (the cameras were triggered
+    /// together). A camera without one, when others have one, is an error naming its file:
+    /// its frames' times would be unknown.
+    pub fn read_camera_timestamps(
+        &self,
+    ) -> Result<Option<Vec<BTreeMap<u64, f64>>>, RecordingError> {
+        let paths: Vec<PathBuf> = self
+            .rig
+            .cameras
+            .iter()
+            .map(|c| self.layout.camera_timestamps(&c.name))
+            .collect();
+        if !paths.iter().any(|p| p.exists()) {
+            return Ok(None);
         }
-        let text = flexshape_rig::files::read_text(&path, "timestamps file").map_err(|e| {
-            RecordingError::Layout {
-                path: path.clone(),
-                problem: e.reason(),
-            }
-        })?;
-        for (n, line) in text.lines().enumerate() {
-            let line = line.trim();
-            if line.is_empty() || line.starts_with('#') || (n == 0 && line.starts_with("frame")) {
-                continue;
-            }
-            let parsed = line.split_once(',').and_then(|(f, t)| {
-                Some((f.trim().parse::<u64>().ok()?, t.trim().parse::<f64>().ok()?))
-            });
-            match parsed {
-                Some((frame, t)) if t.is_finite() => {
-                    out.insert(frame, t);
-                }
-                _ => {
-                    return Err(RecordingError::Layout {
+        paths
+            .iter()
+            .map(|path| {
+                if path.exists() {
+                    read_times(path)
+                } else {
+                    Err(RecordingError::Layout {
                         path: path.clone(),
-                        problem: format!("line {}: `{line}` is not `frame,seconds`", n + 1),
-                    });
+                        problem: "missing, while other cameras have their own capture times \
+                                  in timestamps/: write one for every camera, or none"
+                            .into(),
+                    })
                 }
-            }
-        }
-        Ok(out)
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map(Some)
     }
 
     /// Reads `truth/<frame>.json`, if present (simulated recordings).
@@ -293,4 +296,40 @@ fn read_json<T: serde::de::DeserializeOwned>(
     serde_json::from_slice(&text)
         .map(Some)
         .map_err(|e| invalid(path, e.to_string()))
+}
+
+/// The `frame,seconds` lines of a timestamps file (a header line and `#` comments skipped), or
+/// an empty map when there is none.
+fn read_times(path: &Path) -> Result<BTreeMap<u64, f64>, RecordingError> {
+    let mut out = BTreeMap::new();
+    if !path.exists() {
+        return Ok(out);
+    }
+    let text = flexshape_rig::files::read_text(path, "timestamps file").map_err(|e| {
+        RecordingError::Layout {
+            path: path.to_path_buf(),
+            problem: e.reason(),
+        }
+    })?;
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') || (n == 0 && line.starts_with("frame")) {
+            continue;
+        }
+        let parsed = line.split_once(',').and_then(|(f, t)| {
+            Some((f.trim().parse::<u64>().ok()?, t.trim().parse::<f64>().ok()?))
+        });
+        match parsed {
+            Some((frame, t)) if t.is_finite() => {
+                out.insert(frame, t);
+            }
+            _ => {
+                return Err(RecordingError::Layout {
+                    path: path.to_path_buf(),
+                    problem: format!("line {}: `{line}` is not `frame,seconds`", n + 1),
+                });
+            }
+        }
+    }
+    Ok(out)
 }

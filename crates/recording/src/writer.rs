@@ -65,6 +65,7 @@ impl RecordingWriter {
                 "masks",
                 "truth",
                 "commands",
+                "timestamps",
             ] {
                 let dir = root.join(part);
                 if dir.is_dir() {
@@ -148,11 +149,21 @@ impl RecordingWriter {
     /// Writes `timestamps.csv`: each frame's capture time, seconds (`frame,seconds` lines after
     /// a header).
     pub fn write_timestamps(&self, times: &[(u64, f64)]) -> Result<(), RecordingError> {
-        let mut text = String::from("frame,seconds\n");
-        for (frame, t) in times {
-            text.push_str(&format!("{frame},{t:?}\n"));
+        write_atomic(&self.layout.timestamps(), timestamps_csv(times).as_bytes())
+    }
+
+    /// Writes `timestamps/<cam>.csv`: camera `cam`'s own capture time of each of its frames,
+    /// seconds in `timestamps.csv`'s time base (`frame,seconds` lines after a header).
+    pub fn write_camera_timestamps(
+        &self,
+        cam: &str,
+        times: &[(u64, f64)],
+    ) -> Result<(), RecordingError> {
+        let path = self.layout.camera_timestamps(cam);
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| RecordingError::io(dir, e))?;
         }
-        write_atomic(&self.layout.timestamps(), text.as_bytes())
+        write_atomic(&path, timestamps_csv(times).as_bytes())
     }
 
     /// Writes `truth/<frame:06>.json`.
@@ -253,4 +264,13 @@ pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RecordingErr
     tmp.as_mut_os_string().push(".partial");
     std::fs::write(&tmp, bytes).map_err(|e| RecordingError::io(&tmp, e))?;
     std::fs::rename(&tmp, path).map_err(|e| RecordingError::io(path, e))
+}
+
+/// `frame,seconds` lines after a header.
+fn timestamps_csv(times: &[(u64, f64)]) -> String {
+    let mut text = String::from("frame,seconds\n");
+    for (frame, t) in times {
+        text.push_str(&format!("{frame},{t:?}\n"));
+    }
+    text
 }

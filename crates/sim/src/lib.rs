@@ -33,6 +33,7 @@
 
 mod catheter;
 mod chessboard;
+mod clocks;
 mod drawn;
 mod error;
 mod render;
@@ -45,6 +46,7 @@ pub use catheter::{Catheter, CatheterPose, CatheterState, RENDER_STEP, TRUTH_STE
 pub use chessboard::{
     BoardRenderer, CalibrationView, PrintedBoard, PrintedMarkers, PrintedPattern, calibration_views,
 };
+pub use clocks::FreeRunning;
 pub use drawn::drawn_mask;
 pub use error::SimError;
 pub use render::{Plate, PlatePattern, RenderSettings, Renderer, View};

@@ -14,6 +14,7 @@ use rand::{RngExt, SeedableRng};
 use serde::{Deserialize, Serialize};
 
 use crate::catheter::{Catheter, CatheterPose};
+use crate::clocks::FreeRunning;
 use crate::error::SimError;
 use crate::render::{RenderSettings, Renderer, View};
 use crate::rig::SimRigConfig;
@@ -158,23 +159,76 @@ impl Simulator {
         shutter: f64,
         steps: usize,
     ) -> Vec<Vec<CatheterPose>> {
-        let interval = 1.0 / rate_hz.max(1e-9);
-        let steps = steps.max(1);
         (0..frames)
-            .map(|i| {
-                (0..steps)
-                    .map(|k| {
-                        let within = if steps == 1 {
-                            0.0
-                        } else {
-                            k as f64 / (steps - 1) as f64 - 0.5
-                        };
-                        let t = (i as f64 + within * shutter) * interval;
-                        sequence::motion_at(&self.config.catheter, self.config.seed, t)
-                    })
-                    .collect()
+            .map(|i| self.exposure_at(i as f64 / rate_hz.max(1e-9), rate_hz, shutter, steps))
+            .collect()
+    }
+
+    /// As [`Simulator::motion_exposures`] for cameras that are not triggered together: per
+    /// frame, each camera's exposure centred on its own capture time
+    /// ([`FreeRunning::capture_time`]), and those times; for [`Simulator::render_free_running`].
+    pub fn free_running_exposures(
+        &self,
+        frames: usize,
+        rate_hz: f64,
+        shutter: f64,
+        steps: usize,
+        clocks: &FreeRunning,
+    ) -> Vec<(Vec<Vec<CatheterPose>>, Vec<f64>)> {
+        let cameras = self.rig.cameras.len();
+        (0..frames as u64)
+            .map(|n| {
+                let times: Vec<f64> = (0..cameras)
+                    .map(|k| clocks.capture_time(self.config.seed, k, n, rate_hz))
+                    .collect();
+                let exposures = times
+                    .iter()
+                    .map(|&t| self.exposure_at(t, rate_hz, shutter, steps))
+                    .collect();
+                (exposures, times)
             })
             .collect()
+    }
+
+    /// The motion's poses at `steps` evenly spaced instants while a shutter open for `shutter`
+    /// of the interval of `rate_hz` is open, centred on `t` seconds.
+    fn exposure_at(&self, t: f64, rate_hz: f64, shutter: f64, steps: usize) -> Vec<CatheterPose> {
+        let interval = 1.0 / rate_hz.max(1e-9);
+        let steps = steps.max(1);
+        (0..steps)
+            .map(|k| {
+                let within = if steps == 1 {
+                    0.0
+                } else {
+                    k as f64 / (steps - 1) as f64 - 0.5
+                };
+                let at = t + within * shutter * interval;
+                sequence::motion_at(&self.config.catheter, self.config.seed, at)
+            })
+            .collect()
+    }
+
+    /// Renders frame number `frame` of cameras that are not triggered together: camera `i`
+    /// exposed while the catheter moves through `exposures[i]`
+    /// ([`Simulator::free_running_exposures`]), so each sees it at its own instant; its exact
+    /// masks are of its own exposure's middle pose. The truth is `truth_pose`'s, the instant
+    /// the frame set refers to.
+    pub fn render_free_running(
+        &self,
+        frame: u64,
+        exposures: &[Vec<CatheterPose>],
+        truth_pose: &CatheterPose,
+    ) -> Result<SimFrame, SimError> {
+        let scenes = exposures
+            .iter()
+            .map(|poses| poses.iter().map(|p| self.scene(p)).collect())
+            .collect::<Result<Vec<Vec<Scene>>, _>>()?;
+        let each: Vec<&[Scene]> = scenes.iter().map(Vec::as_slice).collect();
+        let catheter = &self.config.catheter;
+        Ok(SimFrame {
+            views: self.renderer.render_exposures(&each, frame),
+            truth: catheter.truth(frame, truth_pose, &catheter.state(truth_pose)?)?,
+        })
     }
 
     /// Renders an arbitrary scene (any tubes and occluders) through the rig.
@@ -293,6 +347,32 @@ impl Simulator {
     ) -> Result<u64, SimError> {
         let render = |i: usize| Ok((self.render_exposure(i as u64, &exposures[i])?, None));
         self.write_frames(dir, exposures.len(), overwrite, render, on_frame)
+    }
+
+    /// As [`Simulator::write_exposed_recording`] for cameras that are not triggered together:
+    /// frame `i` renders `frames[i]`'s per-camera exposures with `truth_poses[i]`'s truth
+    /// ([`Simulator::render_free_running`]).
+    pub fn write_free_running_recording(
+        &self,
+        dir: &Path,
+        frames: &[Vec<Vec<CatheterPose>>],
+        truth_poses: &[CatheterPose],
+        overwrite: bool,
+        on_frame: impl FnMut(&SimFrame) -> ControlFlow<()>,
+    ) -> Result<u64, SimError> {
+        if frames.len() != truth_poses.len() {
+            return Err(crate::error::config_error(
+                "truth poses",
+                format!("{} for {} frames", truth_poses.len(), frames.len()),
+            ));
+        }
+        let render = |i: usize| {
+            Ok((
+                self.render_free_running(i as u64, &frames[i], &truth_poses[i])?,
+                None,
+            ))
+        };
+        self.write_frames(dir, frames.len(), overwrite, render, on_frame)
     }
 
     /// A recording of masks as another tool draws them ([`crate::drawn_mask`]): for each of

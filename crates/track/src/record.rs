@@ -179,6 +179,11 @@ pub struct TrackRecord {
     /// (the first camera's image file's modification time).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub captured_from: Option<String>,
+    /// Each camera's own capture time, rig order, seconds in `captured_s`'s time base, where
+    /// the input knows them (live cameras; a recording's `timestamps/<cam>.csv`): cameras that
+    /// are not triggered together see the tube at these instants (additive; empty otherwise).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub camera_captured_s: Vec<f64>,
     /// When the chain finished the frame, seconds since the Unix epoch (UTC) (additive).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub processed_s: Option<f64>,
@@ -333,6 +338,7 @@ impl TrackRecord {
             latency_ms: None,
             captured_s: None,
             captured_from: None,
+            camera_captured_s: Vec::new(),
             processed_s: None,
             method: Some(if t.fit.is_some() { "fit" } else { "hull" }.into()),
             radius: has_shape.then_some(s.radius),
@@ -389,6 +395,7 @@ impl TrackRecord {
             latency_ms: Some(p.latency_ms),
             captured_s: p.capture_time.map(|c| c.seconds),
             captured_from: p.capture_time.map(|c| c.source.name().to_string()),
+            camera_captured_s: p.camera_times.clone().unwrap_or_default(),
             processed_s: p.processed_s,
             ..record.with_command(p.command.clone())
         }
@@ -416,6 +423,7 @@ impl TrackRecord {
             latency_ms: None,
             captured_s: None,
             captured_from: None,
+            camera_captured_s: Vec::new(),
             processed_s: None,
             method: None,
             radius: None,

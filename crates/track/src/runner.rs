@@ -53,6 +53,9 @@ pub struct Processed {
     pub dropped: u64,
     /// When the frame was captured, where the input knows it.
     pub capture_time: Option<CaptureTime>,
+    /// Each camera's own capture time, rig order, where the input knows them
+    /// ([`FrameSet::camera_times`]).
+    pub camera_times: Option<Vec<f64>>,
     /// The wall clock when the chain finished the frame, seconds since the Unix epoch.
     pub processed_s: Option<f64>,
 }
@@ -78,6 +81,7 @@ impl Processed {
             latency_ms: 0.0,
             dropped,
             capture_time: None,
+            camera_times: None,
             processed_s: unix_seconds(SystemTime::now()),
         }
     }
@@ -449,6 +453,7 @@ fn process(
         latency_ms: set.captured.elapsed().as_secs_f64() * 1e3,
         dropped,
         capture_time: set.capture_time,
+        camera_times: set.camera_times,
         processed_s: unix_seconds(SystemTime::now()),
     };
     (processed, change)

@@ -182,6 +182,7 @@ fn show(live: &mut Live, step: &SteerStep, seen: SteerFrame<'_>, steering: Steer
         captured: Instant::now(),
         dropped: 0,
         capture_time: None,
+        camera_times: None,
         processed_s: None,
     };
     live.publish_steering(processed, record, steering);

@@ -9,6 +9,7 @@ use flexshape_lab::simulate::{
     BoardSession, Scenario, simulate_boards, simulate_drawn_masks, simulate_recording,
 };
 use flexshape_model::ExperimentPlan;
+use flexshape_sim::FreeRunning;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::cli::{ChessboardsArgs, SimulateArgs, SimulateWhat};
@@ -107,12 +108,42 @@ fn scenario(args: &SimulateArgs) -> anyhow::Result<Scenario> {
                 frames: args.frames,
                 rate_hz: hz,
                 shutter: args.shutter,
+                clocks: free_running(args)?,
             }
         }
         None => Scenario::Sweep {
             frames: args.frames,
         },
     })
+}
+
+/// The cameras' clocks `--phases` and `--jitter` ask for, or `None` when every camera captures
+/// at the frame's instant.
+fn free_running(args: &SimulateArgs) -> anyhow::Result<Option<FreeRunning>> {
+    for &ms in &args.phases {
+        anyhow::ensure!(
+            ms.is_finite() && ms.abs() <= 10_000.0,
+            "--phases: {ms} ms is not a capture delay; give each camera's delay after the frame's instant in ms, at most 10 s either way"
+        );
+    }
+    anyhow::ensure!(
+        args.jitter.is_finite() && (0.0..=10_000.0).contains(&args.jitter),
+        "--jitter {}: give how early or late a capture may be, ms, from 0 to 10 s",
+        args.jitter
+    );
+    if let Some(extra) = args.phases.get(args.sim.cams) {
+        anyhow::bail!(
+            "--phases gives {} delays for {} cameras (the first extra: {extra} ms): give one per camera at most",
+            args.phases.len(),
+            args.sim.cams
+        );
+    }
+    Ok(
+        (args.phases.iter().any(|&p| p != 0.0) || args.jitter > 0.0).then(|| FreeRunning {
+            phases_s: args.phases.iter().map(|ms| ms / 1e3).collect(),
+            jitter_s: args.jitter / 1e3,
+        }),
+    )
 }
 
 /// `flexshape simulate chessboards`.

@@ -213,22 +213,31 @@ impl Renderer {
     /// later of the two middle ones). `frame` selects the noise. One scene renders as
     /// [`Renderer::render`]; none renders the backdrop alone.
     pub fn render_exposure(&self, scenes: &[Scene], frame: u64) -> Vec<View> {
+        let each = vec![scenes; self.views.len()];
+        self.render_exposures(&each, frame)
+    }
+
+    /// As [`Renderer::render_exposure`], each camera over its own exposure (`scenes[i]` for
+    /// camera `i`): cameras that are not triggered together see the scene at their own
+    /// instants. A camera without an entry sees the backdrop alone.
+    pub fn render_exposures(&self, scenes: &[&[Scene]], frame: u64) -> Vec<View> {
         let empty = Scene {
             tubes: Vec::new(),
             occluders: Vec::new(),
         };
-        let scenes = if scenes.is_empty() {
-            std::slice::from_ref(&empty)
-        } else {
-            scenes
-        };
-        let middle = scenes.len() / 2;
         self.views
             .iter()
             .enumerate()
             .map(|(i, v)| {
-                let mut sum = self.linear_view(v, &v.backdrop, &scenes[middle]);
-                let others = scenes
+                let own = scenes.get(i).copied().unwrap_or_default();
+                let own = if own.is_empty() {
+                    std::slice::from_ref(&empty)
+                } else {
+                    own
+                };
+                let middle = own.len() / 2;
+                let mut sum = self.linear_view(v, &v.backdrop, &own[middle]);
+                let others = own
                     .iter()
                     .enumerate()
                     .filter(|&(k, _)| k != middle)
@@ -240,7 +249,7 @@ impl Renderer {
                         }
                     }
                 }
-                let inv = 1.0 / scenes.len() as f64;
+                let inv = 1.0 / own.len() as f64;
                 for acc in &mut sum.rgb {
                     for a in acc.iter_mut() {
                         *a *= inv;

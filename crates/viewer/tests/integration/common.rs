@@ -53,6 +53,7 @@ pub fn update(frame: u64, image: image::RgbImage) -> Update {
         latency_ms: 1.0,
         dropped: 0,
         capture_time: None,
+        camera_times: None,
         processed_s: None,
     };
     let stats = Stats {
