@@ -74,13 +74,13 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             black_box(
                 fitter
-                    .follow(&estimator, &rig.volume, &views1, &first, None, None)
+                    .follow(&estimator, &rig.volume, &views1, &first, (None, None), None)
                     .unwrap(),
             )
         })
     });
     let (second, fit1) = fitter
-        .follow(&estimator, &rig.volume, &views1, &first, None, None)
+        .follow(&estimator, &rig.volume, &views1, &first, (None, None), None)
         .unwrap();
     let predicted = fit1
         .unwrap()
@@ -97,7 +97,7 @@ fn bench(c: &mut Criterion) {
                         &rig.volume,
                         &views2,
                         &second,
-                        Some(&predicted),
+                        (Some(&predicted), None),
                         None,
                     )
                     .unwrap(),

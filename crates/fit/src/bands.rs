@@ -62,29 +62,42 @@ struct Edge {
 }
 
 /// The bands on `tube`, as curve parameters, from every camera's image and marker mask;
-/// `spheres` are the tube's visibility spheres in each camera.
+/// `spheres` are the tube's visibility spheres in each camera. With `each`, camera `k` saw
+/// the tube as `each[k]` (cameras that captured apart, [`crate::AcrossTime`]): its colours
+/// are read along that one, at the same parameters.
 pub(crate) fn locate(
     cameras: &[Camera],
     images: &[&RgbImage],
     markers: &[&BitMask],
-    tube: &Tube,
+    (tube, each): (&Tube, Option<&[Tube]>),
     spheres: &[Spheres],
 ) -> Vec<CurveBand> {
     let table = ArcTable::new(tube);
     let length = table.length();
     let last = (length / STEP).floor() as usize;
     // The centerline at every KNOT_EVERY-th sample and the last, shared by the cameras.
-    let knots: Vec<Frame> = knot_samples(last)
-        .map(|k| {
-            let u = table.u_of(k as f64 * STEP);
-            let (c, t) = tube.frame(u);
-            (c, t, u)
-        })
-        .collect();
+    let knots_of = |seen: &Tube| -> Vec<Frame> {
+        knot_samples(last)
+            .map(|k| {
+                let u = table.u_of(k as f64 * STEP);
+                let (c, t) = seen.frame(u);
+                (c, t, u)
+            })
+            .collect()
+    };
+    let shared = knots_of(tube);
     let radius = |u: f64| tube.radius_at(u, length);
     let mut seen: Vec<Seen> = Vec::new();
-    for (((camera, image), mask), spheres) in cameras.iter().zip(images).zip(markers).zip(spheres) {
-        let samples = sample(camera, image, mask, (&knots, &radius), last, spheres);
+    for (k, (((camera, image), mask), spheres)) in cameras
+        .iter()
+        .zip(images)
+        .zip(markers)
+        .zip(spheres)
+        .enumerate()
+    {
+        let own = each.and_then(|e| e.get(k)).map(knots_of);
+        let knots = own.as_deref().unwrap_or(&shared);
+        let samples = sample(camera, image, mask, (knots, &radius), last, spheres);
         seen.extend(runs(&samples, tube.capped[1]));
     }
     merge(seen, length)

@@ -25,7 +25,7 @@ use nalgebra::{DMatrix, DVector, Point3, Vector6};
 use rayon::prelude::*;
 
 use crate::pose::{moved, pose_row};
-use crate::solve::{Measured, against, for_each_row, measure, normal_equations};
+use crate::solve::{Measured, Seen, against, for_each_row, measure, normal_equations};
 use crate::{FitError, Tube, TubeFitter, View};
 
 /// Cameras and tubes fitted together.
@@ -166,7 +166,7 @@ impl TubeFitter {
             let measured: Vec<Vec<Vec<Measured>>> = tubes
                 .par_iter()
                 .zip(&images)
-                .map(|(tube, img)| measure(&cameras, img, tube, s))
+                .map(|(tube, img)| measure(&cameras, img, Seen::All(tube), s))
                 .collect();
             measurements += 1;
             let mut current = measured.clone();
@@ -258,7 +258,7 @@ impl TubeFitter {
                 current = tubes
                     .par_iter()
                     .zip(&measured)
-                    .map(|(tube, m)| against(&cameras, tube, m, false, s.free_width()))
+                    .map(|(tube, m)| against(&cameras, Seen::All(tube), m, false, s.free_width()))
                     .collect();
             }
         }

@@ -57,6 +57,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod across_time;
 mod bands;
 mod bundle;
 mod check;
@@ -81,6 +82,7 @@ use image::RgbImage;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use thiserror::Error;
 
+pub use across_time::{AcrossTime, Motion};
 pub use bundle::{Bundle, PosePrior};
 pub use check::{CameraCheck, OutlineResiduals, STILL_RAMP_PX, debug_image};
 pub use settings::{FitSettings, Method, OutlineWidth};
@@ -98,7 +100,7 @@ pub(crate) fn median(values: impl Iterator<Item = f64>) -> f64 {
 
 use edges::EdgeImage;
 use outline::Spheres;
-use solve::{against, measure, normal_equations};
+use solve::{Seen, against, measure, normal_equations};
 use width::WidthProfile;
 
 /// Why the fit cannot be set up or run.
@@ -317,7 +319,26 @@ impl TubeFitter {
         fit_radius: bool,
         one_measurement_mm: f64,
     ) -> Result<(Fit, Vec<Spheres>), FitError> {
+        self.fit_across(s, views, start, fit_radius, one_measurement_mm, None)
+    }
+
+    /// [`TubeFitter::fit_with`] for cameras that captured at different instants: with
+    /// `across`, each camera's outline is measured around, and compared with, the tube
+    /// carried by its motion to that camera's capture ([`AcrossTime`]), and the fitted tube
+    /// is the one at the instant the offsets are counted from; the check holds each camera to
+    /// its own. `None`: every camera saw the same tube.
+    fn fit_across(
+        &self,
+        s: &FitSettings,
+        views: &[View<'_>],
+        start: Tube,
+        fit_radius: bool,
+        one_measurement_mm: f64,
+        across: Option<&AcrossTime>,
+    ) -> Result<(Fit, Vec<Spheres>), FitError> {
         let images = self.edge_images(views)?;
+        let cameras = self.cameras.len();
+        let each = |tube: &Tube| across.map(|a| a.seen(tube, cameras));
         // Free widths say nothing of the radius (see `width`).
         let fit_radius = fit_radius && !s.free_width();
         let mut tube = start.clone();
@@ -329,7 +350,13 @@ impl TubeFitter {
         // The last measurement, if the tube has not moved since (then it serves the check).
         let mut settled = None;
         'outer: for round in 0..MEASUREMENTS {
-            let measured = measure(&self.cameras, &images, &tube, s);
+            let moved_tubes = each(&tube);
+            let measured = measure(
+                &self.cameras,
+                &images,
+                Seen::of(&tube, moved_tubes.as_deref()),
+                s,
+            );
             measurements += 1;
             let mut current = measured.clone();
             let mut moved = 0.0;
@@ -377,7 +404,9 @@ impl TubeFitter {
                     break;
                 }
                 // Unfound samples kept: should these be the last, the check counts them.
-                current = against(&self.cameras, &tube, &measured, true, s.free_width());
+                let moved_tubes = each(&tube);
+                let by_camera = Seen::of(&tube, moved_tubes.as_deref());
+                current = against(&self.cameras, by_camera, &measured, true, s.free_width());
             }
         }
         let (measured, eq) = match settled {
@@ -385,7 +414,13 @@ impl TubeFitter {
             other => {
                 let measured = other.map(|(m, _)| m).unwrap_or_else(|| {
                     measurements += 1;
-                    measure(&self.cameras, &images, &tube, s)
+                    let moved_tubes = each(&tube);
+                    measure(
+                        &self.cameras,
+                        &images,
+                        Seen::of(&tube, moved_tubes.as_deref()),
+                        s,
+                    )
                 });
                 let eq = normal_equations(&tube, &start, &measured, s, fit_radius);
                 (measured, eq)
@@ -406,7 +441,20 @@ impl TubeFitter {
             .unwrap_or_else(|| DMatrix::zeros(tube.parameters(), tube.parameters()))
             * sigma_px.powi(2);
         let length = tube.length();
-        let spheres = self.spheres(&tube, length);
+        // Each camera's check holds it to the tube it saw.
+        let moved_tubes = each(&tube);
+        let by_camera = Seen::of(&tube, moved_tubes.as_deref());
+        let spheres = match by_camera {
+            Seen::All(tube) => self.spheres(tube, length),
+            Seen::Each(tubes) => {
+                let mut all = Vec::with_capacity(cameras);
+                for (k, t) in tubes.iter().enumerate() {
+                    let centres = outline::sphere_centres(t, length);
+                    all.push(Spheres::from_centres(&self.cameras[k], t, &centres, 0.0));
+                }
+                all
+            }
+        };
         let cameras = self
             .cameras
             .iter()
@@ -415,17 +463,19 @@ impl TubeFitter {
             .zip(&measured)
             .zip(&spheres)
             .zip(&images)
-            .map(|(((((cam, name), view), m), spheres), img)| {
+            .enumerate()
+            .map(|(k, (((((cam, name), view), m), spheres), img))| {
+                let tube = by_camera.by(k);
                 let scatter = check::Scatter::of(m);
                 let res = check::residual_stats(m, &scatter, s.max_p90_px, 1.0);
-                let ends = check::end_stats(m, &tube, length, &scatter, s.max_p90_px);
+                let ends = check::end_stats(m, tube, length, &scatter, s.max_p90_px);
                 let widths = if s.free_width() {
                     WidthProfile::of(m)
                 } else {
                     WidthProfile::default()
                 };
                 let rendered = check::render(cam, spheres, &widths);
-                let missed = |away: &BitMask| self.continuations(cam, &tube, away);
+                let missed = |away: &BitMask| self.continuations(cam, tube, away);
                 let iou_limit = check::iou_limit(s.min_iou, spheres);
                 let size = (rendered.0.width(), rendered.0.height());
                 let outlined = || check::outlined(size, spheres, &widths, m, s.max_residual_px);
@@ -454,7 +504,7 @@ impl TubeFitter {
                     end_residual_px: ends.rms,
                     end_noise_px: ends.noise.0,
                     cap_found: check::cap_found(m),
-                    goes_on: self.goes_on(cam, img, &tube, &rendered.0),
+                    goes_on: self.goes_on(cam, img, tube, &rendered.0),
                     // A mask's object is white on black: no colour to speak of.
                     lighter_share: if s.masks { 0.0 } else { res.lighter },
                     // (From +0: a negated zero would be written "-0.0".)
@@ -501,20 +551,22 @@ impl TubeFitter {
         tube: &Tube,
     ) -> Result<Vec<Vec<OutlineResidual>>, FitError> {
         let images = self.edge_images(views)?;
-        Ok(measure(&self.cameras, &images, tube, &self.settings)
-            .into_iter()
-            .map(|cam| {
-                cam.into_iter()
-                    .map(|m| OutlineResidual {
-                        pixel: m.point.pixel.into(),
-                        normal: m.point.normal.into(),
-                        u: m.point.u,
-                        cap: matches!(m.point.part, outline::Part::Cap(_)),
-                        residual: m.residual,
-                    })
-                    .collect()
-            })
-            .collect())
+        Ok(
+            measure(&self.cameras, &images, Seen::All(tube), &self.settings)
+                .into_iter()
+                .map(|cam| {
+                    cam.into_iter()
+                        .map(|m| OutlineResidual {
+                            pixel: m.point.pixel.into(),
+                            normal: m.point.normal.into(),
+                            u: m.point.u,
+                            cap: matches!(m.point.part, outline::Part::Cap(_)),
+                            residual: m.residual,
+                        })
+                        .collect()
+                })
+                .collect(),
+        )
     }
 
     /// The frame's shape from the images: `hull` (the hull's record of the same frame) gives
@@ -576,7 +628,7 @@ impl TubeFitter {
             voxel_volume,
             reach,
         ));
-        let record = self.conclude(estimator, volume, views, (&fit, &spheres), &base);
+        let record = self.conclude(estimator, volume, views, (&fit, &spheres, None), &base);
         Ok((record, Some(fit)))
     }
 
@@ -591,14 +643,17 @@ impl TubeFitter {
     /// ([`Fit::ghost_mm`] is `None`); a fit that does not explain the images, or whose tip
     /// moved more than `track_max_move_mm` from where it started, gets status
     /// `inconsistent`, and the caller then starts again from the hull. `radius` is the
-    /// tube's, if known.
+    /// tube's, if known. With `across` (beside `start`: cameras that captured at different
+    /// instants, and the tube's recent motion), each camera is held to the tube where it was at
+    /// its capture and the shape is the tube at the instant the offsets count from
+    /// ([`AcrossTime`]).
     pub fn follow(
         &self,
         estimator: &ShapeEstimator,
         volume: &Volume,
         views: &[View<'_>],
         previous: &ShapeRecord,
-        start: Option<&Tube>,
+        (start, across): (Option<&Tube>, Option<&AcrossTime>),
         radius: Option<f64>,
     ) -> Result<(ShapeRecord, Option<Fit>), FitError> {
         let s = &self.settings;
@@ -645,19 +700,21 @@ impl TubeFitter {
             ..s.clone()
         };
         let fit_radius = radius.is_none() && s.fit_radius;
-        let (mut fit, mut spheres) = self.fit_with(
+        let (mut fit, mut spheres) = self.fit_across(
             &followed,
             views,
             start,
             fit_radius,
             ONE_MEASUREMENT_FOLLOWED_MM,
+            across,
         )?;
         if fit.measurements == 1 && fit.cameras.iter().any(|c| !self.explains(c)) {
             // Settled on its first boundaries, which a camera's check then faults: the
             // shortcut's assumption (boundaries searched about where the tube settled) may be
             // what failed, and measuring again costs far less than the hull.
             let iterations = fit.iterations;
-            (fit, spheres) = self.fit_with(&followed, views, fit.tube, fit_radius, 0.0)?;
+            (fit, spheres) =
+                self.fit_across(&followed, views, fit.tube, fit_radius, 0.0, across)?;
             fit.iterations += iterations;
             fit.measurements += 1;
         }
@@ -668,7 +725,7 @@ impl TubeFitter {
         } else {
             Status::Ok
         });
-        let mut record = self.conclude(estimator, volume, views, (&fit, &spheres), &base);
+        let mut record = self.conclude(estimator, volume, views, (&fit, &spheres, across), &base);
         // The boundaries are searched a few pixels from the prediction: a tip that moved
         // farther than that between frames was not followed but pulled, and may have settled
         // short of where it is.
@@ -706,20 +763,27 @@ impl TubeFitter {
 
     /// The record of a fitted tube (with its visibility spheres in each camera): its curve
     /// sampled, bands from colour, and the statuses the self-check, the ghost check and the
-    /// uncertainty give.
+    /// uncertainty give. With `across`, each camera's colours are read along the tube it saw.
     fn conclude(
         &self,
         estimator: &ShapeEstimator,
         volume: &Volume,
         views: &[View<'_>],
-        (fit, spheres): (&Fit, &[Spheres]),
+        (fit, spheres, across): (&Fit, &[Spheres], Option<&AcrossTime>),
         hull: &ShapeRecord,
     ) -> ShapeRecord {
         let s = &self.settings;
         let sigma = |u: f64| fit.sigma_across(u);
         let images: Vec<&RgbImage> = views.iter().map(|v| v.image).collect();
         let markers: Vec<&BitMask> = views.iter().map(|v| v.markers).collect();
-        let found = bands::locate(&self.cameras, &images, &markers, &fit.tube, spheres);
+        let each = across.map(|a| a.seen(&fit.tube, self.cameras.len()));
+        let found = bands::locate(
+            &self.cameras,
+            &images,
+            &markers,
+            (&fit.tube, each.as_deref()),
+            spheres,
+        );
         let fitted = FittedCurve {
             curve: fit.tube.centerline.clone(),
             radius: fit.tube.radius,

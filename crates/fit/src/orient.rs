@@ -57,7 +57,7 @@ impl TubeFitter {
     fn band_at_tip(&self, views: &[View<'_>], tube: &Tube, spheres: &[Spheres]) -> bool {
         let images: Vec<&RgbImage> = views.iter().map(|v| v.image).collect();
         let markers: Vec<&BitMask> = views.iter().map(|v| v.markers).collect();
-        crate::bands::locate(&self.cameras, &images, &markers, tube, spheres)
+        crate::bands::locate(&self.cameras, &images, &markers, (tube, None), spheres)
             .iter()
             .any(|b| b.at_tip)
     }

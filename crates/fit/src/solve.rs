@@ -45,23 +45,65 @@ pub(crate) struct Measured {
     pub unseen: bool,
 }
 
-/// Every camera's outline of `tube`, measured (with free widths, only the middles between
-/// the sides place it: [`crate::width::middles`]).
+/// The tube as each camera saw it: the same for all (cameras triggered together), or each
+/// camera's own ([`crate::AcrossTime`]: the tube where it was at that camera's capture).
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Seen<'a> {
+    /// Every camera saw this tube.
+    All(&'a Tube),
+    /// Camera `k` saw the `k`-th.
+    Each(&'a [Tube]),
+}
+
+impl<'a> Seen<'a> {
+    /// `each` camera's own tube when given, else `tube` for all.
+    pub(crate) fn of(tube: &'a Tube, each: Option<&'a [Tube]>) -> Self {
+        match each {
+            Some(tubes) => Seen::Each(tubes),
+            None => Seen::All(tube),
+        }
+    }
+
+    /// The tube camera `camera` saw (the last one for a camera past the list).
+    pub(crate) fn by(&self, camera: usize) -> &'a Tube {
+        match *self {
+            Seen::All(tube) => tube,
+            Seen::Each(tubes) => &tubes[camera.min(tubes.len() - 1)],
+        }
+    }
+}
+
+/// Every camera's outline of the tube it saw, measured (with free widths, only the middles
+/// between the sides place it: [`crate::width::middles`]).
 pub(crate) fn measure(
     cameras: &[Camera],
     images: &[EdgeImage<'_>],
-    tube: &Tube,
+    seen: Seen<'_>,
     settings: &FitSettings,
 ) -> Vec<Vec<Measured>> {
-    let sampled = Sampled::new(tube, settings.spacing_mm);
+    // One sampling serves every camera that saw the same tube.
+    let shared = match seen {
+        Seen::All(tube) => Some(Sampled::new(tube, settings.spacing_mm)),
+        Seen::Each(_) => None,
+    };
     let mut measured: Vec<Vec<Measured>> = cameras
         .iter()
         .zip(images)
-        .map(|(cam, img)| {
+        .enumerate()
+        .map(|(k, (cam, img))| {
+            let tube = seen.by(k);
+            let own;
+            let sampled = match &shared {
+                Some(s) => s,
+                None => {
+                    own = Sampled::new(tube, settings.spacing_mm);
+                    &own
+                }
+            };
             outline(
                 cam,
                 tube,
-                &sampled,
+                sampled,
                 settings.spacing_mm,
                 settings.search_px.min(2.0) + 0.5,
             )
@@ -107,7 +149,7 @@ pub(crate) fn measure(
 /// sides place the tube ([`crate::width::middles`]).
 pub(crate) fn against(
     cameras: &[Camera],
-    tube: &Tube,
+    seen: Seen<'_>,
     measured: &[Vec<Measured>],
     keep_unfound: bool,
     free_width: bool,
@@ -115,7 +157,9 @@ pub(crate) fn against(
     let mut moved: Vec<Vec<Measured>> = cameras
         .iter()
         .zip(measured)
-        .map(|(cam, ms)| {
+        .enumerate()
+        .map(|(k, (cam, ms))| {
+            let tube = seen.by(k);
             ms.iter()
                 .filter_map(|m| {
                     let Some((pixel, normal)) = m.edge else {

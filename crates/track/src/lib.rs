@@ -25,6 +25,7 @@
 mod backdrop;
 mod hull_record;
 mod inspect;
+mod instants;
 mod open;
 pub mod output;
 mod pipeline;
@@ -50,6 +51,7 @@ use thiserror::Error;
 pub use backdrop::BackgroundUpdate;
 pub use hull_record::{HullRecord, carve_frame};
 pub use inspect::Inspection;
+pub use instants::{CameraTimes, Instants};
 pub use open::{Recording, TrackLine, load_backgrounds, parse_line, read_records};
 pub use pipeline::{
     Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, StageTimings, Start, Tracked,

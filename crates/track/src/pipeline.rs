@@ -18,7 +18,7 @@ use flexshape_camera::Camera;
 use flexshape_carve::{
     Band, BandRule, HierarchicalCarver, Occupancy, OutsideImage, find_bands, shadow_carved,
 };
-use flexshape_fit::{Fit, FitSettings, Method, Tube, TubeFitter, View};
+use flexshape_fit::{AcrossTime, Fit, FitSettings, Method, Motion, Tube, TubeFitter, View};
 use flexshape_input::FrameImage;
 use flexshape_rig::{Rig, Volume};
 use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status};
@@ -32,6 +32,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::TrackError;
 use crate::backdrop::{Backdrop, BackgroundUpdate, hull_pixels, models};
+use crate::instants::{CameraTimes, Instants};
 use crate::state::{RunState, Shared, Turn};
 use crate::usual::share;
 
@@ -113,6 +114,8 @@ pub struct Tracked {
     /// where this frame shows the backdrop as it was captured, before the frame was processed
     /// again (`changed_px`: the pixels taken back; see [`Pipeline::process`]).
     pub background_restored: Vec<BackgroundUpdate>,
+    /// Whether the cameras captured together, or apart and how the fit dealt with it.
+    pub instants: Instants,
 }
 
 /// One frame's visual hull ([`Pipeline::hull`]).
@@ -150,12 +153,120 @@ pub enum Start {
 /// frame gets status `bad_silhouette` and no shape.
 pub const MAX_HULL_SHARE: f64 = 0.1;
 
+/// Fits across time for a frame whose cameras captured apart with no motion known: each
+/// measures the motion again from the better shape. Two bring a start a frame's motion off to
+/// within a few hundredths of it.
+const CARRY_ROUNDS: usize = 2;
+
+/// A shape fitted across time (`across`) whose carried tubes may be up to `off_mm` from
+/// where the tube was at its cameras' captures (the motion's doubt times the farthest offset):
+/// the shape may be that far from the tube at its instant. Within the fit's own 1-σ across
+/// the tube, the images' uncertainty dominates and a right shape stays right
+/// ([`Instants::Carried`]); beyond it the frame is `ambiguous`, saying by how much
+/// ([`Instants::Unknown`], its lag the fastest point's time to move that far), and the next
+/// frame measures the motion again from it.
+fn judge_instant(tracked: &mut Tracked, across: &AcrossTime, off_mm: f64) {
+    let lag_s = off_mm / across.motion.fastest_across().max(1e-9);
+    let sigma = largest_sigma(&tracked.shape);
+    if tracked.shape.status.is_right() && off_mm > sigma {
+        tracked.shape.status = Status::Ambiguous {
+            reason: format!(
+                "the cameras captured apart, and the motion that carries the tube between their captures was measured from a shape that lay between its own cameras' captures: this one may be {off_mm:.2} mm from the tube at the frame's instant, beyond the fit's own {sigma:.2} mm (the next frames measure the motion again from it); trigger the cameras together to fit every frame at once"
+            ),
+        };
+        tracked.instants = Instants::Unknown { lag_s };
+    } else {
+        // Within the images' own uncertainty: a shape at one instant for what follows.
+        tracked.instants = Instants::Carried {
+            shift_mm: across.largest_shift_mm(),
+            lag_s: 0.0,
+        };
+    }
+}
+
+/// A shape's largest 1-σ across the tube, mm (0 for the hull's, which has none).
+fn largest_sigma(shape: &ShapeRecord) -> f64 {
+    shape.sigma.iter().copied().fold(0.0, f64::max)
+}
+
 /// A frame's shape that later frames may start from: one fitted to the images whose status
 /// says it is right (`ok`, `bands_missing`, `leaves_volume`), and whose direction was decided.
 #[derive(Debug, Clone)]
 pub struct Prior {
     record: ShapeRecord,
     tube: Tube,
+    /// The tube fitted at `at_s` (`tube` may be it carried on to a later frame): what
+    /// motions are measured from.
+    fitted: Arc<Tube>,
+    /// The instant the shape refers to, seconds (its frame's capture time), where known.
+    at_s: Option<f64>,
+    /// How far from `at_s` the shape may be, seconds (its frame's [`Instants::lag_s`]).
+    lag_s: f64,
+    /// How the tube moved into this shape from an earlier right one, where their instants are
+    /// known ([`Prior::predicted`]).
+    motion: Option<MotionEstimate>,
+}
+
+/// A motion measured between two shapes, and how far it may be from the velocity at another
+/// instant.
+#[derive(Debug, Clone)]
+pub(crate) struct MotionEstimate {
+    pub motion: Motion,
+    /// The share of the speed it may be off by: the two shapes' lags over the time between.
+    pub lag_share: f64,
+    /// The instant its velocity is the tube's (the middle of the time it was measured over),
+    /// seconds.
+    pub mid_s: f64,
+    /// How fast the velocity changes, mm/s²: its difference from a motion measured over
+    /// another time, less twice what the shapes' own scatter gives the two, over the time
+    /// between their middles; 0 when there was none to compare.
+    pub accel_mm_s2: f64,
+    /// The scatter the two shapes' own uncertainty gives it, mm/s: their largest 1-σ across
+    /// the tube, summed, over the time between them.
+    pub noise_mm_s: f64,
+}
+
+impl MotionEstimate {
+    /// The motion from `earlier` to `tube`, a shape at `at_s` that may lie `lag_s` from it.
+    /// `sigma_mm`: `tube`'s largest 1-σ across itself.
+    pub(crate) fn between(
+        earlier: &Prior,
+        tube: &Tube,
+        at_s: f64,
+        lag_s: f64,
+        sigma_mm: f64,
+    ) -> Option<Self> {
+        let dt = at_s - earlier.at_s?;
+        Some(MotionEstimate {
+            motion: Motion::between(&earlier.fitted, tube, dt)?,
+            lag_share: (lag_s + earlier.lag_s) / dt,
+            mid_s: at_s - dt / 2.0,
+            accel_mm_s2: 0.0,
+            noise_mm_s: (sigma_mm + earlier.sigma_mm()) / dt,
+        })
+    }
+
+    /// Measures how far this motion may be from the velocity at another instant by its
+    /// difference from `other`, measured over another time: beyond twice what the shapes'
+    /// scatter gives the two, the difference is the tube's acceleration.
+    pub(crate) fn compared_with(mut self, other: &MotionEstimate) -> Self {
+        let difference = self.motion.largest_difference(&other.motion);
+        let scatter = 2.0 * (self.noise_mm_s + other.noise_mm_s);
+        let apart = (self.mid_s - other.mid_s).abs();
+        if apart > 0.0 {
+            self.accel_mm_s2 = (difference - scatter).max(0.0) / apart;
+        }
+        self
+    }
+
+    /// How far the tube carried by this motion over `offset_s` may be from where it was, mm.
+    /// For a frame at `at_s` whose camera captured `offset_s` from it: the velocity may be
+    /// off by its lag share of the speed, and by the acceleration over the time from its
+    /// middle to the capture.
+    pub(crate) fn doubt_mm(&self, at_s: f64, offset_s: f64) -> f64 {
+        let stale = (at_s - self.mid_s).abs() + offset_s.abs();
+        (self.lag_share * self.motion.fastest_across() + self.accel_mm_s2 * stale) * offset_s.abs()
+    }
 }
 
 impl Prior {
@@ -169,6 +280,8 @@ impl Prior {
     /// A start this close to where a smoothly moving tube is saves the fit a round of
     /// boundary measurements. `None` (start from this shape as it is) when the tubes do not
     /// pair up or the motion is a jerk. `slide_mm` and `limit_mm` as in [`Tube::carried_on`].
+    /// The prediction also keeps the motion between the two when both instants are known
+    /// (for frames whose cameras captured at different instants, [`CameraTimes`]).
     pub fn predicted(
         &self,
         earlier: &Prior,
@@ -176,12 +289,69 @@ impl Prior {
         slide_mm: f64,
         limit_mm: f64,
     ) -> Option<Prior> {
+        let motion = self.motion_since(earlier);
         Some(Prior {
             record: self.record.clone(),
             tube: self
                 .tube
                 .carried_on(&earlier.tube, ratio, slide_mm, limit_mm)?,
+            fitted: self.fitted.clone(),
+            at_s: self.at_s,
+            lag_s: self.lag_s,
+            motion,
         })
+    }
+
+    /// `start` (this shape carried on, [`Prior::predicted`]) with the motion measured from
+    /// `earlier` to this shape, when both instants are known and the tubes pair up (else
+    /// `start` as it was): for cameras that captured apart, a motion over a longer time
+    /// carries less of each shape's own error into the next. Its difference from `start`'s
+    /// own motion (over a shorter time) says how far it may be off.
+    pub fn moving_since(&self, earlier: &Prior, start: Prior) -> Prior {
+        match self.motion_since(earlier) {
+            Some(m) => {
+                let m = match &start.motion {
+                    Some(short) => m.compared_with(short),
+                    None => m,
+                };
+                Prior {
+                    motion: Some(m),
+                    ..start
+                }
+            }
+            None => start,
+        }
+    }
+
+    /// The motion from `earlier` to this shape.
+    fn motion_since(&self, earlier: &Prior) -> Option<MotionEstimate> {
+        MotionEstimate::between(
+            earlier,
+            &self.fitted,
+            self.at_s?,
+            self.lag_s,
+            self.sigma_mm(),
+        )
+    }
+
+    /// The shape's largest 1-σ across the tube, mm.
+    fn sigma_mm(&self) -> f64 {
+        largest_sigma(&self.record)
+    }
+
+    /// This shape, said to be at `at_s` seconds (its frame's capture time, where known).
+    pub fn at(self, at_s: Option<f64>) -> Prior {
+        Prior { at_s, ..self }
+    }
+
+    /// The instant the shape refers to, seconds, where known.
+    pub fn at_s(&self) -> Option<f64> {
+        self.at_s
+    }
+
+    /// How the tube moved into this shape, where known.
+    pub(crate) fn motion(&self) -> Option<&MotionEstimate> {
+        self.motion.as_ref()
     }
 }
 
@@ -189,9 +359,17 @@ impl Tracked {
     /// What a later frame may start from, if this frame's shape is right.
     pub fn prior(&self) -> Option<Prior> {
         let fit = self.fit.as_ref()?;
-        (self.shape.status.is_right() && self.shape.points.len() >= 2).then(|| Prior {
+        // A shape between its cameras' captures still starts the next frame, which measures
+        // the motion from it.
+        let usable =
+            self.shape.status.is_right() || matches!(self.instants, Instants::Unknown { .. });
+        (usable && self.shape.points.len() >= 2).then(|| Prior {
             record: self.shape.clone(),
             tube: fit.tube.clone(),
+            fitted: Arc::new(fit.tube.clone()),
+            at_s: None,
+            lag_s: self.instants.lag_s(),
+            motion: None,
         })
     }
 }
@@ -506,22 +684,45 @@ impl Pipeline {
         images: &[&RgbImage],
         prior: Option<&Prior>,
     ) -> Result<Tracked, TrackError> {
+        self.process_after_at(images, prior, None)
+    }
+
+    /// As [`Pipeline::process_after`], for a frame whose cameras captured at `times` (where
+    /// the input knows them): cameras that captured apart are each held to the tube where it
+    /// was at their capture, carried by its motion since `prior` ([`CameraTimes`]), and the
+    /// shape is the tube at the frame's instant; without a motion known, the shape lies
+    /// between the instants and is not `ok` ([`Instants`]).
+    pub fn process_after_at(
+        &self,
+        images: &[&RgbImage],
+        prior: Option<&Prior>,
+        times: Option<&CameraTimes>,
+    ) -> Result<Tracked, TrackError> {
         let mut turn = Turn::new(self.state.get());
-        let tracked = self.process_after_in(images, prior, &mut turn)?;
+        let tracked = self.process_after_in(images, prior, times, &mut turn)?;
         self.state.apply(&turn.change);
         Ok(tracked)
     }
 
-    /// As [`Pipeline::process_after`], reading and changing the run's state in `turn` only.
+    /// As [`Pipeline::process_after_at`], reading and changing the run's state in `turn`
+    /// only.
     pub(crate) fn process_after_in(
         &self,
         images: &[&RgbImage],
         prior: Option<&Prior>,
+        times: Option<&CameraTimes>,
         turn: &mut Turn,
     ) -> Result<Tracked, TrackError> {
         let Some(prior) = prior.filter(|_| self.tracks()) else {
-            return self.process_in(images, turn);
+            let tracked = self.process_in(images, turn)?;
+            return self.at_one_instant(images, tracked, prior, times, turn);
         };
+        // Cameras that captured apart are held to the tube carried by its motion.
+        let across = times.and_then(|t| {
+            let estimate = prior.motion()?;
+            let doubt_mm = estimate.doubt_mm(t.at_s, t.widest_offset_s());
+            Some((t.across(&estimate.motion)?, doubt_mm))
+        });
         self.check_count(images)?;
         let t = Instant::now();
         let margin = self.fitter.settings().track_margin_px;
@@ -548,7 +749,7 @@ impl Pipeline {
             // The whole chain says so, with the whole images' shares.
             let mut full = self.process_in(images, turn)?;
             full.timings.silhouettes += silhouettes_ms;
-            return Ok(full);
+            return self.at_one_instant(images, full, Some(prior), times, turn);
         }
         let t = Instant::now();
         let backgrounds = models(&backdrops);
@@ -559,7 +760,7 @@ impl Pipeline {
             self.carver.volume(),
             &views,
             &prior.record,
-            Some(&prior.tube),
+            (Some(&prior.tube), across.as_ref().map(|(a, _)| a)),
             radius,
         )?;
         let fit_ms = ms(t);
@@ -568,10 +769,10 @@ impl Pipeline {
         if fit.is_none() || !shape.status.is_right() {
             let mut full = self.process_in(images, turn)?;
             full.timings.fit += fit_ms + silhouettes_ms;
-            return Ok(full);
+            return self.at_one_instant(images, full, Some(prior), times, turn);
         }
         turn.learn(&silhouettes);
-        Ok(Tracked {
+        let mut followed = Tracked {
             silhouettes,
             occupancy: self.nothing_carved(),
             bands: Vec::new(),
@@ -586,7 +787,103 @@ impl Pipeline {
             shadow_voxels: 0,
             background_updated: Vec::new(),
             background_restored: Vec::new(),
-        })
+            instants: Instants::Together,
+        };
+        if let Some((across, doubt_mm)) = &across {
+            judge_instant(&mut followed, across, *doubt_mm);
+        }
+        // Apart, with no motion from the prior: measured from the prior to this fit.
+        self.at_one_instant(images, followed, Some(prior), times, turn)
+    }
+
+    /// A frame whose cameras captured apart (`times`) and whose fit did not carry the tube to
+    /// each camera's capture (a start without a motion, or the hull): with an earlier shape at
+    /// a known instant (`prior`), the motion from it to this fit carries the tube, and the
+    /// tube is fitted again from this one, [`CARRY_ROUNDS`] times (each measuring the motion
+    /// again from the better shape); without one, the shape lies between the captures and
+    /// the frame is `ambiguous`, saying so ([`Instants::Unknown`]), yet a start for the next.
+    /// A frame that is not right already keeps its own reason.
+    fn at_one_instant(
+        &self,
+        images: &[&RgbImage],
+        mut tracked: Tracked,
+        prior: Option<&Prior>,
+        times: Option<&CameraTimes>,
+        turn: &Turn,
+    ) -> Result<Tracked, TrackError> {
+        let Some(times) = times.filter(|t| t.apart()) else {
+            return Ok(tracked);
+        };
+        if tracked.instants != Instants::Together {
+            return Ok(tracked);
+        }
+        let Some(fitted) = tracked.fit.as_ref().map(|f| f.tube.clone()) else {
+            return Ok(tracked);
+        };
+        let refused = !tracked.shape.status.is_right();
+        let earlier = prior
+            .and_then(|p| Some((p, times.at_s - p.at_s()?)))
+            .filter(|(_, dt)| *dt > 0.0);
+        let t = Instant::now();
+        let mut carried = None;
+        if let Some((earlier, dt)) = earlier {
+            let backgrounds = models(&turn.state.backdrops);
+            let views = self.views(images, &tracked.silhouettes, &backgrounds);
+            let radius = self.shape.settings().radius_mm;
+            let mut tube = fitted;
+            for _ in 0..CARRY_ROUNDS {
+                let Some(across) =
+                    Motion::between(&earlier.fitted, &tube, dt).and_then(|m| times.across(&m))
+                else {
+                    break;
+                };
+                let (shape, fit) = self.fitter.follow(
+                    &self.shape,
+                    self.carver.volume(),
+                    &views,
+                    &tracked.shape,
+                    (Some(&tube), Some(&across)),
+                    radius,
+                )?;
+                let Some(fit) = fit else { break };
+                tube = fit.tube.clone();
+                // The motion is off by the earlier shape's own lag over the time between.
+                let sigma = largest_sigma(&shape);
+                let mut estimate = MotionEstimate::between(earlier, &tube, times.at_s, 0.0, sigma)
+                    .unwrap_or(MotionEstimate {
+                        motion: across.motion.clone(),
+                        lag_share: earlier.lag_s / dt,
+                        mid_s: times.at_s - dt / 2.0,
+                        accel_mm_s2: 0.0,
+                        noise_mm_s: 0.0,
+                    });
+                if let Some(before) = earlier.motion() {
+                    estimate = estimate.compared_with(before);
+                }
+                let off_mm = estimate.doubt_mm(times.at_s, times.widest_offset_s());
+                carried = Some((shape, fit, across, off_mm));
+            }
+        }
+        tracked.timings.fit += ms(t);
+        match carried {
+            // A fit the images refused keeps its own reason unless carrying explains them.
+            Some((shape, _, _, _)) if refused && !shape.status.is_right() => {}
+            Some((shape, fit, across, off_mm)) => {
+                tracked.shape = shape;
+                tracked.fit = Some(fit);
+                judge_instant(&mut tracked, &across, off_mm);
+            }
+            None if refused => {}
+            None => {
+                tracked.shape.status = Status::Ambiguous {
+                    reason: times.unknown_motion(),
+                };
+                tracked.instants = Instants::Unknown {
+                    lag_s: times.widest_offset_s(),
+                };
+            }
+        }
+        Ok(tracked)
     }
 
     /// Why a frame's silhouettes cannot be the tube's, if one camera's covers more of its
@@ -947,6 +1244,7 @@ impl Pipeline {
                 shadow_voxels: 0,
                 background_updated: Vec::new(),
                 background_restored: Vec::new(),
+                instants: Instants::Together,
             });
         }
         let backgrounds = models(&turn.state.backdrops);
@@ -1010,6 +1308,7 @@ impl Pipeline {
             shadow_voxels,
             background_updated: Vec::new(),
             background_restored: Vec::new(),
+            instants: Instants::Together,
         })
     }
 

@@ -8,6 +8,7 @@ use flexshape_shape::Status;
 use serde::{Deserialize, Serialize};
 
 use crate::backdrop::BackgroundUpdate;
+use crate::instants::Instants;
 use crate::pipeline::{StageTimings, Start, Tracked};
 use crate::runner::{Processed, RunEnd};
 use crate::status::RecordStatus;
@@ -228,6 +229,17 @@ pub struct TrackRecord {
         serialize_with = "crate::precision::mm_opt"
     )]
     pub ghost_mm: Option<f64>,
+    /// With cameras that captured apart (`camera_captured_s`), fitted across time: the
+    /// farthest the tube was carried by its recent motion for a camera, mm — each camera was
+    /// held to the tube where it was at its capture, and the shape is the tube at
+    /// `captured_s` (additive; absent when the cameras captured together or the motion was
+    /// not known, which the status then says).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "crate::precision::mm_opt"
+    )]
+    pub carried_mm: Option<f64>,
     /// Where the fit started: `hull` (this frame's visual hull, carved) or `previous` (an
     /// earlier frame's shape, tracking: nothing carved, `voxels` is 0 and `ghost_mm` absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -350,6 +362,10 @@ impl TrackRecord {
             centerline_sigma: s.sigma.clone(),
             cameras: t.fit.as_ref().map_or_else(Vec::new, |f| f.cameras.clone()),
             ghost_mm: t.fit.as_ref().and_then(|f| f.ghost_mm),
+            carried_mm: match t.instants {
+                Instants::Carried { shift_mm, .. } => Some(shift_mm),
+                _ => None,
+            },
             start: t.fit.as_ref().map(|_| {
                 match t.start {
                     Start::Hull => "hull",
@@ -431,6 +447,7 @@ impl TrackRecord {
             centerline_sigma: Vec::new(),
             cameras: Vec::new(),
             ghost_mm: None,
+            carried_mm: None,
             start: None,
             background_updated: Vec::new(),
             shadow_voxels: 0,

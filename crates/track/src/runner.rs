@@ -25,6 +25,7 @@ use flexshape_input::{CaptureTime, FrameSet, FrameSource, InputError, unix_secon
 use flexshape_recording::{Command, Truth};
 use image::RgbImage;
 
+use crate::instants::CameraTimes;
 use crate::state::{RunState, StateChange, Turn};
 use crate::{Pipeline, Prior, Tracked};
 
@@ -65,6 +66,12 @@ impl Processed {
     /// there is one, as [`run`] processes each.
     pub fn of(pipeline: &Pipeline, set: FrameSet, prior: Option<&Prior>) -> Self {
         process(pipeline, set, 0, prior, None).0
+    }
+
+    /// What a later frame may start from ([`Tracked::prior`]), at this frame's capture time.
+    pub fn prior(&self) -> Option<Prior> {
+        let prior = self.result.as_ref().ok().and_then(Tracked::prior)?;
+        Some(prior.at(self.capture_time.map(|c| c.seconds)))
     }
 
     /// A frame the source could not read (numbered by its place in the input), and why.
@@ -165,6 +172,12 @@ impl Recent {
         let predicted = chosen.and_then(|(s0, p0)| {
             p1.predicted(p0, ahead as f64 / (s1 - s0) as f64, self.limit_mm, limit)
         });
+        // The motion that carries the tube to cameras that captured apart: over the longest
+        // time at hand, which the shapes' own errors enter the least.
+        let predicted = match (predicted, self.right.front()) {
+            (Some(p), Some((s0, oldest))) if *s0 < *s1 => Some(p1.moving_since(oldest, p)),
+            (p, _) => p,
+        };
         Some(predicted.map_or_else(|| p1.clone(), Arc::new))
     }
 
@@ -254,7 +267,7 @@ pub fn run<S: FrameSource + ?Sized>(
                         Err(reason) => (Processed::unreadable(seq, reason, dropped), None),
                     };
                     if !ordered && let Ok(mut l) = latest.lock() {
-                        l.update(seq, processed.result.as_ref().ok().and_then(Tracked::prior));
+                        l.update(seq, processed.prior());
                     }
                     if tx.send((seq, processed, change)).is_err() {
                         return;
@@ -279,7 +292,7 @@ pub fn run<S: FrameSource + ?Sized>(
             while let Some((p, change)) = pending.remove(&next) {
                 if ordered {
                     // Before the sink, so that a frame waiting for this one starts meanwhile.
-                    in_order.update(next, p.result.as_ref().ok().and_then(Tracked::prior));
+                    in_order.update(next, p.prior());
                     if let Some(change) = &change {
                         state.apply(change);
                         pipeline.set_run_state(state.clone());
@@ -421,6 +434,11 @@ fn process(
     state: Option<RunState>,
 ) -> (Processed, Option<StateChange>) {
     let mut change = None;
+    // Cameras that captured at different instants are each held to the tube where it was.
+    let times = CameraTimes::of(
+        set.capture_time.map(|c| c.seconds),
+        set.camera_times.as_deref(),
+    );
     let mut warnings = set.warnings;
     let images = pipeline.load(set.images);
     let (images, result) = match images {
@@ -430,11 +448,11 @@ fn process(
             let result = match state {
                 Some(state) => {
                     let mut turn = Turn::new(state);
-                    let result = pipeline.process_after_in(&refs, prior, &mut turn);
+                    let result = pipeline.process_after_in(&refs, prior, times.as_ref(), &mut turn);
                     change = result.is_ok().then_some(turn.change);
                     result
                 }
-                None => pipeline.process_after(&refs, prior),
+                None => pipeline.process_after_at(&refs, prior, times.as_ref()),
             }
             .map_err(|e| e.to_string());
             (images, result)

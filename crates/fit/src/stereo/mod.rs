@@ -140,7 +140,7 @@ impl TubeFitter {
         let other = fits
             .map(|(f, _, _)| apart(&fit.tube, &f.tube))
             .fold(0.0, f64::max);
-        let mut record = self.conclude(estimator, volume, views, (&fit, &spheres), &base);
+        let mut record = self.conclude(estimator, volume, views, (&fit, &spheres, None), &base);
         if other > DIFFERENT_MM && record.status.is_right() {
             record.status = Status::Ambiguous {
                 reason: format!(

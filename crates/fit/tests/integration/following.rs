@@ -47,7 +47,7 @@ fn a_followed_start_whose_open_end_slid_into_the_volume_reports_the_base_where_i
             volume,
             &views,
             &b.fitted,
-            Some(&slid),
+            (Some(&slid), None),
             None,
         )
         .unwrap();
