@@ -147,8 +147,10 @@ pub struct FrameSet {
     /// When the frame was captured, in wall-clock terms, where the input knows it.
     pub capture_time: Option<CaptureTime>,
     /// Each camera's own capture time, rig order, seconds in `capture_time`'s time base, where
-    /// the input knows them: cameras that are not triggered together (live cameras, each
-    /// frame's arrival; a recording's `timestamps/<cam>.csv`).
+    /// the input knows them: cameras that are not triggered together (a recording's
+    /// `timestamps/<cam>.csv`). Live cameras leave it out: a frame's arrival is its capture
+    /// plus a transfer time that differs between cameras, which would carry the tube of
+    /// cameras triggered together apart.
     pub camera_times: Option<Vec<f64>>,
     /// The commanded tendon displacements (recordings of model experiments).
     pub command: Option<Command>,

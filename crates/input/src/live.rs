@@ -117,10 +117,6 @@ impl FrameSource for LiveSource {
             .map(|(_, at)| *at)
             .min()
             .unwrap_or_else(Instant::now);
-        let camera_times: Option<Vec<f64>> = frames
-            .iter()
-            .map(|(_, at)| CaptureTime::of_instant(*at).map(|t| t.seconds))
-            .collect();
         let images = frames
             .into_iter()
             .map(|(image, _)| FrameImage::Decoded(image))
@@ -128,7 +124,6 @@ impl FrameSource for LiveSource {
         let mut set = FrameSet::new(self.next, images);
         set.captured = oldest;
         set.capture_time = CaptureTime::of_instant(oldest);
-        set.camera_times = camera_times;
         self.next += 1;
         Some(Ok(set))
     }

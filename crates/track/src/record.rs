@@ -181,7 +181,7 @@ pub struct TrackRecord {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub captured_from: Option<String>,
     /// Each camera's own capture time, rig order, seconds in `captured_s`'s time base, where
-    /// the input knows them (live cameras; a recording's `timestamps/<cam>.csv`): cameras that
+    /// the input knows them (a recording's `timestamps/<cam>.csv`): cameras that
     /// are not triggered together see the tube at these instants (additive; empty otherwise).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub camera_captured_s: Vec<f64>,
