@@ -22,12 +22,7 @@ fn carve_writes_the_hull_cloud_surface_and_figures_of_every_frame() {
     // The same hull as tracking carves.
     let tracked = dir.path().join("track.jsonl");
     common::run(&["track", r, "-o", tracked.to_str().unwrap()]);
-    let track: Vec<Value> = std::fs::read_to_string(&tracked)
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .filter(|v: &Value| v.get("frame").is_some())
-        .collect();
+    let track = common::frame_records(&tracked);
     for (h, t) in records.iter().zip(&track) {
         assert_eq!(h["status"], "ok", "{h}");
         assert_eq!(h["voxels"], t["voxels"]);

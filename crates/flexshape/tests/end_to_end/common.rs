@@ -65,3 +65,13 @@ pub fn ffmpeg_or_skip() -> bool {
     eprintln!("skipped the video part: ffmpeg is not installed (apt install ffmpeg)");
     false
 }
+
+/// The frame records (those with a `frame`) of a JSON Lines file `track` or `carve` wrote.
+pub fn frame_records(path: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .filter(|v: &serde_json::Value| v.get("frame").is_some())
+        .collect()
+}

@@ -335,12 +335,7 @@ fn follow_starts_each_frame_from_the_previous_one() {
         }
         let o = flexshape(&args);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let records: Vec<Value> = std::fs::read_to_string(&out)
-            .unwrap()
-            .lines()
-            .map(|l| serde_json::from_str(l).unwrap())
-            .filter(|v: &Value| v.get("frame").is_some())
-            .collect();
+        let records = common::frame_records(&out);
         assert_eq!(records.len(), 4);
         for (i, r) in records.iter().enumerate() {
             assert_eq!(r["status"], "ok", "{r}");
@@ -1220,12 +1215,7 @@ fn free_running_cameras_are_each_held_to_the_tube_at_their_capture() {
         "--out",
         out.to_str().unwrap(),
     ]);
-    let records: Vec<Value> = std::fs::read_to_string(&out)
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .filter(|v: &Value| v.get("frame").is_some())
-        .collect();
+    let records = common::frame_records(&out);
     assert_eq!(records.len(), 60);
     let volume = &reader.rig().volume;
     let mut ok = 0;
