@@ -1,7 +1,13 @@
 //! When a frame's cameras captured: together (hardware-triggered, or nothing said), or apart
-//! (free-running cameras), and what the fit did about it.
+//! (free-running cameras), and what the fit did about it: the motion that carries the tube to
+//! each camera's capture, measured between shapes, with how far it may be off
+//! (`MotionEstimate`), and whether the shape so fitted is at one instant or may lie between
+//! them (`judge_instant`).
 
-use flexshape_fit::{AcrossTime, Motion};
+use flexshape_fit::{AcrossTime, Motion, Tube};
+use flexshape_shape::{ShapeRecord, Status};
+
+use crate::pipeline::{Prior, Tracked};
 
 /// Spreads below this are taken as cameras captured together, seconds: a clock's rounding,
 /// far below any exposure.
@@ -113,6 +119,99 @@ impl Instants {
             Instants::Carried { lag_s, .. } | Instants::Unknown { lag_s } => lag_s,
         }
     }
+}
+
+/// A motion measured between two shapes, and how far it may be from the velocity at another
+/// instant.
+#[derive(Debug, Clone)]
+pub(crate) struct MotionEstimate {
+    pub motion: Motion,
+    /// The share of the speed it may be off by: the two shapes' lags over the time between.
+    pub lag_share: f64,
+    /// The instant its velocity is the tube's (the middle of the time it was measured over),
+    /// seconds.
+    pub mid_s: f64,
+    /// How fast the velocity changes, mm/s²: its difference from a motion measured over
+    /// another time, less twice what the shapes' own scatter gives the two, over the time
+    /// between their middles; 0 when there was none to compare.
+    pub accel_mm_s2: f64,
+    /// The scatter the two shapes' own uncertainty gives it, mm/s: their largest 1-σ across
+    /// the tube, summed, over the time between them.
+    pub noise_mm_s: f64,
+}
+
+impl MotionEstimate {
+    /// The motion from `earlier` to `tube`, a shape at `at_s` that may lie `lag_s` from it.
+    /// `sigma_mm`: `tube`'s largest 1-σ across itself.
+    pub(crate) fn between(
+        earlier: &Prior,
+        tube: &Tube,
+        at_s: f64,
+        lag_s: f64,
+        sigma_mm: f64,
+    ) -> Option<Self> {
+        let dt = at_s - earlier.at_s()?;
+        Some(MotionEstimate {
+            motion: Motion::between(earlier.fitted(), tube, dt)?,
+            lag_share: (lag_s + earlier.lag_s()) / dt,
+            mid_s: at_s - dt / 2.0,
+            accel_mm_s2: 0.0,
+            noise_mm_s: (sigma_mm + earlier.sigma_mm()) / dt,
+        })
+    }
+
+    /// Measures how far this motion may be from the velocity at another instant by its
+    /// difference from `other`, measured over another time: beyond twice what the shapes'
+    /// scatter gives the two, the difference is the tube's acceleration.
+    pub(crate) fn compared_with(mut self, other: &MotionEstimate) -> Self {
+        let difference = self.motion.largest_difference(&other.motion);
+        let scatter = 2.0 * (self.noise_mm_s + other.noise_mm_s);
+        let apart = (self.mid_s - other.mid_s).abs();
+        if apart > 0.0 {
+            self.accel_mm_s2 = (difference - scatter).max(0.0) / apart;
+        }
+        self
+    }
+
+    /// How far the tube carried by this motion over `offset_s` may be from where it was, mm.
+    /// For a frame at `at_s` whose camera captured `offset_s` from it: the velocity may be
+    /// off by its lag share of the speed, and by the acceleration over the time from its
+    /// middle to the capture.
+    pub(crate) fn doubt_mm(&self, at_s: f64, offset_s: f64) -> f64 {
+        let stale = (at_s - self.mid_s).abs() + offset_s.abs();
+        (self.lag_share * self.motion.fastest_across() + self.accel_mm_s2 * stale) * offset_s.abs()
+    }
+}
+
+/// A shape fitted across time (`across`) whose carried tubes may be up to `off_mm` from
+/// where the tube was at its cameras' captures (the motion's doubt times the farthest offset):
+/// the shape may be that far from the tube at its instant. Within the fit's own 1-σ across
+/// the tube, the images' uncertainty dominates and a right shape stays right
+/// ([`Instants::Carried`]); beyond it the frame is `ambiguous`, saying by how much
+/// ([`Instants::Unknown`], its lag the fastest point's time to move that far), and the next
+/// frame measures the motion again from it.
+pub(crate) fn judge_instant(tracked: &mut Tracked, across: &AcrossTime, off_mm: f64) {
+    let lag_s = off_mm / across.motion.fastest_across().max(1e-9);
+    let sigma = largest_sigma(&tracked.shape);
+    if tracked.shape.status.is_right() && off_mm > sigma {
+        tracked.shape.status = Status::Ambiguous {
+            reason: format!(
+                "the cameras captured apart, and the motion that carries the tube between their captures was measured from a shape that lay between its own cameras' captures: this one may be {off_mm:.2} mm from the tube at the frame's instant, beyond the fit's own {sigma:.2} mm (the next frames measure the motion again from it); trigger the cameras together to fit every frame at once"
+            ),
+        };
+        tracked.instants = Instants::Unknown { lag_s };
+    } else {
+        // Within the images' own uncertainty: a shape at one instant for what follows.
+        tracked.instants = Instants::Carried {
+            shift_mm: across.largest_shift_mm(),
+            lag_s: 0.0,
+        };
+    }
+}
+
+/// A shape's largest 1-σ across the tube, mm (0 for the hull's, which has none).
+pub(crate) fn largest_sigma(shape: &ShapeRecord) -> f64 {
+    shape.sigma.iter().copied().fold(0.0, f64::max)
 }
 
 #[cfg(test)]
