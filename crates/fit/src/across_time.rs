@@ -102,16 +102,17 @@ impl AcrossTime {
     /// offset. A camera without an offset sees the tube as it is.
     pub(crate) fn seen(&self, tube: &Tube, cameras: usize) -> Vec<Tube> {
         let n = tube.centerline.control().len();
-        let places = greville(n);
+        // Each control point's velocity, the same for every camera.
+        let velocity: Vec<Vector3<f64>> =
+            greville(n).into_iter().map(|u| self.motion.at(u)).collect();
         (0..cameras)
             .map(|k| {
                 let dt = self.offsets_s.get(k).copied().unwrap_or(0.0);
                 let mut seen = tube.clone();
                 if dt != 0.0 {
                     let mut step = DVector::zeros(3 * n);
-                    for (j, &u) in places.iter().enumerate() {
-                        step.fixed_rows_mut::<3>(3 * j)
-                            .copy_from(&(self.motion.at(u) * dt));
+                    for (j, v) in velocity.iter().enumerate() {
+                        step.fixed_rows_mut::<3>(3 * j).copy_from(&(v * dt));
                     }
                     seen.centerline.displace(&step);
                 }

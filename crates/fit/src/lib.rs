@@ -444,17 +444,7 @@ impl TubeFitter {
         // Each camera's check holds it to the tube it saw.
         let moved_tubes = each(&tube);
         let by_camera = Seen::of(&tube, moved_tubes.as_deref());
-        let spheres = match by_camera {
-            Seen::All(tube) => self.spheres(tube, length),
-            Seen::Each(tubes) => {
-                let mut all = Vec::with_capacity(cameras);
-                for (k, t) in tubes.iter().enumerate() {
-                    let centres = outline::sphere_centres(t, length);
-                    all.push(Spheres::from_centres(&self.cameras[k], t, &centres, 0.0));
-                }
-                all
-            }
-        };
+        let spheres = self.spheres(by_camera, length);
         let cameras = self
             .cameras
             .iter()
@@ -742,11 +732,25 @@ impl TubeFitter {
     }
 
     /// `tube`'s visibility spheres in each camera (rig order); `length` is its length, mm.
-    fn spheres(&self, tube: &Tube, length: f64) -> Vec<Spheres> {
-        let centres = outline::sphere_centres(tube, length);
+    /// `seen`: the tube each camera saw (one for all: its sphere centres placed once).
+    fn spheres(&self, seen: Seen<'_>, length: f64) -> Vec<Spheres> {
+        let shared = match seen {
+            Seen::All(tube) => Some(outline::sphere_centres(tube, length)),
+            Seen::Each(_) => None,
+        };
         self.cameras
             .iter()
-            .map(|cam| Spheres::from_centres(cam, tube, &centres, 0.0))
+            .enumerate()
+            .map(|(k, cam)| {
+                let tube = seen.by(k);
+                match &shared {
+                    Some(centres) => Spheres::from_centres(cam, tube, centres, 0.0),
+                    None => {
+                        let centres = outline::sphere_centres(tube, length);
+                        Spheres::from_centres(cam, tube, &centres, 0.0)
+                    }
+                }
+            })
             .collect()
     }
 

@@ -31,7 +31,7 @@ impl TubeFitter {
         let Some(back) = fit.tube.reversed() else {
             return Ok((fit, spheres));
         };
-        let back_spheres = self.spheres(&back, back.length());
+        let back_spheres = self.spheres(crate::solve::Seen::All(&back), back.length());
         let forward = self.band_at_tip(views, &fit.tube, &spheres);
         let backward = self.band_at_tip(views, &back, &back_spheres);
         if forward == backward {

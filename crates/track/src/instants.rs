@@ -93,14 +93,11 @@ pub enum Instants {
     #[default]
     Together,
     /// Apart, each camera held to the tube carried by its recent motion to that camera's
-    /// capture; the shape is the tube at the frame's instant.
+    /// capture; the shape is the tube at the frame's instant (what its motion's doubt leaves
+    /// is within the fit's own 1-σ, so later frames take it as at one instant).
     Carried {
         /// The farthest the tube was carried for a camera, mm.
         shift_mm: f64,
-        /// How far from the frame's instant the shape may still be, seconds: the motion was
-        /// measured from shapes that were themselves that uncertain (0: from shapes at one
-        /// instant each).
-        lag_s: f64,
     },
     /// Apart, and what carries the tube is not known well enough: the shape may be the
     /// tube's at any instant within `lag_s` of the frame's (status `ambiguous`). It serves
@@ -115,8 +112,8 @@ impl Instants {
     /// How far from its frame's instant the shape may be, seconds.
     pub fn lag_s(&self) -> f64 {
         match *self {
-            Instants::Together => 0.0,
-            Instants::Carried { lag_s, .. } | Instants::Unknown { lag_s } => lag_s,
+            Instants::Together | Instants::Carried { .. } => 0.0,
+            Instants::Unknown { lag_s } => lag_s,
         }
     }
 }
@@ -206,7 +203,6 @@ pub(crate) fn judge_instant(tracked: &mut Tracked, across: &AcrossTime, off_mm: 
         // Within the images' own uncertainty: a shape at one instant for what follows.
         tracked.instants = Instants::Carried {
             shift_mm: across.largest_shift_mm(),
-            lag_s: 0.0,
         };
     }
 }

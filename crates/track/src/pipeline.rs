@@ -773,6 +773,7 @@ impl Pipeline {
             // one. Two cameras leave what each does not see to the other's instant, so a fit
             // carried by a motion measured from itself settles wherever that motion puts it.
             let mut tube = fitted;
+            let mut last = None;
             for _ in 0..CARRY_ROUNDS {
                 let Some(across) =
                     Motion::between(earlier.fitted(), &tube, dt).and_then(|m| times.across(&m))
@@ -782,7 +783,11 @@ impl Pipeline {
                 let (shape, fit) = carry(&tube, &across)?;
                 let Some(fit) = fit else { break };
                 tube = fit.tube.clone();
-                // The motion is off by the earlier shape's own lag over the time between.
+                last = Some((shape, fit, across));
+            }
+            // The motion to the last fit, off by the earlier shape's own lag over the time
+            // between, says how far that fit may be from the tube at the frame's instant.
+            carried = last.map(|(shape, fit, across)| {
                 let sigma = largest_sigma(&shape);
                 let estimate = MotionEstimate::between(earlier, &tube, times.at_s, 0.0, sigma)
                     .unwrap_or(MotionEstimate {
@@ -793,8 +798,8 @@ impl Pipeline {
                         noise_mm_s: 0.0,
                     });
                 let off_mm = estimate.doubt_mm(times.at_s, times.widest_offset_s());
-                carried = Some((shape, fit, across, off_mm));
-            }
+                (shape, fit, across, off_mm)
+            });
         }
         tracked.timings.fit += ms(t);
         match carried {

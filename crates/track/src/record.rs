@@ -363,7 +363,7 @@ impl TrackRecord {
             cameras: t.fit.as_ref().map_or_else(Vec::new, |f| f.cameras.clone()),
             ghost_mm: t.fit.as_ref().and_then(|f| f.ghost_mm),
             carried_mm: match t.instants {
-                Instants::Carried { shift_mm, .. } => Some(shift_mm),
+                Instants::Carried { shift_mm } => Some(shift_mm),
                 _ => None,
             },
             start: t.fit.as_ref().map(|_| {
