@@ -861,6 +861,11 @@ pub struct SimulateArgs {
     /// camera and frame on its own), as free-running cameras' frames are.
     #[arg(long, value_name = "MS", default_value_t = 0.0, requires = "motion")]
     pub jitter: f64,
+    /// With `--motion`: the motion's speed against the default (1). 0.2 at `--motion 30` moves
+    /// the tip up to about 1 mm a frame: an instrument slower (or faster) than the default
+    /// motion, at the frame rate of your cameras.
+    #[arg(long, default_value_t = 1.0, requires = "motion")]
+    pub pace: f64,
     /// Instead of camera frames, masks as another tool draws them: the catheter's whole
     /// centerline stroked this many pixels wide with round ends, whatever its radius and depth
     /// (a reconstruction tool's fixed-width masks, a line drawn by hand), written to `masks/`

@@ -38,6 +38,10 @@ pub enum Scenario {
         /// (written to `timestamps/<cam>.csv`; the truth and `timestamps.csv` keep n / rate).
         /// `None`: every camera at the frame's instant.
         clocks: Option<FreeRunning>,
+        /// The motion's speed against the simulator's own (1; 0.2 at 30 frames/s moves the
+        /// tip up to about 1 mm a frame, as at 150 frames/s at 1): an instrument that moves
+        /// slower or faster than the default motion.
+        pace: f64,
     },
     /// The paper's experiment for `model` (reference, registration and workspace poses), the
     /// catheter made as the model describes it; the commands are written beside the frames.
@@ -97,21 +101,28 @@ pub fn simulate_recording(
             rate_hz,
             shutter,
             clocks: Some(clocks),
+            pace,
         } => {
             let steps = if *shutter > 0.0 { EXPOSURE_INSTANTS } else { 1 };
+            let paced = FreeRunning {
+                phases_s: clocks.phases_s.iter().map(|p| p * pace).collect(),
+                jitter_s: clocks.jitter_s * pace,
+            };
+            let motion_hz = motion_rate(*rate_hz, *pace);
             let (exposures, times): (Vec<_>, Vec<_>) = sim
-                .free_running_exposures(*frames, *rate_hz, *shutter, steps, clocks)
+                .free_running_exposures(*frames, motion_hz, *shutter, steps, &paced)
                 .into_iter()
                 .unzip();
-            let truth_poses = sim.motion(*frames, *rate_hz);
+            let truth_poses = sim.motion(*frames, motion_hz);
             let written = sim
                 .write_free_running_recording(out, &exposures, &truth_poses, overwrite, on_frame)
                 .map_err(write_error(out))?;
             write_timestamps(out, written, *rate_hz)?;
             let writer = RecordingWriter::reopen(out);
             for (k, cam) in sim.rig().cameras.iter().enumerate() {
-                let own: Vec<(u64, f64)> =
-                    (0..written).map(|n| (n, times[n as usize][k])).collect();
+                let own: Vec<(u64, f64)> = (0..written)
+                    .map(|n| (n, times[n as usize][k] / pace))
+                    .collect();
                 writer
                     .write_camera_timestamps(&cam.name, &own)
                     .map_err(|e| LabError::Write {
@@ -125,9 +136,15 @@ pub fn simulate_recording(
             frames,
             rate_hz,
             shutter,
+            pace,
             ..
         } if *shutter > 0.0 => {
-            let exposures = sim.motion_exposures(*frames, *rate_hz, *shutter, EXPOSURE_INSTANTS);
+            let exposures = sim.motion_exposures(
+                *frames,
+                motion_rate(*rate_hz, *pace),
+                *shutter,
+                EXPOSURE_INSTANTS,
+            );
             let written = sim
                 .write_exposed_recording(out, &exposures, overwrite, on_frame)
                 .map_err(write_error(out))?;
@@ -135,8 +152,11 @@ pub fn simulate_recording(
             return Ok((written, exposures.len()));
         }
         Scenario::Motion {
-            frames, rate_hz, ..
-        } => (sim.motion(*frames, *rate_hz), Vec::new()),
+            frames,
+            rate_hz,
+            pace,
+            ..
+        } => (sim.motion(*frames, motion_rate(*rate_hz, *pace)), Vec::new()),
         Scenario::Experiment { commands, .. } => {
             let catheter = &sim.config().catheter;
             commands
@@ -180,8 +200,14 @@ pub fn simulate_drawn_masks(
     let (poses, rate_hz) = match scenario {
         Scenario::Sweep { frames } => (sim.sweep(*frames), None),
         Scenario::Motion {
-            frames, rate_hz, ..
-        } => (sim.motion(*frames, *rate_hz), Some(*rate_hz)),
+            frames,
+            rate_hz,
+            pace,
+            ..
+        } => (
+            sim.motion(*frames, motion_rate(*rate_hz, *pace)),
+            Some(*rate_hz),
+        ),
         Scenario::Experiment { .. } => {
             return Err(LabError::data(
                 "drawn masks",
@@ -208,6 +234,14 @@ fn write_error(out: &Path) -> impl Fn(flexshape_sim::SimError) -> LabError + '_ 
 
 /// The timestamps of `written` frames filmed at `rate_hz` into the recording at `out`: frame
 /// n at n / rate_hz seconds (the middle of its exposure).
+/// The rate the simulator's own motion is sampled at so that, filmed at `rate_hz`, it moves at
+/// `pace` times its speed: frame n is the motion's instant `pace · n / rate_hz`, so every clock
+/// of the film (phases, jitter, shutter) is scaled alike and the timestamps stay in real
+/// seconds.
+fn motion_rate(rate_hz: f64, pace: f64) -> f64 {
+    rate_hz / pace.max(1e-9)
+}
+
 fn write_timestamps(out: &Path, written: u64, rate_hz: f64) -> Result<(), LabError> {
     let times: Vec<(u64, f64)> = (0..written).map(|n| (n, n as f64 / rate_hz)).collect();
     RecordingWriter::reopen(out)

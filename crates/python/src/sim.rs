@@ -218,6 +218,7 @@ pub(crate) fn simulate(
             rate_hz: r,
             shutter: 0.0,
             clocks: None,
+            pace: 1.0,
         },
         (Some(r), None) => {
             return Err(PyValueError::new_err(format!(

@@ -104,11 +104,17 @@ fn scenario(args: &SimulateArgs) -> anyhow::Result<Scenario> {
                 "--shutter {}: give the share of the frame interval the shutter is open, 0–1",
                 args.shutter
             );
+            anyhow::ensure!(
+                args.pace.is_finite() && args.pace > 0.0 && args.pace <= 100.0,
+                "--pace {}: give the motion's speed against the default, above 0 and at most 100",
+                args.pace
+            );
             Scenario::Motion {
                 frames: args.frames,
                 rate_hz: hz,
                 shutter: args.shutter,
                 clocks: free_running(args)?,
+                pace: args.pace,
             }
         }
         None => Scenario::Sweep {

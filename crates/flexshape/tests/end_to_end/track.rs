@@ -1270,3 +1270,35 @@ fn free_running_cameras_are_each_held_to_the_tube_at_their_capture() {
         "{said}"
     );
 }
+
+/// `simulate --pace`: the motion slowed to a share of its speed at the cameras' own rate —
+/// the same poses as the default motion filmed that much faster, with every clock in real
+/// seconds (frames 1/rate apart, each camera's phase as asked).
+#[test]
+fn a_paced_motion_is_the_default_one_filmed_faster_in_real_seconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let film = |name: &str, args: &[&str]| {
+        let rec = dir.path().join(name);
+        let mut all = vec!["simulate", "--out", rec.to_str().unwrap(), "--frames", "3"];
+        all.extend(args);
+        common::run(&all);
+        RecordingReader::open(&rec).unwrap()
+    };
+    let paced = film("paced", &["--motion", "30", "--pace", "0.25", "--phases", "0,10"]);
+    let fast = film("fast", &["--motion", "120", "--phases", "0,2.5"]);
+    for n in 0..3 {
+        let (a, b) = (
+            paced.read_truth(n).unwrap().unwrap(),
+            fast.read_truth(n).unwrap().unwrap(),
+        );
+        assert_eq!(a.centerline, b.centerline, "frame {n}");
+    }
+    let times = paced.read_camera_timestamps().unwrap().unwrap();
+    for n in 0..3u64 {
+        let at = n as f64 / 30.0;
+        assert!((times[0][&n] - at).abs() < 1e-9, "{:?}", times[0]);
+        assert!((times[1][&n] - at - 0.010).abs() < 1e-9, "{:?}", times[1]);
+    }
+    let e = common::fails(&["simulate", "--out", "x", "--motion", "30", "--pace", "0"]);
+    assert!(e.contains("--pace 0"), "{e}");
+}
