@@ -394,7 +394,7 @@ pub enum RigCommand {
     /// in many frames lie on the outlines it sees (a calibration a few pixels off makes frames
     /// `inconsistent`). Writes a rig with the refined poses to --out and prints each camera's
     /// outline residuals before and after.
-    Refine(RigRefineArgs),
+    Refine(Box<RigRefineArgs>),
 }
 
 #[derive(Debug, Args)]
@@ -565,10 +565,18 @@ pub struct FramesArgs {
     #[arg(long, value_name = "NAME=FILE", value_parser = parse_named_path, conflicts_with_all = ["recording", "images", "masks", "camera"])]
     pub video: Vec<(String, PathBuf)>,
     /// Live camera, NAME=INPUT (repeat per camera): a V4L2 device (/dev/video0), a stream URL,
-    /// or a video file played in real time; read by ffmpeg. Tracking always takes the newest
-    /// frame of every camera and counts the frames it drops.
+    /// or a video file played in real time; read by ffmpeg. Each set is the cameras' frames
+    /// nearest one capture instant — by the devices' driver timestamps or the videos' own
+    /// timelines (records: camera_captured_s, each camera's fitted at its own capture), by
+    /// arrival for network streams — the newest all cameras have reached; frames passed over
+    /// are counted as dropped.
     #[arg(long, value_name = "NAME=INPUT", value_parser = parse_named_path, conflicts_with_all = ["recording", "images", "masks", "video"])]
     pub camera: Vec<(String, PathBuf)>,
+    /// With `--camera`: pair the cameras' frames only within this many ms of one capture
+    /// instant (default 0.6 of the slowest camera's frame interval); sets that cannot be
+    /// paired are counted (summary: unpaired) and not tracked.
+    #[arg(long, value_name = "MS", requires = "camera")]
+    pub pair_within: Option<f64>,
     /// The rig: a rig TOML or a folder of OpenCV camera files (NAME.yml). Default: the
     /// recording's rig.toml; needed with `--images`, `--video` and `--camera`.
     #[arg(long, value_name = "FILE|DIR")]

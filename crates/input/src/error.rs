@@ -89,6 +89,18 @@ pub enum InputError {
         /// How long was waited, s.
         waited_s: u64,
     },
+    /// Live cameras whose frames could not be paired by capture time for a while.
+    #[error(
+        "no frame set could be paired for {waited_s} s: camera `{camera}`'s frames were never within the pairing tolerance of the others' captures ({unpaired} sets unpaired). Cameras whose clocks differ (network streams of separate devices) cannot be paired by time; give a wider --pair-within, or cameras of one machine's clock"
+    )]
+    Unpaired {
+        /// The camera whose frames found no partners.
+        camera: String,
+        /// How long was waited, s.
+        waited_s: u64,
+        /// Sets unpaired so far.
+        unpaired: u64,
+    },
     /// One camera's video or stream ended before the others'.
     #[error(
         "camera `{camera}`: its input ended after {frames} frames while other cameras still had frames; the stream stops here (videos of one recording must have the same number of frames)"
@@ -111,6 +123,7 @@ impl InputError {
                 | InputError::Ffmpeg { .. }
                 | InputError::Ended { .. }
                 | InputError::Silent { .. }
+                | InputError::Unpaired { .. }
                 | InputError::Producer { .. }
                 | InputError::Cameras(_)
                 | InputError::NoFrames(_)

@@ -84,15 +84,19 @@ pub enum CaptureSource {
     Timestamps,
     /// The image file's modification time (the first camera's).
     FileTime,
+    /// The cameras' streams: live devices' driver timestamps, or videos' own timelines (read
+    /// as files or played live) — the earliest of the set's cameras' times.
+    Stream,
 }
 
 impl CaptureSource {
-    /// Its name in records: `clock`, `timestamps` or `file_time`.
+    /// Its name in records: `clock`, `timestamps`, `file_time` or `stream`.
     pub fn name(self) -> &'static str {
         match self {
             CaptureSource::Clock => "clock",
             CaptureSource::Timestamps => "timestamps",
             CaptureSource::FileTime => "file_time",
+            CaptureSource::Stream => "stream",
         }
     }
 }
@@ -148,9 +152,9 @@ pub struct FrameSet {
     pub capture_time: Option<CaptureTime>,
     /// Each camera's own capture time, rig order, seconds in `capture_time`'s time base, where
     /// the input knows them: cameras that are not triggered together (a recording's
-    /// `timestamps/<cam>.csv`). Live cameras leave it out: a frame's arrival is its capture
-    /// plus a transfer time that differs between cameras, which would carry the tube of
-    /// cameras triggered together apart.
+    /// `timestamps/<cam>.csv`, live cameras' stream times). Live cameras known only by their
+    /// frames' arrival leave it out: an arrival is a capture plus a transfer time that differs
+    /// between cameras, which would carry the tube of cameras triggered together apart.
     pub camera_times: Option<Vec<f64>>,
     /// The commanded tendon displacements (recordings of model experiments).
     pub command: Option<Command>,

@@ -70,4 +70,10 @@ pub trait FrameSource: Send {
     fn dropped(&self) -> u64 {
         0
     }
+
+    /// Frame sets not taken because a camera had no frame near the others' capture instant
+    /// (live cameras paired by time).
+    fn unpaired(&self) -> u64 {
+        0
+    }
 }

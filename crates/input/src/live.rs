@@ -1,12 +1,19 @@
 //! Live cameras through ffmpeg: V4L2 devices (`/dev/videoN`), network streams, or a video
 //! file played at its own frame rate (to rehearse a live run).
 //!
-//! Pairing: each camera is read by its own thread, which keeps only that camera's newest
-//! frame. When tracking is ready for a frame it waits until every camera has delivered a frame
-//! newer than the last one taken, then takes the newest of each; the set's capture time is the
-//! oldest of their arrival times. Cameras that are not hardware-synchronised can therefore be
-//! up to one frame period apart. A frame overwritten by a newer one before it was taken is
-//! dropped and counted.
+//! Pairing by time: each camera is read by its own thread, which keeps that camera's newest
+//! few frames, each with its capture time. When tracking is ready for a frame it waits until
+//! every camera has delivered a frame it has not taken, then takes each camera's frame nearest
+//! the newest instant all have reached; a set whose frames lie farther apart than the pairing
+//! tolerance (by default 0.6 of the slowest camera's frame interval) is not taken but counted
+//! as unpaired. Frames passed over are dropped and counted.
+//!
+//! Capture times: devices of one machine (their driver's timestamps) and videos (their own
+//! timelines) share a clock, so their streams' presentation times pair the frames captured
+//! together and say when each camera captured (`FrameSet::camera_times`, for the fit across
+//! time). Network streams each have their own clock: they are paired by arrival, and their
+//! captures are not told apart (an arrival is a capture plus a transfer time that differs
+//! between cameras).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -16,19 +23,42 @@ use image::RgbImage;
 
 use crate::ffmpeg::{Decoder, probe_size};
 use crate::latest::{Latest, Taker};
-use crate::{CaptureTime, FrameImage, FrameSet, FrameSource, InputError};
+use crate::{CaptureSource, CaptureTime, FrameImage, FrameSet, FrameSource, InputError};
 
-/// Frames from live cameras, newest first.
+/// Frames from live cameras, paired by capture time.
 pub struct LiveSource {
-    /// Each camera's newest frame and when it arrived.
-    latest: Arc<Latest<(RgbImage, Instant)>>,
+    latest: Arc<Latest<LiveFrame>>,
     taker: Taker,
     next: u64,
+    /// Whether the cameras' times are their streams' (one clock), not their arrivals.
+    streamed: bool,
+    /// The pairing tolerance asked for, seconds (`None`: from the frame intervals).
+    within_s: Option<f64>,
+}
+
+/// One camera's frame as its reader thread keeps it.
+struct LiveFrame {
+    image: RgbImage,
+    arrived: Instant,
+    /// When it was captured, seconds: the stream's presentation time, or its arrival since
+    /// the source opened (see [`LiveSource`]).
+    time_s: f64,
+    /// The time since the camera's previous frame, seconds.
+    interval_s: Option<f64>,
 }
 
 /// How long a camera may send no new frame before the source ends, naming it: far past any
 /// frame interval or a camera's start.
 const SILENCE: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// Frames each camera keeps for pairing: a few frame intervals of the cameras' different
+/// delivery delays.
+const KEPT: usize = 6;
+
+/// The default pairing tolerance, a share of the slowest camera's frame interval: cameras
+/// of one rate are always within half an interval of each other, so a set farther apart
+/// misses a frame.
+const WITHIN_INTERVAL: f64 = 0.6;
 
 /// A live camera: its name, its input (a device path, a URL or a video file) and the
 /// calibrated image size.
@@ -42,6 +72,12 @@ impl LiveSource {
                 "no cameras given: give one input per camera".into(),
             ));
         }
+        // Streams share a clock when every camera is a device of this machine, or every one a
+        // video file.
+        let device = |input: &str| input.starts_with("/dev/");
+        let file = |input: &str| !device(input) && Path::new(input).is_file();
+        let streamed =
+            cameras.iter().all(|(_, i, _)| device(i)) || cameras.iter().all(|(_, i, _)| file(i));
         // Probe every input before starting any, so the streams start together.
         let args = cameras
             .iter()
@@ -50,19 +86,40 @@ impl LiveSource {
         let decoders = cameras
             .iter()
             .zip(&args)
-            .map(|((camera, input, size), args)| Decoder::spawn(camera, input, args, *size))
+            .map(|((camera, input, size), args)| {
+                if streamed {
+                    Decoder::spawn_timed(camera, input, args, *size)
+                } else {
+                    Decoder::spawn(camera, input, args, *size)
+                }
+            })
             .collect::<Result<Vec<_>, _>>()?;
-        let latest = Arc::new(Latest::new(cameras.len()));
+        let latest = Arc::new(Latest::new(cameras.len(), KEPT));
+        let opened = Instant::now();
         for (i, decoder) in decoders.into_iter().enumerate() {
             let shared = latest.clone();
-            std::thread::spawn(move || read_camera(i, decoder, &shared));
+            std::thread::spawn(move || read_camera(i, decoder, &shared, opened));
         }
         let names = cameras.iter().map(|(name, _, _)| name.clone()).collect();
         Ok(LiveSource {
             latest,
             taker: Taker::new(cameras.len()).patient(SILENCE, names),
             next: 0,
+            streamed,
+            within_s: None,
         })
+    }
+
+    /// Pairs frames only within `within_s` seconds of one instant (`None`: 0.6 of the
+    /// slowest camera's frame interval).
+    pub fn pair_within(mut self, within_s: Option<f64>) -> Self {
+        self.within_s = within_s;
+        self
+    }
+
+    /// Sets not taken because a camera had no frame near the others' instant.
+    pub fn unpaired(&self) -> u64 {
+        self.taker.unpaired()
     }
 }
 
@@ -95,11 +152,33 @@ fn input_args(camera: &str, input: &str, size: (u32, u32)) -> Result<Vec<String>
     Ok(args)
 }
 
-/// A camera's reader thread: keeps the newest frame in its slot.
-fn read_camera(index: usize, mut decoder: Decoder, latest: &Latest<(RgbImage, Instant)>) {
+/// A camera's reader thread: keeps its newest frames in its slot, each with its capture
+/// time (the stream's where the decoder reads it; a frame without one is placed by its arrival
+/// at the stream's last offset from the arrival clock).
+fn read_camera(index: usize, mut decoder: Decoder, latest: &Latest<LiveFrame>, opened: Instant) {
+    let mut last: Option<f64> = None;
+    let mut offset = 0.0;
     while !latest.stopped() {
-        match decoder.read() {
-            Ok(Some(image)) => latest.put(index, (image, Instant::now())),
+        match decoder.read_timed() {
+            Ok(Some((image, stream))) => {
+                let arrived = Instant::now();
+                let arrival = arrived.duration_since(opened).as_secs_f64();
+                if let Some(t) = stream {
+                    offset = t - arrival;
+                }
+                let time_s = stream.unwrap_or(arrival + offset);
+                let interval_s = last.map(|l| time_s - l).filter(|d| *d > 0.0);
+                last = Some(time_s);
+                latest.put(
+                    index,
+                    LiveFrame {
+                        image,
+                        arrived,
+                        time_s,
+                        interval_s,
+                    },
+                );
+            }
             Ok(None) => return latest.end(index, Ok(())),
             Err(e) => return latest.end(index, Err(e)),
         }
@@ -108,22 +187,46 @@ fn read_camera(index: usize, mut decoder: Decoder, latest: &Latest<(RgbImage, In
 
 impl FrameSource for LiveSource {
     fn next_frame(&mut self) -> Option<Result<FrameSet, InputError>> {
-        let frames = match self.taker.take(&self.latest)? {
+        let within = self.within_s;
+        let frames = match self.taker.take_paired(
+            &self.latest,
+            |f| f.time_s,
+            |set| {
+                within.unwrap_or_else(|| {
+                    let slowest = set
+                        .iter()
+                        .filter_map(|f| f.interval_s)
+                        .fold(None, |a: Option<f64>, d| Some(a.map_or(d, |a| a.max(d))));
+                    slowest.map_or(f64::INFINITY, |d| WITHIN_INTERVAL * d)
+                })
+            },
+        )? {
             Ok(frames) => frames,
             Err(e) => return Some(Err(e)),
         };
         let oldest = frames
             .iter()
-            .map(|(_, at)| *at)
+            .map(|f| f.arrived)
             .min()
             .unwrap_or_else(Instant::now);
+        let times: Vec<f64> = frames.iter().map(|f| f.time_s).collect();
         let images = frames
             .into_iter()
-            .map(|(image, _)| FrameImage::Decoded(image))
+            .map(|f| FrameImage::Decoded(f.image))
             .collect();
         let mut set = FrameSet::new(self.next, images);
         set.captured = oldest;
-        set.capture_time = CaptureTime::of_instant(oldest);
+        if self.streamed {
+            // The earliest camera's capture, each camera's own beside it.
+            let instant = times.iter().copied().fold(f64::INFINITY, f64::min);
+            set.capture_time = Some(CaptureTime {
+                seconds: instant,
+                source: CaptureSource::Stream,
+            });
+            set.camera_times = Some(times);
+        } else {
+            set.capture_time = CaptureTime::of_instant(oldest);
+        }
         self.next += 1;
         Some(Ok(set))
     }
@@ -134,6 +237,10 @@ impl FrameSource for LiveSource {
 
     fn dropped(&self) -> u64 {
         self.taker.dropped()
+    }
+
+    fn unpaired(&self) -> u64 {
+        self.taker.unpaired()
     }
 }
 

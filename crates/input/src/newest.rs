@@ -19,7 +19,7 @@ impl NewestSource {
     pub fn spawn(
         mut produce: impl FnMut() -> Option<Result<FrameSet, InputError>> + Send + 'static,
     ) -> Self {
-        let latest = Arc::new(Latest::new(1));
+        let latest = Arc::new(Latest::new(1, 1));
         let shared = latest.clone();
         std::thread::spawn(move || {
             while !shared.stopped() {

@@ -1,9 +1,12 @@
 //! One video file per camera, decoded by ffmpeg; the n-th frames of all videos make frame n.
+//! Each frame's presentation time is read with it: videos of one recording share a timeline,
+//! so cameras that were not triggered together (a video whose frames are offset by its
+//! camera's phase) are each fitted at their own capture (`FrameSet::camera_times`).
 
 use std::path::PathBuf;
 
 use crate::ffmpeg::{Decoder, probe_size};
-use crate::{FrameImage, FrameSet, FrameSource, InputError};
+use crate::{CaptureSource, CaptureTime, FrameImage, FrameSet, FrameSource, InputError};
 
 /// Frames from one video per camera.
 pub struct VideoSource {
@@ -44,7 +47,7 @@ impl VideoSource {
                 });
             }
             let args = vec!["-i".to_string(), input.clone()];
-            decoders.push(Decoder::spawn(camera, &input, &args, *size)?);
+            decoders.push(Decoder::spawn_timed(camera, &input, &args, *size)?);
         }
         Ok(VideoSource {
             decoders,
@@ -60,10 +63,14 @@ impl FrameSource for VideoSource {
             return None;
         }
         let mut images = Vec::with_capacity(self.decoders.len());
+        let mut times = Vec::with_capacity(self.decoders.len());
         let mut finished = Vec::new();
         for (i, d) in self.decoders.iter_mut().enumerate() {
-            match d.read() {
-                Ok(Some(image)) => images.push(FrameImage::Decoded(image)),
+            match d.read_timed() {
+                Ok(Some((image, time))) => {
+                    images.push(FrameImage::Decoded(image));
+                    times.push(time);
+                }
                 Ok(None) => finished.push(i),
                 Err(e) => {
                     self.ended = true;
@@ -83,7 +90,16 @@ impl FrameSource for VideoSource {
                 frames: d.frames,
             }));
         }
-        let set = FrameSet::new(self.next, images);
+        let mut set = FrameSet::new(self.next, images);
+        // Every camera's time, or none: a missing one would leave the others' offsets
+        // counted from an instant the set does not have.
+        if let Some(times) = times.into_iter().collect::<Option<Vec<f64>>>() {
+            set.capture_time = Some(CaptureTime {
+                seconds: times.iter().copied().fold(f64::INFINITY, f64::min),
+                source: CaptureSource::Stream,
+            });
+            set.camera_times = Some(times);
+        }
         self.next += 1;
         Some(Ok(set))
     }

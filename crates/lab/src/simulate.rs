@@ -156,7 +156,10 @@ pub fn simulate_recording(
             rate_hz,
             pace,
             ..
-        } => (sim.motion(*frames, motion_rate(*rate_hz, *pace)), Vec::new()),
+        } => (
+            sim.motion(*frames, motion_rate(*rate_hz, *pace)),
+            Vec::new(),
+        ),
         Scenario::Experiment { commands, .. } => {
             let catheter = &sim.config().catheter;
             commands

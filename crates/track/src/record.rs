@@ -543,6 +543,7 @@ impl Tally {
             fps: self.frames as f64 / seconds.max(1e-9),
             stages: stage_summaries(&self.timings),
             dropped: end.dropped,
+            unpaired: end.unpaired,
             latency_ms: (!latencies.is_empty()).then(|| StageSummary {
                 stage: "latency".into(),
                 median_ms: quantile(&mut latencies, 0.5),
@@ -577,6 +578,11 @@ pub struct TrackSummary {
     /// Frame sets a live input dropped because newer ones arrived first.
     #[serde(default)]
     pub dropped: u64,
+    /// Frame sets live cameras could not pair: one camera had no frame within the pairing
+    /// tolerance of the others' capture instant (its frame near it lost), so the others'
+    /// frames were not tracked (additive).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub unpaired: u64,
     /// From capture or reading to the end of the chain.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub latency_ms: Option<StageSummary>,
@@ -603,8 +609,8 @@ pub struct TrackSummary {
     pub refined_rig: Option<flexshape_rig::Refined>,
 }
 
-fn is_zero(n: &usize) -> bool {
-    *n == 0
+fn is_zero<N: Default + PartialEq>(n: &N) -> bool {
+    *n == N::default()
 }
 
 /// The summary as its own line.
@@ -651,7 +657,12 @@ impl TrackSummary {
             summary.frames,
             summary.ok,
             summary.errors,
-            if live {
+            if live && summary.unpaired > 0 {
+                format!(
+                    ", {} dropped, {} sets unpaired",
+                    summary.dropped, summary.unpaired
+                )
+            } else if live {
                 format!(", {} dropped", summary.dropped)
             } else {
                 String::new()

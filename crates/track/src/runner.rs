@@ -101,6 +101,8 @@ pub struct RunEnd {
     pub frames: u64,
     /// Frame sets the live source dropped.
     pub dropped: u64,
+    /// Frame sets the live source could not pair by capture time.
+    pub unpaired: u64,
     /// True when stopped by the flag or the sink before the input ended.
     pub stopped: bool,
     /// The error that ended the input early, if any.
@@ -324,6 +326,7 @@ pub fn run<S: FrameSource + ?Sized>(
     });
     if let Ok(p) = puller.into_inner() {
         end.dropped = p.source.dropped();
+        end.unpaired = p.source.unpaired();
         end.input_error = p.error;
         end.stopped |= !p.ended && end.input_error.is_none();
     }

@@ -27,6 +27,9 @@ pub struct SourceSpec {
     /// A live camera per camera (`--camera`): a V4L2 device, a stream URL or a video played
     /// in real time, read by `ffmpeg`.
     pub camera: Vec<(String, PathBuf)>,
+    /// How far apart live cameras' frames of one set may be captured, seconds
+    /// (`--pair-within`; `None`: from their frame intervals, see [`LiveSource`]).
+    pub pair_within_s: Option<f64>,
     /// The rig (`--rig`): a rig TOML or a folder of camera files; replaces a recording's.
     pub rig: Option<PathBuf>,
     /// A folder of background images, `NAME.png` per camera (`--backgrounds`); replaces a
@@ -229,7 +232,7 @@ fn open_per_camera(spec: &SourceSpec) -> Result<Input, TrackError> {
                 (name, input.display().to_string(), s)
             })
             .collect();
-        Box::new(LiveSource::open(&cameras)?)
+        Box::new(LiveSource::open(&cameras)?.pair_within(spec.pair_within_s))
     };
     Ok(Input {
         rig,

@@ -10,12 +10,19 @@ use crate::cli::FramesArgs;
 /// The rig, backgrounds and frame source the arguments name (warnings printed); see
 /// [`flexshape_track::Input::open`].
 pub fn open_input(args: &FramesArgs) -> anyhow::Result<Input> {
+    if let Some(ms) = args.pair_within {
+        anyhow::ensure!(
+            ms.is_finite() && ms > 0.0 && ms <= 10_000.0,
+            "--pair-within {ms}: give how far apart (ms) the cameras' frames of one set may be captured, above 0 and at most 10 s"
+        );
+    }
     let input = Input::open(&SourceSpec {
         recording: args.recording.clone(),
         images: args.images.clone(),
         masks: args.masks.clone(),
         video: args.video.clone(),
         camera: args.camera.clone(),
+        pair_within_s: args.pair_within.map(|ms| ms / 1e3),
         rig: args.rig.clone(),
         backgrounds: args.backgrounds.clone(),
         classifier: args.classifier.clone(),
