@@ -23,6 +23,7 @@
 //! ```
 
 mod backdrop;
+mod camera_clocks;
 mod hull_record;
 mod inspect;
 mod instants;
@@ -49,6 +50,7 @@ use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
 pub use backdrop::BackgroundUpdate;
+pub use camera_clocks::CameraClock;
 pub use hull_record::{HullRecord, carve_frame};
 pub use inspect::Inspection;
 pub use instants::{CameraTimes, Instants};

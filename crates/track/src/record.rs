@@ -8,6 +8,7 @@ use flexshape_shape::Status;
 use serde::{Deserialize, Serialize};
 
 use crate::backdrop::BackgroundUpdate;
+use crate::camera_clocks::{CameraClock, ClockTally};
 use crate::instants::Instants;
 use crate::pipeline::{StageTimings, Start, Tracked};
 use crate::runner::{Processed, RunEnd};
@@ -240,6 +241,15 @@ pub struct TrackRecord {
         serialize_with = "crate::precision::mm_opt"
     )]
     pub carried_mm: Option<f64>,
+    /// With cameras that captured apart and the tube's motion between their captures not
+    /// known well enough (status `ambiguous`): how far from `captured_s` the shape may be, ms
+    /// (additive).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "crate::precision::ms_opt"
+    )]
+    pub lag_ms: Option<f64>,
     /// Where the fit started: `hull` (this frame's visual hull, carved) or `previous` (an
     /// earlier frame's shape, tracking: nothing carved, `voxels` is 0 and `ghost_mm` absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -366,6 +376,10 @@ impl TrackRecord {
                 Instants::Carried { shift_mm } => Some(shift_mm),
                 _ => None,
             },
+            lag_ms: match t.instants {
+                Instants::Unknown { lag_s } => Some(lag_s * 1e3),
+                _ => None,
+            },
             start: t.fit.as_ref().map(|_| {
                 match t.start {
                     Start::Hull => "hull",
@@ -448,6 +462,7 @@ impl TrackRecord {
             cameras: Vec::new(),
             ghost_mm: None,
             carried_mm: None,
+            lag_ms: None,
             start: None,
             background_updated: Vec::new(),
             shadow_voxels: 0,
@@ -479,6 +494,7 @@ pub struct Tally {
     frames: usize,
     direction_guessed: usize,
     shadow_frames: usize,
+    clocks: ClockTally,
 }
 
 impl Default for Tally {
@@ -492,6 +508,7 @@ impl Default for Tally {
             frames: 0,
             direction_guessed: 0,
             shadow_frames: 0,
+            clocks: ClockTally::default(),
         }
     }
 }
@@ -512,6 +529,11 @@ impl Tally {
         }
         self.direction_guessed += usize::from(record.direction_guessed);
         self.shadow_frames += usize::from(record.shadow_voxels > 0);
+        self.clocks.add(
+            record.captured_s,
+            &record.camera_captured_s,
+            record.lag_ms.is_some(),
+        );
         if record.status != RecordStatus::Error {
             self.timings.push(record.timings_ms);
         }
@@ -554,6 +576,8 @@ impl Tally {
             direction_guessed: self.direction_guessed,
             shadow_frames: self.shadow_frames,
             refined_rig: None,
+            camera_clocks: self.clocks.clocks(),
+            between_captures: self.clocks.between(),
         }
     }
 }
@@ -607,6 +631,16 @@ pub struct TrackSummary {
     /// then says so when that is not 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refined_rig: Option<flexshape_rig::Refined>,
+    /// Each camera's clock, rig order, where the input gave every camera's own capture time
+    /// (additive; absent otherwise): its frame rate and its captures' offset from the frames'
+    /// instants; the summary line says how far apart they captured.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub camera_clocks: Vec<CameraClock>,
+    /// Frames `ambiguous` because the tube's motion between their cameras' captures was not
+    /// known well enough (`lag_ms` in their records; additive; absent: none); beyond a few the
+    /// summary line suggests triggering the cameras together.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub between_captures: usize,
 }
 
 fn is_zero<N: Default + PartialEq>(n: &N) -> bool {
@@ -688,6 +722,7 @@ impl TrackSummary {
         ) + &self.direction_advice()
             + &self.shadow_advice()
             + &self.refined_advice()
+            + &crate::camera_clocks::advice(&self.camera_clocks, self.between_captures, self.frames)
     }
 
     /// Once per run, on a refined rig whose refinement could not tell which cameras moved:

@@ -1402,8 +1402,19 @@ fn free_running_videos_played_live_pair_by_time_and_say_ok_as_read_as_files() {
         }
         ok as f64 / records.len() as f64
     };
-    let (files, _) = track("--video");
+    let (files, summary) = track("--video");
     assert_eq!(files.len(), 45);
+    // The summary measures each camera's clock from the videos' times.
+    let clocks = summary["camera_clocks"].as_array().unwrap();
+    for (clock, phase) in clocks.iter().zip(phases_ms) {
+        let rate = clock["rate_hz"].as_f64().unwrap();
+        let offset = clock["offset_ms"].as_f64().unwrap();
+        assert!((rate - 30.0).abs() < 1.0, "{clock}");
+        assert!((offset - phase).abs() < 1.5, "{clock}");
+    }
+    let between = summary["between_captures"].as_u64().unwrap_or(0);
+    let ambiguous = files.iter().filter(|r| r["lag_ms"].is_number()).count();
+    assert_eq!(between as usize, ambiguous, "{summary}");
     let from_files = judged(&files);
     let (live, summary) = track("--camera");
     assert!(live.len() >= 30, "{summary}");
