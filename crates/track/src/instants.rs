@@ -69,6 +69,18 @@ impl CameraTimes {
             .fold(0.0, f64::max)
     }
 
+    /// The middle of the captures less the frame's instant, and half their spread, seconds:
+    /// where a shape fitted to them as they are lies in time, and how far from there.
+    pub(crate) fn between_captures(&self) -> (f64, f64) {
+        let (lo, hi) = self
+            .cameras_s
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &t| {
+                (lo.min(t), hi.max(t))
+            });
+        ((lo + hi) / 2.0 - self.at_s, (hi - lo).max(0.0) / 2.0)
+    }
+
     /// Why a shape fitted to cameras that captured apart, with no motion known, is not `ok`.
     pub(crate) fn unknown_motion(&self) -> String {
         let (first, last) = self
@@ -100,20 +112,33 @@ pub enum Instants {
         shift_mm: f64,
     },
     /// Apart, and what carries the tube is not known well enough: the shape may be the
-    /// tube's at any instant within `lag_s` of the frame's (status `ambiguous`). It serves
-    /// the next frame as a start and to measure the motion, which makes the lag shrink.
+    /// tube's at any instant within `lag_s` of the frame's instant moved by `centre_s`
+    /// (status `ambiguous`). It serves the next frame as a start and to measure the motion,
+    /// which makes the lag shrink.
     Unknown {
         /// Seconds.
         lag_s: f64,
+        /// The middle of the instants the shape may be at, less the frame's instant, seconds:
+        /// a shape fitted to the captures as they are lies between the first and the last of
+        /// them, half their spread from its middle; one carried to the frame's instant, 0.
+        centre_s: f64,
     },
 }
 
 impl Instants {
-    /// How far from its frame's instant the shape may be, seconds.
+    /// How far from the middle of the instants it may be at the shape may be, seconds.
     pub fn lag_s(&self) -> f64 {
         match *self {
             Instants::Together | Instants::Carried { .. } => 0.0,
-            Instants::Unknown { lag_s } => lag_s,
+            Instants::Unknown { lag_s, .. } => lag_s,
+        }
+    }
+
+    /// The middle of the instants the shape may be at, less its frame's instant, seconds.
+    pub fn centre_s(&self) -> f64 {
+        match *self {
+            Instants::Together | Instants::Carried { .. } => 0.0,
+            Instants::Unknown { centre_s, .. } => centre_s,
         }
     }
 }
@@ -202,7 +227,10 @@ pub(crate) fn judge_instant(tracked: &mut Tracked, across: &AcrossTime, off_mm: 
                 "the cameras captured apart, and the motion that carries the tube between their captures was measured from a shape that lay between its own cameras' captures: this one may be {off_mm:.2} mm from the tube at the frame's instant, beyond the fit's own {sigma:.2} mm (the next frames measure the motion again from it); trigger the cameras together to fit every frame at once"
             ),
         };
-        tracked.instants = Instants::Unknown { lag_s };
+        tracked.instants = Instants::Unknown {
+            lag_s,
+            centre_s: 0.0,
+        };
     } else {
         // Within the images' own uncertainty: a shape at one instant for what follows.
         tracked.instants = Instants::Carried {
@@ -227,6 +255,9 @@ mod tests {
         let apart = CameraTimes::of(Some(2.0), Some(&[2.0, 2.004, 1.998])).unwrap();
         assert!(apart.apart());
         assert!((apart.spread_s() - 0.006).abs() < 1e-12);
+        // A shape fitted to them as they are: between -2 and +4 ms, so 1 ms ± 3 ms.
+        let (centre, lag) = apart.between_captures();
+        assert!((centre - 0.001).abs() < 1e-12 && (lag - 0.003).abs() < 1e-12);
         let reason = apart.unknown_motion();
         assert!(reason.contains("-2.0 to +4.0 ms"), "{reason}");
         assert!(CameraTimes::of(None, Some(&[1.0])).is_none());

@@ -815,9 +815,8 @@ impl Pipeline {
                 tracked.shape.status = Status::Ambiguous {
                     reason: times.unknown_motion(),
                 };
-                tracked.instants = Instants::Unknown {
-                    lag_s: times.widest_offset_s(),
-                };
+                let (centre_s, lag_s) = times.between_captures();
+                tracked.instants = Instants::Unknown { lag_s, centre_s };
             }
         }
         Ok(tracked)

@@ -377,7 +377,7 @@ impl TrackRecord {
                 _ => None,
             },
             lag_ms: match t.instants {
-                Instants::Unknown { lag_s } => Some(lag_s * 1e3),
+                Instants::Unknown { lag_s, centre_s } => Some((centre_s.abs() + lag_s) * 1e3),
                 _ => None,
             },
             start: t.fit.as_ref().map(|_| {
