@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use flexshape_rig::Rig;
 use flexshape_silhouette::BackgroundModel;
-use flexshape_track::{Pipeline, Recent, Recording, TrackRecord};
+use flexshape_track::{CameraTimes, Pipeline, Recent, Recording, TrackRecord};
 use nalgebra::Point3;
 use numpy::{PyArray2, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -152,23 +152,35 @@ impl PyTracker {
     }
 
     /// One frame: one image per camera in the rig's order, each `(height, width, 3)` `uint8`
-    /// RGB. `frame` numbers it (default: one more than the last). Returns its record.
-    #[pyo3(signature = (images, frame = None))]
+    /// RGB. `frame` numbers it (default: one more than the last). `time`: when it was
+    /// captured, seconds in any time base of yours (the record's `captured_s`); with
+    /// `camera_times`, each camera's own capture (same base, rig order) for cameras that are
+    /// not triggered together: each is then held to the tube where it was at its capture and
+    /// the shape is the tube at `time` (default: the earliest camera's). Returns its record.
+    #[pyo3(signature = (images, frame = None, time = None, camera_times = None))]
     fn process(
         &mut self,
         py: Python<'_>,
         images: Vec<PyReadonlyArray3<'_, u8>>,
         frame: Option<u64>,
+        time: Option<f64>,
+        camera_times: Option<Vec<f64>>,
     ) -> PyResult<PyRecord> {
         let images = images_from(images, "images")?;
+        let (at_s, camera_times) = self.times(time, camera_times)?;
         let n = frame.unwrap_or(self.next_frame);
         let (pipeline, recent) = (&self.pipeline, &mut self.recent);
         let record = py.detach(|| {
             let refs: Vec<&image::RgbImage> = images.iter().collect();
             let prior = recent.for_frame(n);
-            let tracked = pipeline.process_after(&refs, prior.as_deref())?;
-            recent.update(n, tracked.prior());
-            Ok::<_, flexshape_track::TrackError>(TrackRecord::from_tracked(n, &tracked))
+            let times = CameraTimes::of(at_s, camera_times.as_deref());
+            let tracked = pipeline.process_after_at(&refs, prior.as_deref(), times.as_ref())?;
+            recent.update(n, tracked.prior_at(at_s));
+            let mut record = TrackRecord::from_tracked(n, &tracked);
+            record.captured_s = at_s;
+            record.captured_from = at_s.map(|_| "given".to_string());
+            record.camera_captured_s = camera_times.unwrap_or_default();
+            Ok::<_, flexshape_track::TrackError>(record)
         });
         let record = record.map_err(|e| fail_with(format!("frame {n}: {}", chain(&e))))?;
         self.next_frame = n + 1;
@@ -189,6 +201,31 @@ impl PyTracker {
 }
 
 impl PyTracker {
+    /// `process`'s `time` and `camera_times` checked: finite, one per camera; the frame's
+    /// time defaults to the earliest camera's.
+    fn times(
+        &self,
+        time: Option<f64>,
+        camera_times: Option<Vec<f64>>,
+    ) -> PyResult<(Option<f64>, Option<Vec<f64>>)> {
+        if let Some(t) = time.filter(|t| !t.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "time={t}: give the frame's capture time in seconds"
+            )));
+        }
+        let Some(each) = camera_times else {
+            return Ok((time, None));
+        };
+        let cameras = self.pipeline.camera_names().len();
+        if each.len() != cameras || each.iter().any(|t| !t.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "camera_times={each:?}: give each camera's capture time in seconds, one per camera ({cameras}), in the rig's order"
+            )));
+        }
+        let earliest = each.iter().copied().fold(f64::INFINITY, f64::min);
+        Ok((Some(time.unwrap_or(earliest)), Some(each)))
+    }
+
     fn with(pipeline: Pipeline, follow: bool) -> PyResult<Self> {
         let pipeline = pipeline.following(follow).map_err(|e| fail(&e))?;
         Ok(PyTracker {

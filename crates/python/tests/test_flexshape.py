@@ -47,6 +47,24 @@ def test_tracking_own_frames_matches_the_truth(sim):
     assert starts[0] == "hull" and all(s != "hull" for s in starts[1:]), starts
 
 
+def test_frames_carry_the_times_they_are_given(sim):
+    tracker = flexshape.Tracker(sim.rig, sim.backgrounds())
+    for n, pose in enumerate(sim.motion(3, rate_hz=120.0)):
+        frame = sim.render(n, pose)
+        at = 100.0 + n / 120.0
+        record = tracker.process(frame.images, time=at, camera_times=[at, at, at])
+        assert record.ok, record
+        d = record.to_dict()
+        assert d["captured_s"] == at and d["captured_from"] == "given"
+        assert d["camera_captured_s"] == [at, at, at]
+    # Untimed frames carry no time; a camera's time missing or not a number is refused.
+    assert "captured_s" not in tracker.process(frame.images).to_dict()
+    with pytest.raises(ValueError, match="camera_times"):
+        tracker.process(frame.images, time=1.0, camera_times=[1.0, 1.0])
+    with pytest.raises(ValueError, match="time=NaN"):
+        tracker.process(frame.images, time=float("nan"))
+
+
 def test_a_strided_image_gives_the_same_record(sim):
     pose = sim.sweep(1)[0]
     frame = sim.render(0, pose)

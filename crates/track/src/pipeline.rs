@@ -276,6 +276,13 @@ impl Prior {
 }
 
 impl Tracked {
+    /// [`Tracked::prior`] at the instant its shape refers to, for a frame captured at `at_s`
+    /// seconds (where known): a shape between its cameras' captures is at their middle.
+    pub fn prior_at(&self, at_s: Option<f64>) -> Option<Prior> {
+        let centre = self.instants.centre_s();
+        Some(self.prior()?.at(at_s.map(|t| t + centre)))
+    }
+
     /// What a later frame may start from, if this frame's shape is right.
     pub fn prior(&self) -> Option<Prior> {
         let fit = self.fit.as_ref()?;

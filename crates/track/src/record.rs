@@ -173,12 +173,14 @@ pub struct TrackRecord {
     )]
     pub latency_ms: Option<f64>,
     /// When the frame was captured, seconds since the Unix epoch (UTC) — from a recording's
-    /// `timestamps.csv`, in that file's own time base — where the input knows it (additive).
+    /// `timestamps.csv`, a video's timeline or a caller, in that time base — where the input
+    /// knows it (additive).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub captured_s: Option<f64>,
-    /// Where `captured_s` comes from: `clock` (live cameras and the simulator: the wall clock
-    /// when the frame arrived), `timestamps` (the recording's `timestamps.csv`) or `file_time`
-    /// (the first camera's image file's modification time).
+    /// Where `captured_s` comes from: `clock` (live network cameras and the simulator: the
+    /// wall clock when the frame arrived), `timestamps` (the recording's `timestamps.csv`),
+    /// `file_time` (the first camera's image file's modification time), `stream` (videos'
+    /// timelines, live devices' driver timestamps) or `given` (the Python `Tracker`'s caller).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub captured_from: Option<String>,
     /// Each camera's own capture time, rig order, seconds in `captured_s`'s time base, where

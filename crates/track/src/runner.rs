@@ -71,10 +71,7 @@ impl Processed {
     /// What a later frame may start from ([`Tracked::prior`]), at this frame's capture time.
     pub fn prior(&self) -> Option<Prior> {
         let tracked = self.result.as_ref().ok()?;
-        let prior = tracked.prior()?;
-        // A shape between its cameras' captures is at their middle.
-        let centre = tracked.instants.centre_s();
-        Some(prior.at(self.capture_time.map(|c| c.seconds + centre)))
+        tracked.prior_at(self.capture_time.map(|c| c.seconds))
     }
 
     /// A frame the source could not read (numbered by its place in the input), and why.

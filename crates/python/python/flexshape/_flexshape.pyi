@@ -68,7 +68,15 @@ class Tracker:
     def __init__(self, rig: Rig, backgrounds: Sequence[_Image], follow: bool = True) -> None: ...
     @staticmethod
     def from_recording(path: _Path, follow: bool = True) -> "Tracker": ...
-    def process(self, images: Sequence[_Image], frame: Optional[int] = None) -> Record: ...
+    def process(
+        self,
+        images: Sequence[_Image],
+        frame: Optional[int] = None,
+        time: Optional[float] = None,
+        camera_times: Optional[Sequence[float]] = None,
+    ) -> Record:
+        """One frame; `time` (s, your own base) and each camera's `camera_times` (same base,
+        rig order) for cameras not triggered together."""
     def reset(self) -> None: ...
     @property
     def follows(self) -> bool: ...
