@@ -152,22 +152,22 @@ impl PyTracker {
     }
 
     /// One frame: one image per camera in the rig's order, each `(height, width, 3)` `uint8`
-    /// RGB. `frame` numbers it (default: one more than the last). `time`: when it was
+    /// RGB. `frame` numbers it (default: one more than the last). `captured_s`: when it was
     /// captured, seconds in any time base of yours (the record's `captured_s`); with
-    /// `camera_times`, each camera's own capture (same base, rig order) for cameras that are
+    /// `camera_captured_s`, each camera's own capture (same base, rig order) for cameras that are
     /// not triggered together: each is then held to the tube where it was at its capture and
-    /// the shape is the tube at `time` (default: the earliest camera's). Returns its record.
-    #[pyo3(signature = (images, frame = None, time = None, camera_times = None))]
+    /// the shape is the tube at `captured_s` (default: the earliest camera's). Returns its record.
+    #[pyo3(signature = (images, frame = None, captured_s = None, camera_captured_s = None))]
     fn process(
         &mut self,
         py: Python<'_>,
         images: Vec<PyReadonlyArray3<'_, u8>>,
         frame: Option<u64>,
-        time: Option<f64>,
-        camera_times: Option<Vec<f64>>,
+        captured_s: Option<f64>,
+        camera_captured_s: Option<Vec<f64>>,
     ) -> PyResult<PyRecord> {
         let images = images_from(images, "images")?;
-        let (at_s, camera_times) = self.times(time, camera_times)?;
+        let (at_s, camera_times) = self.times(captured_s, camera_captured_s)?;
         let n = frame.unwrap_or(self.next_frame);
         let (pipeline, recent) = (&self.pipeline, &mut self.recent);
         let record = py.detach(|| {
@@ -201,8 +201,8 @@ impl PyTracker {
 }
 
 impl PyTracker {
-    /// `process`'s `time` and `camera_times` checked: finite, one per camera; the frame's
-    /// time defaults to the earliest camera's.
+    /// `process`'s `captured_s` and `camera_captured_s` checked: finite, one per camera; the
+    /// frame's time defaults to the earliest camera's.
     fn times(
         &self,
         time: Option<f64>,
@@ -210,7 +210,7 @@ impl PyTracker {
     ) -> PyResult<(Option<f64>, Option<Vec<f64>>)> {
         if let Some(t) = time.filter(|t| !t.is_finite()) {
             return Err(PyValueError::new_err(format!(
-                "time={t}: give the frame's capture time in seconds"
+                "captured_s={t}: give the frame's capture time in seconds"
             )));
         }
         let Some(each) = camera_times else {
@@ -219,7 +219,7 @@ impl PyTracker {
         let cameras = self.pipeline.camera_names().len();
         if each.len() != cameras || each.iter().any(|t| !t.is_finite()) {
             return Err(PyValueError::new_err(format!(
-                "camera_times={each:?}: give each camera's capture time in seconds, one per camera ({cameras}), in the rig's order"
+                "camera_captured_s={each:?}: give each camera's capture time in seconds, one per camera ({cameras}), in the rig's order"
             )));
         }
         let earliest = each.iter().copied().fold(f64::INFINITY, f64::min);

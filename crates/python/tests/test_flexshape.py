@@ -52,17 +52,17 @@ def test_frames_carry_the_times_they_are_given(sim):
     for n, pose in enumerate(sim.motion(3, rate_hz=120.0)):
         frame = sim.render(n, pose)
         at = 100.0 + n / 120.0
-        record = tracker.process(frame.images, time=at, camera_times=[at, at, at])
+        record = tracker.process(frame.images, captured_s=at, camera_captured_s=[at, at, at])
         assert record.ok, record
         d = record.to_dict()
         assert d["captured_s"] == at and d["captured_from"] == "given"
         assert d["camera_captured_s"] == [at, at, at]
     # Untimed frames carry no time; a camera's time missing or not a number is refused.
     assert "captured_s" not in tracker.process(frame.images).to_dict()
-    with pytest.raises(ValueError, match="camera_times"):
-        tracker.process(frame.images, time=1.0, camera_times=[1.0, 1.0])
-    with pytest.raises(ValueError, match="time=NaN"):
-        tracker.process(frame.images, time=float("nan"))
+    with pytest.raises(ValueError, match="camera_captured_s"):
+        tracker.process(frame.images, captured_s=1.0, camera_captured_s=[1.0, 1.0])
+    with pytest.raises(ValueError, match="captured_s=NaN"):
+        tracker.process(frame.images, captured_s=float("nan"))
 
 
 def test_a_strided_image_gives_the_same_record(sim):

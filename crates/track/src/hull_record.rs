@@ -37,6 +37,13 @@ pub struct HullRecord {
     pub silhouettes_ms: f64,
     /// Time of the carving stage, ms.
     pub carve_ms: f64,
+    /// When the frame was captured, seconds, and where that comes from, as in `track`'s
+    /// records (`captured_s`, `captured_from`; additive; absent when the input does not say).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub captured_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    /// Where `captured_s` comes from (`timestamps`, `file_time`, `stream`, `clock`).
+    pub captured_from: Option<&'static str>,
 }
 
 /// One frame's visual hull for any object: its voxel centres (`NNNNNN.ply`) and surface
@@ -49,16 +56,22 @@ pub fn carve_frame(
     encoding: PlyEncoding,
 ) -> Result<HullRecord, TrackError> {
     let (frame, name) = (set.frame, set.name.clone());
+    let captured = set.capture_time;
+    let timed = |record: HullRecord| HullRecord {
+        captured_s: captured.map(|c| c.seconds),
+        captured_from: captured.map(|c| c.source.name()),
+        ..record
+    };
     let images = match pipeline.load(set.images) {
         Ok((i, _)) => i,
-        Err(e) => return Ok(HullRecord::error(frame, name, e)),
+        Err(e) => return Ok(timed(HullRecord::error(frame, name, e))),
     };
     let refs: Vec<_> = images.iter().collect();
     let hull = match pipeline.hull(&refs) {
         Ok(h) => h,
-        Err(e) => return Ok(HullRecord::error(frame, name, e.to_string())),
+        Err(e) => return Ok(timed(HullRecord::error(frame, name, e.to_string()))),
     };
-    let mut record = HullRecord::of(frame, name, &hull);
+    let mut record = timed(HullRecord::of(frame, name, &hull));
     if record.status == "ok" {
         let cloud = dir.join(format!("{frame:06}.ply"));
         hull.occupancy
@@ -111,6 +124,8 @@ impl HullRecord {
             silhouette_pixels: hull.silhouettes.iter().map(|s| s.object.count()).collect(),
             silhouettes_ms: hull.timings.silhouettes,
             carve_ms: hull.timings.carve,
+            captured_s: None,
+            captured_from: None,
         }
     }
 
@@ -128,6 +143,8 @@ impl HullRecord {
             silhouette_pixels: Vec::new(),
             silhouettes_ms: 0.0,
             carve_ms: 0.0,
+            captured_s: None,
+            captured_from: None,
         }
     }
 }

@@ -234,7 +234,7 @@ pub struct Sinks {
 }
 
 /// The CSV file's header (`flexshape track --csv`): one row per record.
-pub const CSV_HEADER: &str = "frame,image,status,tip_x,tip_y,tip_z,tip_dx,tip_dy,tip_dz,arc_length_mm,curvature_per_mm,bands,voxels,latency_ms,silhouettes_ms,carve_ms,bands_ms,shape_ms";
+pub const CSV_HEADER: &str = "frame,image,status,tip_x,tip_y,tip_z,tip_dx,tip_dy,tip_dz,arc_length_mm,curvature_per_mm,bands,voxels,latency_ms,silhouettes_ms,carve_ms,bands_ms,shape_ms,captured_s";
 
 impl Sinks {
     /// Opens the outputs, refusing first any that is (or lies in) one of `inputs`, two that
@@ -316,7 +316,7 @@ pub fn csv_row(r: &TrackRecord) -> String {
     };
     let t = r.timings_ms;
     format!(
-        "{},{},{},{},{},{:.4},{},{},{},{},{:.3},{:.3},{:.3},{:.3}",
+        "{},{},{},{},{},{:.4},{},{},{},{},{:.3},{:.3},{:.3},{:.3},{}",
         r.frame,
         r.image.as_deref().unwrap_or("").replace(',', ";"),
         r.status,
@@ -333,7 +333,8 @@ pub fn csv_row(r: &TrackRecord) -> String {
         t.silhouettes,
         t.carve,
         t.bands,
-        t.shape
+        t.shape,
+        r.captured_s.map(|s| format!("{s:.6}")).unwrap_or_default()
     )
 }
 

@@ -26,6 +26,10 @@ fn carve_writes_the_hull_cloud_surface_and_figures_of_every_frame() {
     for (h, t) in records.iter().zip(&track) {
         assert_eq!(h["status"], "ok", "{h}");
         assert_eq!(h["voxels"], t["voxels"]);
+        // The capture time, as tracking reads it.
+        assert_eq!(h["captured_s"], t["captured_s"]);
+        assert_eq!(h["captured_from"], t["captured_from"]);
+        assert!(h["captured_s"].is_number(), "{h}");
         let voxels = h["voxels"].as_u64().unwrap();
         assert!(
             (h["volume_mm3"].as_f64().unwrap() - voxels as f64).abs() < 1e-6,

@@ -172,6 +172,10 @@ fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
     assert_eq!((cells[0], cells[2]), ("1", "ok"));
     let tip_x: f64 = cells[3].parse().unwrap();
     assert!((tip_x - from_recording[1]["tip"][0].as_f64().unwrap()).abs() < 1e-3);
+    // The capture time, last.
+    assert!(rows[0].ends_with(",captured_s"));
+    let at: f64 = cells.last().unwrap().parse().unwrap();
+    assert!((at - from_recording[1]["captured_s"].as_f64().unwrap()).abs() < 1e-6);
     // PLY: one cloud per frame with the record's voxel count (binary: 17 bytes a point).
     let bytes = std::fs::read(dir.path().join("clouds/000002.ply")).unwrap();
     let header = String::from_utf8_lossy(&bytes[..bytes.len().min(400)]).into_owned();

@@ -72,11 +72,11 @@ class Tracker:
         self,
         images: Sequence[_Image],
         frame: Optional[int] = None,
-        time: Optional[float] = None,
-        camera_times: Optional[Sequence[float]] = None,
+        captured_s: Optional[float] = None,
+        camera_captured_s: Optional[Sequence[float]] = None,
     ) -> Record:
-        """One frame; `time` (s, your own base) and each camera's `camera_times` (same base,
-        rig order) for cameras not triggered together."""
+        """One frame; `captured_s` (s, your own base) and each camera's `camera_captured_s`
+        (same base, rig order) for cameras not triggered together."""
     def reset(self) -> None: ...
     @property
     def follows(self) -> bool: ...
