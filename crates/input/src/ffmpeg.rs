@@ -36,6 +36,8 @@ pub(crate) struct Decoder {
     /// Each frame's presentation time as ffmpeg's `showinfo` filter printed it (frame number,
     /// seconds), for a decoder started with [`Decoder::spawn_timed`].
     times: Option<Receiver<(u64, Option<f64>)>>,
+    /// A later frame's time, read while an earlier one's was missing.
+    ahead: Option<(u64, Option<f64>)>,
     size: (u32, u32),
     /// Frames read so far.
     pub(crate) frames: u64,
@@ -117,6 +119,7 @@ impl Decoder {
             stdout,
             stderr,
             times: timed.then_some(times),
+            ahead: None,
             size,
             frames: 0,
         })
@@ -169,19 +172,31 @@ impl Decoder {
             return Ok(None);
         };
         let n = self.frames - 1;
-        let mut time = None;
-        if let Some(times) = &self.times {
-            let until = Instant::now() + TIME_WAIT;
-            while let Ok((k, t)) =
-                times.recv_timeout(until.saturating_duration_since(Instant::now()))
-            {
-                if k >= n {
-                    time = if k == n { t } else { None };
-                    break;
+        let Some(times) = &self.times else {
+            return Ok(Some((image, None)));
+        };
+        if let Some((k, t)) = self.ahead.filter(|(k, _)| *k >= n) {
+            // A later frame's time, read while this one's was missing.
+            self.ahead = (k > n).then_some((k, t));
+            return Ok(Some((image, if k == n { t } else { None })));
+        }
+        let until = Instant::now() + TIME_WAIT;
+        loop {
+            match times.recv_timeout(until.saturating_duration_since(Instant::now())) {
+                Ok((k, t)) if k == n => return Ok(Some((image, t))),
+                Ok((k, t)) if k > n => {
+                    self.ahead = Some((k, t));
+                    return Ok(Some((image, None)));
+                }
+                Ok(_) => {}
+                // An ffmpeg that does not print the times (or has stopped): wait no more, or
+                // every frame would wait for it.
+                Err(_) => {
+                    self.times = None;
+                    return Ok(Some((image, None)));
                 }
             }
         }
-        Ok(Some((image, time)))
     }
 
     /// An error with what ffmpeg printed.
