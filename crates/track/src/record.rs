@@ -496,6 +496,7 @@ pub struct Tally {
     frames: usize,
     direction_guessed: usize,
     shadow_frames: usize,
+    file_times: usize,
     clocks: ClockTally,
 }
 
@@ -510,6 +511,7 @@ impl Default for Tally {
             frames: 0,
             direction_guessed: 0,
             shadow_frames: 0,
+            file_times: 0,
             clocks: ClockTally::default(),
         }
     }
@@ -531,6 +533,7 @@ impl Tally {
         }
         self.direction_guessed += usize::from(record.direction_guessed);
         self.shadow_frames += usize::from(record.shadow_voxels > 0);
+        self.file_times += usize::from(record.captured_from.as_deref() == Some("file_time"));
         self.clocks.add(
             record.captured_s,
             &record.camera_captured_s,
@@ -578,6 +581,7 @@ impl Tally {
             direction_guessed: self.direction_guessed,
             shadow_frames: self.shadow_frames,
             refined_rig: None,
+            file_time_frames: self.file_times,
             camera_clocks: self.clocks.clocks(),
             between_captures: self.clocks.between(),
         }
@@ -633,6 +637,10 @@ pub struct TrackSummary {
     /// then says so when that is not 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refined_rig: Option<flexshape_rig::Refined>,
+    /// Frames whose capture time is only their image file's modification time (nothing else
+    /// gave one; additive; absent: none): the summary line says so once.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub file_time_frames: usize,
     /// Each camera's clock, rig order, where the input gave every camera's own capture time
     /// (additive; absent otherwise): its frame rate and its captures' offset from the frames'
     /// instants; the summary line says how far apart they captured.
@@ -724,6 +732,7 @@ impl TrackSummary {
         ) + &self.direction_advice()
             + &self.shadow_advice()
             + &self.refined_advice()
+            + &self.file_time_advice()
             + &crate::camera_clocks::advice(&self.camera_clocks, self.between_captures, self.frames)
     }
 
@@ -738,6 +747,17 @@ the rig was refined ({} moved), and the images could not tell which cameras had 
                 r.world_open_mm
             ),
             _ => String::new(),
+        }
+    }
+
+    /// Once per run whose capture times are only the image files' modification times.
+    fn file_time_advice(&self) -> String {
+        match self.file_time_frames {
+            0 => String::new(),
+            n => format!(
+                "\n{n} of {} frames' capture times (captured_s) are their image files' modification times, which copying changes: write the real ones to timestamps.csv (docs/formats.md)",
+                self.frames
+            ),
         }
     }
 

@@ -159,6 +159,7 @@ fn image_folders_and_videos_give_the_recordings_shapes_plus_csv_and_ply() {
         .unwrap()
         .as_secs_f64();
     assert_eq!(from_recording[1]["captured_from"], "file_time");
+    assert_eq!(summary["file_time_frames"], 4, "{summary}");
     assert!((from_recording[1]["captured_s"].as_f64().unwrap() - written).abs() < 1e-6);
     // CSV: a header and one row per frame with the record's tip.
     let rows: Vec<String> = std::fs::read_to_string(&csv)
