@@ -3,7 +3,8 @@
 //! folders ([`FolderSource`]), one video file per camera ([`VideoSource`]) or live cameras
 //! ([`LiveSource`]); the last two run the `ffmpeg` program. [`NewestSource`] wraps any producer
 //! thread (the simulated rig of the live demo). Offline sources hand out every
-//! frame; a live source always hands out the newest and counts the frames it had to drop.
+//! frame; a live source hands out the newest set — live cameras' frames paired by capture
+//! time — and counts the frames it had to drop and the sets it could not pair.
 //! [`capture`] writes a source's frame sets into per-camera folders (chessboards, backgrounds,
 //! frames to track later).
 //!
@@ -60,7 +61,8 @@ pub trait FrameSource: Send {
         None
     }
 
-    /// True for live input (cameras): frames arrive on their own clock and the newest wins.
+    /// True for live input (cameras): frames arrive on their own clock and the newest set
+    /// wins.
     fn is_live(&self) -> bool {
         false
     }
