@@ -395,6 +395,41 @@ fn centerline(record: &Value) -> Vec<[f64; 3]> {
 }
 
 /// A record's centerline and tip against the truth inside `volume`.
+/// Asserts that `record` (of the recording's frame `frame`), which says `ok`, is right
+/// against its truth.
+fn assert_ok_is_right(reader: &RecordingReader, record: &Value, frame: u64) {
+    let truth = reader.read_truth(frame).unwrap().unwrap();
+    let e = errors(record, &truth, &reader.rig().volume);
+    assert!(
+        e.within(Default::default()),
+        "frame {frame} says ok but is {:.3} mm RMS, tip {:.3} mm off",
+        e.centerline_rms,
+        e.tip
+    );
+}
+
+/// `simulate --out DIR/rec` with `args`, then `track --follow` of it with `track_args`: the
+/// recording and the frames' records.
+fn simulate_and_follow(
+    dir: &Path,
+    args: &[&str],
+    track_args: &[&str],
+) -> (RecordingReader, Vec<Value>) {
+    let rec = dir.join("rec");
+    let mut all = vec!["simulate", "--out", rec.to_str().unwrap()];
+    all.extend(args);
+    common::run(&all);
+    let out = dir.join("out.jsonl");
+    let mut track = vec!["track", rec.to_str().unwrap(), "--follow"];
+    track.extend(["--out", out.to_str().unwrap()]);
+    track.extend(track_args);
+    common::run(&track);
+    (
+        RecordingReader::open(&rec).unwrap(),
+        common::frame_records(&out),
+    )
+}
+
 fn errors(record: &Value, truth: &Truth, volume: &Volume) -> TruthErrors {
     truth
         .errors(&centerline(record), point(&record["tip"]), |p| {
@@ -1205,37 +1240,17 @@ fn a_shutter_open_while_the_catheter_moves_blurs_the_frames_and_track_says_so() 
 fn free_running_cameras_are_each_held_to_the_tube_at_their_capture() {
     let dir = tempfile::tempdir().unwrap();
     let rec = dir.path().join("rec");
-    common::run(&[
-        "simulate",
-        "--out",
-        rec.to_str().unwrap(),
-        "--frames",
-        "60",
-        "--motion",
-        "120",
-        "--phases",
-        "0,4,8",
-        "--jitter",
-        "2",
-        "--seed",
-        "2",
-    ]);
-    let reader = RecordingReader::open(&rec).unwrap();
+    let (reader, records) = simulate_and_follow(
+        dir.path(),
+        &[
+            "--frames", "60", "--motion", "120", "--phases", "0,4,8", "--jitter", "2", "--seed",
+            "2",
+        ],
+        &["--threads", "2"],
+    );
     let times = reader.read_camera_timestamps().unwrap().unwrap();
     assert_eq!(times.len(), 3);
-    let out = dir.path().join("out.jsonl");
-    common::run(&[
-        "track",
-        rec.to_str().unwrap(),
-        "--follow",
-        "--threads",
-        "2",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let records = common::frame_records(&out);
     assert_eq!(records.len(), 60);
-    let volume = &reader.rig().volume;
     let mut ok = 0;
     for r in &records {
         let frame = r["frame"].as_u64().unwrap();
@@ -1252,14 +1267,7 @@ fn free_running_cameras_are_each_held_to_the_tube_at_their_capture() {
             continue;
         }
         ok += 1;
-        let truth = reader.read_truth(frame).unwrap().unwrap();
-        let e = errors(r, &truth, volume);
-        assert!(
-            e.within(Default::default()),
-            "frame {frame} says ok but is {:.3} mm RMS, tip {:.3} mm off",
-            e.centerline_rms,
-            e.tip
-        );
+        assert_ok_is_right(&reader, r, frame);
         let carried = r["carried_mm"].as_f64().unwrap();
         assert!(carried > 0.0 && carried < 2.0, "frame {frame}: {carried}");
     }
@@ -1375,6 +1383,10 @@ fn free_running_videos_played_live_pair_by_time_and_say_ok_as_read_as_files() {
             .join(format!("{}.jsonl", flag.trim_start_matches('-')));
         let o = out.to_str().unwrap();
         let mut args = vec!["track", "--rig", &rig, "--backgrounds", &bg, "--follow"];
+        // Read as files, each frame from the one just before (as live).
+        if flag == "--video" {
+            args.extend(["--threads", "1"]);
+        }
         args.extend(["--out", o]);
         for v in &videos {
             args.extend([flag, v.as_str()]);
@@ -1395,14 +1407,7 @@ fn free_running_videos_played_live_pair_by_time_and_say_ok_as_read_as_files() {
             }
             if r["status"] == "ok" {
                 ok += 1;
-                let truth = reader.read_truth(n).unwrap().unwrap();
-                let e = errors(r, &truth, &reader.rig().volume);
-                assert!(
-                    e.within(Default::default()),
-                    "frame {n} says ok but is {:.3} mm RMS, tip {:.3} mm off",
-                    e.centerline_rms,
-                    e.tip
-                );
+                assert_ok_is_right(&reader, r, n);
             }
         }
         ok as f64 / records.len() as f64
@@ -1424,12 +1429,14 @@ fn free_running_videos_played_live_pair_by_time_and_say_ok_as_read_as_files() {
     let (live, summary) = track("--camera");
     assert!(live.len() >= 30, "{summary}");
     let from_live = judged(&live);
-    // Measured: 38 and 39 of 45; the first frames measure the motion. A machine too busy to
-    // keep up drops sets, and the frame after a gap measures the motion again.
-    assert!(from_files >= 0.75, "{from_files}");
+    // Measured: 41 of 45 from the files, 41-43 live (a live run starts each frame from the
+    // newest shape in, which the files' run on one thread does too; on two workers it may be
+    // one frame further back); the first frames measure the motion. A machine too busy to keep
+    // up drops sets, and the frame after a gap measures the motion again.
+    assert!(from_files >= 0.8, "{from_files}");
     let dropped = summary["dropped"].as_u64().unwrap() as f64 / 45.0;
     assert!(
-        (from_live - from_files).abs() <= 0.05 + 2.0 * dropped,
+        from_live >= from_files - 0.05 - 2.0 * dropped,
         "live {from_live:.2} against files {from_files:.2} ({summary})"
     );
 }
@@ -1441,34 +1448,14 @@ fn free_running_videos_played_live_pair_by_time_and_say_ok_as_read_as_files() {
 #[test]
 fn two_free_running_cameras_say_ok_once_the_motion_is_measured() {
     let dir = tempfile::tempdir().unwrap();
-    let rec = dir.path().join("rec");
-    common::run(&[
-        "simulate",
-        "--out",
-        rec.to_str().unwrap(),
-        "--cams",
-        "2",
-        "--frames",
-        "60",
-        "--motion",
-        "60",
-        "--pace",
-        "0.4",
-        "--phases",
-        "0,8",
-        "--jitter",
-        "2",
-    ]);
-    let reader = RecordingReader::open(&rec).unwrap();
-    let out = dir.path().join("out.jsonl");
-    common::run(&[
-        "track",
-        rec.to_str().unwrap(),
-        "--follow",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let records = common::frame_records(&out);
+    let (reader, records) = simulate_and_follow(
+        dir.path(),
+        &[
+            "--cams", "2", "--frames", "60", "--motion", "60", "--pace", "0.4", "--phases", "0,8",
+            "--jitter", "2",
+        ],
+        &[],
+    );
     assert_eq!(records.len(), 60);
     let mut ok = 0;
     for r in &records {
@@ -1478,14 +1465,7 @@ fn two_free_running_cameras_say_ok_once_the_motion_is_measured() {
         }
         ok += 1;
         assert!(r["carried_mm"].as_f64().unwrap() > 0.0, "frame {frame}");
-        let truth = reader.read_truth(frame).unwrap().unwrap();
-        let e = errors(r, &truth, &reader.rig().volume);
-        assert!(
-            e.within(Default::default()),
-            "frame {frame} says ok but is {:.3} mm RMS, tip {:.3} mm off",
-            e.centerline_rms,
-            e.tip
-        );
+        assert_ok_is_right(&reader, r, frame);
     }
     // Measured: 55 of 60 (the first frames measure the motion).
     assert!(ok >= 50, "{ok} of 60 ok");
