@@ -29,15 +29,38 @@ pub(crate) fn image_from(array: &PyReadonlyArray3<'_, u8>, what: &str) -> PyResu
         .ok_or_else(|| PyValueError::new_err(format!("{what}: the pixels do not fill the image")))
 }
 
-/// Images from a list of arrays, one per camera; `what` names them in errors.
+/// The order of a colour image's three channels: `"rgb"` (NumPy images from imageio, PIL,
+/// flexshape) or `"bgr"` (OpenCV's `cv2.imread` and `VideoCapture`).
+pub(crate) fn bgr(channels: &str) -> PyResult<bool> {
+    match channels.to_ascii_lowercase().as_str() {
+        "rgb" => Ok(false),
+        "bgr" => Ok(true),
+        _ => Err(PyValueError::new_err(format!(
+            "channels={channels:?}: give \"rgb\", or \"bgr\" for OpenCV's images (cv2.imread, VideoCapture)"
+        ))),
+    }
+}
+
+/// Images from a list of arrays, one per camera, their channels in the order `channels`
+/// names ([`bgr`]); `what` names them in errors.
 pub(crate) fn images_from(
     arrays: Vec<PyReadonlyArray3<'_, u8>>,
     what: &str,
+    channels: &str,
 ) -> PyResult<Vec<RgbImage>> {
+    let swap = bgr(channels)?;
     arrays
         .iter()
         .enumerate()
-        .map(|(k, a)| image_from(a, &format!("{what}[{k}]")))
+        .map(|(k, a)| {
+            let mut image = image_from(a, &format!("{what}[{k}]"))?;
+            if swap {
+                for p in image.pixels_mut() {
+                    p.0.swap(0, 2);
+                }
+            }
+            Ok(image)
+        })
         .collect()
 }
 

@@ -120,16 +120,17 @@ pub(crate) struct PyTracker {
 #[pymethods]
 impl PyTracker {
     /// A tracker for `rig`, with one background image per camera (the empty scene, `(height,
-    /// width, 3)` `uint8` RGB, in the rig's order). `follow=False` runs the whole chain on
-    /// every frame.
+    /// width, 3)` `uint8` RGB, in the rig's order; `channels="bgr"` for OpenCV's images).
+    /// `follow=False` runs the whole chain on every frame.
     #[new]
-    #[pyo3(signature = (rig, backgrounds, follow = true))]
+    #[pyo3(signature = (rig, backgrounds, follow = true, channels = "rgb"))]
     fn new(
         rig: &PyRig,
         backgrounds: Vec<PyReadonlyArray3<'_, u8>>,
         follow: bool,
+        channels: &str,
     ) -> PyResult<Self> {
-        let images = images_from(backgrounds, "backgrounds")?;
+        let images = images_from(backgrounds, "backgrounds", channels)?;
         if images.len() != rig.rig.cameras.len() {
             return Err(PyValueError::new_err(format!(
                 "backgrounds: give one image per camera ({}), got {}",
@@ -152,12 +153,12 @@ impl PyTracker {
     }
 
     /// One frame: one image per camera in the rig's order, each `(height, width, 3)` `uint8`
-    /// RGB. `frame` numbers it (default: one more than the last). `captured_s`: when it was
+    /// RGB (`channels="bgr"`: OpenCV's order, as `cv2.imread` gives). `frame` numbers it (default: one more than the last). `captured_s`: when it was
     /// captured, seconds in any time base of yours (the record's `captured_s`); with
     /// `camera_captured_s`, each camera's own capture (same base, rig order) for cameras that are
     /// not triggered together: each is then held to the tube where it was at its capture and
     /// the shape is the tube at `captured_s` (default: the earliest camera's). Returns its record.
-    #[pyo3(signature = (images, frame = None, captured_s = None, camera_captured_s = None))]
+    #[pyo3(signature = (images, frame = None, captured_s = None, camera_captured_s = None, channels = "rgb"))]
     fn process(
         &mut self,
         py: Python<'_>,
@@ -165,8 +166,9 @@ impl PyTracker {
         frame: Option<u64>,
         captured_s: Option<f64>,
         camera_captured_s: Option<Vec<f64>>,
+        channels: &str,
     ) -> PyResult<PyRecord> {
-        let images = images_from(images, "images")?;
+        let images = images_from(images, "images", channels)?;
         let (at_s, camera_times) = self.times(captured_s, camera_captured_s)?;
         let n = frame.unwrap_or(self.next_frame);
         let (pipeline, recent) = (&self.pipeline, &mut self.recent);

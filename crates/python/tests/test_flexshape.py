@@ -65,6 +65,18 @@ def test_frames_carry_the_times_they_are_given(sim):
         tracker.process(frame.images, captured_s=float("nan"))
 
 
+def test_opencv_images_in_bgr_order_give_the_same_record(sim):
+    frame = sim.render(0, sim.sweep(1)[0])
+    rgb = flexshape.Tracker(sim.rig, sim.backgrounds(), follow=False).process(frame.images)
+    bgr = [np.ascontiguousarray(i[:, :, ::-1]) for i in frame.images]
+    backgrounds = [np.ascontiguousarray(i[:, :, ::-1]) for i in sim.backgrounds()]
+    tracker = flexshape.Tracker(sim.rig, backgrounds, follow=False, channels="bgr")
+    same = tracker.process(bgr, channels="bgr")
+    assert rgb.ok and np.array_equal(rgb.centerline, same.centerline)
+    with pytest.raises(ValueError, match="channels"):
+        tracker.process(bgr, channels="rgba")
+
+
 def test_a_strided_image_gives_the_same_record(sim):
     pose = sim.sweep(1)[0]
     frame = sim.render(0, pose)

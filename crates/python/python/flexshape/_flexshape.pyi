@@ -65,7 +65,13 @@ class Rig:
 class Tracker:
     """Follows the tube from frame to frame in images from your own cameras."""
 
-    def __init__(self, rig: Rig, backgrounds: Sequence[_Image], follow: bool = True) -> None: ...
+    def __init__(
+        self,
+        rig: Rig,
+        backgrounds: Sequence[_Image],
+        follow: bool = True,
+        channels: str = "rgb",
+    ) -> None: ...
     @staticmethod
     def from_recording(path: _Path, follow: bool = True) -> "Tracker": ...
     def process(
@@ -74,9 +80,11 @@ class Tracker:
         frame: Optional[int] = None,
         captured_s: Optional[float] = None,
         camera_captured_s: Optional[Sequence[float]] = None,
+        channels: str = "rgb",
     ) -> Record:
         """One frame; `captured_s` (s, your own base) and each camera's `camera_captured_s`
-        (same base, rig order) for cameras not triggered together."""
+        (same base, rig order) for cameras not triggered together; `channels="bgr"` for
+        OpenCV's images."""
     def reset(self) -> None: ...
     @property
     def follows(self) -> bool: ...
