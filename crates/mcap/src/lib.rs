@@ -5,7 +5,7 @@
 //! | topic | type | what |
 //! |---|---|---|
 //! | `/flexshape/centerline` | `nav_msgs/msg/Path` | the centerline, proximal to distal, each pose's x axis along it |
-//! | `/flexshape/tube` | `visualization_msgs/msg/MarkerArray` | the tube (a line strip as wide as the tube), bands, tip |
+//! | `/flexshape/tube` | `visualization_msgs/msg/MarkerArray` | a DELETEALL marker, then the tube (a line strip as wide as the tube), bands, tip |
 //! | `/flexshape/hull` | `sensor_msgs/msg/PointCloud2` | the carved voxel centres (frames that were carved) |
 //! | `/flexshape/record` | JSON (`jsonschema`) | the frame's JSON Lines record, whole |
 //! | `/tf_static` | `tf2_msgs/msg/TFMessage` | every camera's pose in `world` (its optical frame, OpenCV's axes) |
@@ -300,8 +300,9 @@ fn stamp_ns(record: &TrackRecord) -> u64 {
     (s.max(0.0) * 1e9).round() as u64
 }
 
-/// The tube as a line strip as wide as it, its bands as spheres, its tip as a sphere (an
-/// empty array, clearing the view, when the frame has no shape).
+/// The tube as a line strip as wide as it, its bands as spheres, its tip as a sphere, after
+/// a marker that deletes every earlier one: a frame without a shape (or without bands) leaves
+/// none of the last frame's standing (an empty array clears nothing in RViz or Foxglove).
 fn tube_markers(stamp: u64, record: &TrackRecord, metres: &[[f64; 3]]) -> Vec<u8> {
     let diameter = 2.0 * record.radius.unwrap_or(1.0) / 1e3;
     let bands: Vec<[f64; 3]> = record
@@ -310,7 +311,16 @@ fn tube_markers(stamp: u64, record: &TrackRecord, metres: &[[f64; 3]]) -> Vec<u8
         .map(|b| b.position.map(|v| v / 1e3))
         .collect();
     let tip: Vec<[f64; 3]> = record.tip.iter().map(|t| t.map(|v| v / 1e3)).collect();
-    let mut markers = Vec::new();
+    let mut markers = vec![Marker {
+        ns: "",
+        id: 0,
+        kind: 0,
+        position: [0.0; 3],
+        scale: [0.0; 3],
+        color: [0.0; 4],
+        points: &[],
+        action: msgs::DELETE_ALL,
+    }];
     if !metres.is_empty() {
         markers.push(Marker {
             ns: "tube",
@@ -320,6 +330,7 @@ fn tube_markers(stamp: u64, record: &TrackRecord, metres: &[[f64; 3]]) -> Vec<u8
             scale: [diameter, 0.0, 0.0],
             color: [0.2, 0.6, 1.0, 0.8],
             points: metres,
+            action: 0,
         });
     }
     if !bands.is_empty() {
@@ -331,6 +342,7 @@ fn tube_markers(stamp: u64, record: &TrackRecord, metres: &[[f64; 3]]) -> Vec<u8
             scale: [diameter * 1.2; 3],
             color: [0.9, 0.1, 0.1, 1.0],
             points: &bands,
+            action: 0,
         });
     }
     if let Some(t) = tip.first() {
@@ -342,6 +354,7 @@ fn tube_markers(stamp: u64, record: &TrackRecord, metres: &[[f64; 3]]) -> Vec<u8
             scale: [diameter * 1.3; 3],
             color: [1.0, 0.8, 0.0, 1.0],
             points: &[],
+            action: 0,
         });
     }
     msgs::marker_array(stamp, WORLD_FRAME, &markers)

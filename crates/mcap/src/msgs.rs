@@ -254,7 +254,13 @@ pub struct Marker<'a> {
     pub color: [f32; 4],
     /// Its points (m).
     pub points: &'a [[f64; 3]],
+    /// What to do with it (`visualization_msgs/Marker` constants: 0 add, 3 delete all).
+    pub action: i32,
 }
+
+/// `Marker::action` that removes every marker the viewer holds (in this array's order: the
+/// markers after it are added afresh).
+pub const DELETE_ALL: i32 = 3;
 
 /// A `visualization_msgs/MarkerArray` of `markers`.
 pub fn marker_array(stamp_ns: u64, frame_id: &str, markers: &[Marker]) -> Vec<u8> {
@@ -262,7 +268,7 @@ pub fn marker_array(stamp_ns: u64, frame_id: &str, markers: &[Marker]) -> Vec<u8
     c.count(markers.len());
     for m in markers {
         header(&mut c, stamp_ns, frame_id);
-        c.string(m.ns).i32(m.id).i32(m.kind).i32(0);
+        c.string(m.ns).i32(m.id).i32(m.kind).i32(m.action);
         pose(&mut c, m.position, [0.0, 0.0, 0.0, 1.0]);
         for v in m.scale {
             c.f64(v);

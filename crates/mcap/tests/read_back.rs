@@ -143,6 +143,15 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
     }
     assert_eq!(r.at, data.len(), "the whole message was read");
 
+    // The markers begin by deleting the last frame's, then add the tube.
+    let (_, _, data, _) = &by_topic["/flexshape/tube"][1];
+    let mut r = Reader { b: data, at: 4 };
+    assert!(r.u32() >= 2, "delete-all and the tube at least");
+    r.header();
+    assert_eq!(r.string(), "");
+    let (_id, _kind, action) = (r.u32(), r.u32(), r.u32());
+    assert_eq!(action, 3, "DELETEALL first");
+
     // The camera info holds the rig's intrinsics.
     let (_, _, data, _) = &by_topic["/flexshape/cam0/camera_info"][0];
     let mut r = Reader { b: data, at: 4 };
