@@ -43,7 +43,7 @@ struct LiveFrame {
     /// When it was captured, seconds: the stream's presentation time, or its arrival since
     /// the source opened (see [`LiveSource`]).
     time_s: f64,
-    /// The time since the camera's previous frame, seconds.
+    /// The camera's frame period, seconds: the median of its recent frame intervals.
     interval_s: Option<f64>,
 }
 
@@ -158,6 +158,7 @@ fn input_args(camera: &str, input: &str, size: (u32, u32)) -> Result<Vec<String>
 fn read_camera(index: usize, mut decoder: Decoder, latest: &Latest<LiveFrame>, opened: Instant) {
     let mut last: Option<f64> = None;
     let mut offset = 0.0;
+    let mut intervals = Intervals::default();
     while !latest.stopped() {
         match decoder.read_timed() {
             Ok(Some((image, stream))) => {
@@ -167,7 +168,10 @@ fn read_camera(index: usize, mut decoder: Decoder, latest: &Latest<LiveFrame>, o
                     offset = t - arrival;
                 }
                 let time_s = stream.unwrap_or(arrival + offset);
-                let interval_s = last.map(|l| time_s - l).filter(|d| *d > 0.0);
+                if let Some(d) = last.map(|l| time_s - l).filter(|d| *d > 0.0) {
+                    intervals.add(d);
+                }
+                let interval_s = intervals.median();
                 last = Some(time_s);
                 latest.put(
                     index,
@@ -182,6 +186,33 @@ fn read_camera(index: usize, mut decoder: Decoder, latest: &Latest<LiveFrame>, o
             Ok(None) => return latest.end(index, Ok(())),
             Err(e) => return latest.end(index, Err(e)),
         }
+    }
+}
+
+/// A camera's recent frame intervals: their median is its frame period even when frames
+/// arrive in bursts (a network stream's two frames a millisecond apart would otherwise make
+/// the pairing tolerance a millisecond).
+#[derive(Default)]
+struct Intervals {
+    recent: std::collections::VecDeque<f64>,
+}
+
+impl Intervals {
+    /// Intervals kept: a second or so at most frame rates.
+    const KEPT: usize = 31;
+
+    fn add(&mut self, d: f64) {
+        self.recent.push_back(d);
+        if self.recent.len() > Self::KEPT {
+            self.recent.pop_front();
+        }
+    }
+
+    /// The median, seconds (`None` before the first interval).
+    fn median(&self) -> Option<f64> {
+        let mut sorted: Vec<f64> = self.recent.iter().copied().collect();
+        sorted.sort_by(f64::total_cmp);
+        sorted.get(sorted.len() / 2).copied()
     }
 }
 
@@ -248,5 +279,23 @@ impl Drop for LiveSource {
     fn drop(&mut self) {
         // Reader threads stop after their next frame; dropping their decoders ends ffmpeg.
         self.latest.stop();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_burst_of_frames_leaves_the_frame_period_as_it_was() {
+        let mut intervals = Intervals::default();
+        assert_eq!(intervals.median(), None);
+        // 30 frames/s, with pairs of frames arriving 1 ms apart now and then.
+        for k in 0..40 {
+            intervals.add(if k % 5 == 0 { 0.001 } else { 1.0 / 30.0 });
+        }
+        let period = intervals.median().unwrap();
+        assert!((period - 1.0 / 30.0).abs() < 1e-12, "{period}");
+        assert!(intervals.recent.len() <= Intervals::KEPT);
     }
 }
