@@ -193,6 +193,18 @@ fn an_imported_rig_exports_and_imports_back() {
         one.cameras[0].camera.intrinsics,
         chain.cameras[0].camera.intrinsics
     );
+    assert!(one.notes.is_empty(), "{:?}", one.notes);
+    // All of them back: the files hold no poses, and the import says so.
+    let all = import::read(Format::CameraInfo, &files, ImportOptions::default()).unwrap();
+    assert!(all.cameras.len() >= 2);
+    let said = all.notes.join("\n");
+    assert!(
+        said.contains("imported at one pose") && said.contains(&all.cameras[1].name),
+        "{said}"
+    );
+    // A stereo pair's own CameraInfo files place the right camera: nothing to say.
+    let pair = read(Format::CameraInfo, &["left.yaml", "right.yaml"], None, None);
+    assert!(pair.notes.is_empty(), "{:?}", pair.notes);
     // Two cameras of one name are refused.
     let twice = vec![chain.cameras[0].clone(), chain.cameras[0].clone()];
     let e = import::rig_of(twice, Default::default(), Path::new("x"))

@@ -243,7 +243,30 @@ pub fn read(
     if options.size.is_some() && format.has_size() {
         notes.push("the files give each camera's image size; the size given was not used".into());
     }
+    notes.extend(one_pose(&cameras));
     Ok(Import { cameras, notes })
+}
+
+/// What to say when several cameras were imported at one pose: files that hold no rig pose
+/// (CameraInfo outside a stereo pair, as `rig export --format camera-info` writes them) put
+/// every camera at the world origin, where nothing can be carved.
+fn one_pose(cameras: &[Imported]) -> Option<String> {
+    let same = |a: &Imported, b: &Imported| {
+        let (pa, pb) = (&a.camera.pose, &b.camera.pose);
+        (pa.rotation.matrix() - pb.rotation.matrix()).amax() < 1e-9
+            && (pa.translation - pb.translation).amax() < 1e-6
+    };
+    let shared: Vec<&str> = cameras
+        .iter()
+        .filter(|c| cameras.iter().filter(|o| same(c, o)).count() > 1)
+        .map(|c| c.name.as_str())
+        .collect();
+    (!shared.is_empty()).then(|| {
+        format!(
+            "cameras {} were imported at one pose: these files hold no rig poses (CameraInfo keeps only a stereo pair's baseline; ROS keeps poses in TF), so nothing can be carved until each camera's pose is set in its camera file (or import a format that holds them: Kalibr, COLMAP, projection matrices)",
+            shared.join(", ")
+        )
+    })
 }
 
 /// The views of a Middlebury file, sized `size` or by their images beside the file.
