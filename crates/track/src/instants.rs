@@ -34,14 +34,18 @@ impl CameraTimes {
         )
     }
 
+    /// The first and the last capture, seconds.
+    fn first_and_last(&self) -> (f64, f64) {
+        self.cameras_s
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &t| {
+                (lo.min(t), hi.max(t))
+            })
+    }
+
     /// The first and last capture apart, seconds.
     pub fn spread_s(&self) -> f64 {
-        let lo = self.cameras_s.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = self
-            .cameras_s
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = self.first_and_last();
         (hi - lo).max(0.0)
     }
 
@@ -72,24 +76,14 @@ impl CameraTimes {
     /// The middle of the captures less the frame's instant, and half their spread, seconds:
     /// where a shape fitted to them as they are lies in time, and how far from there.
     pub(crate) fn between_captures(&self) -> (f64, f64) {
-        let (lo, hi) = self
-            .cameras_s
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &t| {
-                (lo.min(t), hi.max(t))
-            });
-        ((lo + hi) / 2.0 - self.at_s, (hi - lo).max(0.0) / 2.0)
+        let (lo, hi) = self.first_and_last();
+        ((lo + hi) / 2.0 - self.at_s, self.spread_s() / 2.0)
     }
 
     /// Why a shape fitted to cameras that captured apart, with no motion known, is not `ok`.
     pub(crate) fn unknown_motion(&self) -> String {
-        let (first, last) = self
-            .cameras_s
-            .iter()
-            .map(|t| t - self.at_s)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), d| {
-                (lo.min(d), hi.max(d))
-            });
+        let (lo, hi) = self.first_and_last();
+        let (first, last) = (lo - self.at_s, hi - self.at_s);
         format!(
             "the cameras captured from {:+.1} to {:+.1} ms of the frame's instant and no earlier frame tells how the tube moved meanwhile: the shape lies somewhere between where it was at those captures (the next frame measures the motion from this one); trigger the cameras together to fit every frame at once",
             first * 1e3,

@@ -749,10 +749,53 @@ impl Pipeline {
             return Ok(tracked);
         };
         let refused = !tracked.shape.status.is_right();
+        let t = Instant::now();
+        let carried = self.carried_across(images, &tracked, fitted, prior, times, turn)?;
+        tracked.timings.fit += ms(t);
+        match carried {
+            // A fit the images refused keeps its own reason unless carrying explains them.
+            Some((shape, _, _, _)) if refused && !shape.status.is_right() => {}
+            Some((shape, fit, across, off_mm)) => {
+                tracked.shape = shape;
+                tracked.fit = Some(fit);
+                judge_instant(&mut tracked, &across, off_mm);
+            }
+            None if refused => {}
+            None => {
+                tracked.shape.status = Status::Ambiguous {
+                    reason: times.unknown_motion(),
+                };
+                let (centre_s, lag_s) = times.between_captures();
+                tracked.instants = Instants::Unknown { lag_s, centre_s };
+            }
+        }
+        Ok(tracked)
+    }
+
+    /// The fit of `tracked` (whose tube is `fitted`) carried across its cameras' captures
+    /// ([`Pipeline::at_one_instant`]), with how far the motion that carried it may put it from
+    /// the tube at the frame's instant, mm; `None` when nothing carries it (no motion, and an
+    /// earlier shape only on two cameras or none) or no fit came of it.
+    fn carried_across(
+        &self,
+        images: &[&RgbImage],
+        tracked: &Tracked,
+        fitted: Tube,
+        prior: Option<&Prior>,
+        times: &CameraTimes,
+        turn: &Turn,
+    ) -> Result<Option<(ShapeRecord, Fit, AcrossTime, f64)>, TrackError> {
+        let motion = prior.and_then(Prior::motion);
+        // Without one, a motion measured from the earlier shape to this frame's own fit, again
+        // from each better one, on three cameras or more. Two cameras leave what each does not
+        // see to the other's instant, so a fit carried by a motion measured from itself
+        // settles wherever that motion puts it.
         let earlier = prior
             .and_then(|p| Some((p, times.at_s - p.at_s()?)))
-            .filter(|(_, dt)| *dt > 0.0);
-        let t = Instant::now();
+            .filter(|(_, dt)| *dt > 0.0 && motion.is_none() && self.cameras.len() >= 3);
+        if motion.is_none() && earlier.is_none() {
+            return Ok(None);
+        }
         let backgrounds = models(&turn.state.backdrops);
         let views = self.views(images, &tracked.silhouettes, &backgrounds);
         let radius = self.shape.settings().radius_mm;
@@ -767,7 +810,7 @@ impl Pipeline {
             )
         };
         let mut carried = None;
-        if let Some(estimate) = prior.and_then(Prior::motion) {
+        if let Some(estimate) = motion {
             // The motion between two earlier shapes, as a followed frame uses it.
             if let Some(across) = times.across(&estimate.motion)
                 && let (shape, Some(fit)) = carry(&fitted, &across)?
@@ -775,10 +818,7 @@ impl Pipeline {
                 let off_mm = estimate.doubt_mm(times.at_s, times.widest_offset_s());
                 carried = Some((shape, fit, across, off_mm));
             }
-        } else if let Some((earlier, dt)) = earlier.filter(|_| self.cameras.len() >= 3) {
-            // Measured from the earlier shape to this frame's own fit, again from each better
-            // one. Two cameras leave what each does not see to the other's instant, so a fit
-            // carried by a motion measured from itself settles wherever that motion puts it.
+        } else if let Some((earlier, dt)) = earlier {
             let mut tube = fitted;
             let mut last = None;
             for _ in 0..CARRY_ROUNDS {
@@ -808,25 +848,7 @@ impl Pipeline {
                 (shape, fit, across, off_mm)
             });
         }
-        tracked.timings.fit += ms(t);
-        match carried {
-            // A fit the images refused keeps its own reason unless carrying explains them.
-            Some((shape, _, _, _)) if refused && !shape.status.is_right() => {}
-            Some((shape, fit, across, off_mm)) => {
-                tracked.shape = shape;
-                tracked.fit = Some(fit);
-                judge_instant(&mut tracked, &across, off_mm);
-            }
-            None if refused => {}
-            None => {
-                tracked.shape.status = Status::Ambiguous {
-                    reason: times.unknown_motion(),
-                };
-                let (centre_s, lag_s) = times.between_captures();
-                tracked.instants = Instants::Unknown { lag_s, centre_s };
-            }
-        }
-        Ok(tracked)
+        Ok(carried)
     }
 
     /// Why a frame's silhouettes cannot be the tube's, if one camera's covers more of its
