@@ -131,7 +131,7 @@ impl Decoder {
     }
 
     /// The next frame; `None` when the stream ended cleanly.
-    pub(crate) fn read(&mut self) -> Result<Option<RgbImage>, InputError> {
+    fn read(&mut self) -> Result<Option<RgbImage>, InputError> {
         let (w, h) = self.size;
         let mut data = vec![0u8; w as usize * h as usize * 3];
         let mut filled = 0;

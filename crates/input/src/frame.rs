@@ -179,4 +179,14 @@ impl FrameSet {
             warnings: Vec::new(),
         }
     }
+
+    /// Its cameras' capture times (rig order) from their streams' shared clock (videos'
+    /// timelines, devices' driver timestamps): each camera's own, and the set's the earliest.
+    pub(crate) fn stream_times(&mut self, times: Vec<f64>) {
+        self.capture_time = Some(CaptureTime {
+            seconds: times.iter().copied().fold(f64::INFINITY, f64::min),
+            source: CaptureSource::Stream,
+        });
+        self.camera_times = Some(times);
+    }
 }

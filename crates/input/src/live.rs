@@ -23,7 +23,7 @@ use image::RgbImage;
 
 use crate::ffmpeg::{Decoder, probe_size};
 use crate::latest::{Latest, Taker};
-use crate::{CaptureSource, CaptureTime, FrameImage, FrameSet, FrameSource, InputError};
+use crate::{CaptureTime, FrameImage, FrameSet, FrameSource, InputError};
 
 /// Frames from live cameras, paired by capture time.
 pub struct LiveSource {
@@ -115,11 +115,6 @@ impl LiveSource {
     pub fn pair_within(mut self, within_s: Option<f64>) -> Self {
         self.within_s = within_s;
         self
-    }
-
-    /// Sets not taken because a camera had no frame near the others' instant.
-    pub fn unpaired(&self) -> u64 {
-        self.taker.unpaired()
     }
 }
 
@@ -224,10 +219,7 @@ impl FrameSource for LiveSource {
             |f| f.time_s,
             |set| {
                 within.unwrap_or_else(|| {
-                    let slowest = set
-                        .iter()
-                        .filter_map(|f| f.interval_s)
-                        .fold(None, |a: Option<f64>, d| Some(a.map_or(d, |a| a.max(d))));
+                    let slowest = set.iter().filter_map(|f| f.interval_s).reduce(f64::max);
                     slowest.map_or(f64::INFINITY, |d| WITHIN_INTERVAL * d)
                 })
             },
@@ -248,13 +240,7 @@ impl FrameSource for LiveSource {
         let mut set = FrameSet::new(self.next, images);
         set.captured = oldest;
         if self.streamed {
-            // The earliest camera's capture, each camera's own beside it.
-            let instant = times.iter().copied().fold(f64::INFINITY, f64::min);
-            set.capture_time = Some(CaptureTime {
-                seconds: instant,
-                source: CaptureSource::Stream,
-            });
-            set.camera_times = Some(times);
+            set.stream_times(times);
         } else {
             set.capture_time = CaptureTime::of_instant(oldest);
         }

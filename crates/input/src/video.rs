@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use crate::ffmpeg::{Decoder, probe_size};
-use crate::{CaptureSource, CaptureTime, FrameImage, FrameSet, FrameSource, InputError};
+use crate::{FrameImage, FrameSet, FrameSource, InputError};
 
 /// Frames from one video per camera.
 pub struct VideoSource {
@@ -94,11 +94,7 @@ impl FrameSource for VideoSource {
         // Every camera's time, or none: a missing one would leave the others' offsets
         // counted from an instant the set does not have.
         if let Some(times) = times.into_iter().collect::<Option<Vec<f64>>>() {
-            set.capture_time = Some(CaptureTime {
-                seconds: times.iter().copied().fold(f64::INFINITY, f64::min),
-                source: CaptureSource::Stream,
-            });
-            set.camera_times = Some(times);
+            set.stream_times(times);
         }
         self.next += 1;
         Some(Ok(set))
