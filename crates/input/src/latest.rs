@@ -83,8 +83,8 @@ impl<T> Latest<T> {
 enum Pick {
     /// The item at this place of each slot's queue (those before it are passed over).
     Items(Vec<usize>),
-    /// No set: this many of this slot's oldest items have no partners and are discarded.
-    Unpaired(usize, usize),
+    /// No set: this slot's items have no partners and are discarded.
+    Unpaired(usize),
 }
 
 /// The taker's side: what it missed.
@@ -123,8 +123,8 @@ impl Taker {
     /// slot order); `None` once a slot ended with nothing new (after handing over its
     /// failure, if it failed).
     pub(crate) fn take<T>(&mut self, latest: &Latest<T>) -> Option<Result<Vec<T>, InputError>> {
-        self.take_with(latest, |queues| {
-            Pick::Items(queues.iter().map(|q| q.len() - 1).collect())
+        self.take_with(latest, |slots| {
+            Pick::Items(slots.iter().map(|s| s.queue.len() - 1).collect())
         })
     }
 
@@ -139,17 +139,14 @@ impl Taker {
         time: impl Fn(&T) -> f64,
         within: impl Fn(&[&T]) -> f64,
     ) -> Option<Result<Vec<T>, InputError>> {
-        self.take_with(latest, |queues| {
-            let newest: Vec<f64> = queues.iter().map(|q| time(&q[q.len() - 1])).collect();
-            let (slowest, instant) =
-                newest
-                    .iter()
-                    .copied()
-                    .enumerate()
-                    .fold(
-                        (0, f64::INFINITY),
-                        |a, (i, t)| if t < a.1 { (i, t) } else { a },
-                    );
+        self.take_with(latest, |slots| {
+            let queues: Vec<&VecDeque<T>> = slots.iter().map(|s| &s.queue).collect();
+            let (slowest, instant) = queues
+                .iter()
+                .map(|q| time(&q[q.len() - 1]))
+                .enumerate()
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap_or((0, f64::INFINITY));
             let nearest: Vec<usize> = queues
                 .iter()
                 .map(|q| {
@@ -168,7 +165,7 @@ impl Taker {
                 .iter()
                 .any(|item| (time(item) - instant).abs() > limit);
             if apart {
-                Pick::Unpaired(slowest, queues[slowest].len())
+                Pick::Unpaired(slowest)
             } else {
                 Pick::Items(nearest)
             }
@@ -178,7 +175,7 @@ impl Taker {
     fn take_with<T>(
         &mut self,
         latest: &Latest<T>,
-        mut pick: impl FnMut(&[VecDeque<T>]) -> Pick,
+        mut pick: impl FnMut(&[Slot<T>]) -> Pick,
     ) -> Option<Result<Vec<T>, InputError>> {
         if self.finished {
             return None;
@@ -192,15 +189,7 @@ impl Taker {
         let mut unpaired = None;
         loop {
             if slots.iter().all(|s| !s.queue.is_empty()) {
-                let queues: Vec<VecDeque<T>> = slots
-                    .iter_mut()
-                    .map(|s| std::mem::take(&mut s.queue))
-                    .collect();
-                let choice = pick(&queues);
-                for (slot, queue) in slots.iter_mut().zip(queues) {
-                    slot.queue = queue;
-                }
-                match choice {
+                match pick(&slots) {
                     Pick::Items(at) => {
                         let mut items = Vec::with_capacity(slots.len());
                         for (i, (slot, j)) in slots.iter_mut().zip(at).enumerate() {
@@ -213,9 +202,8 @@ impl Taker {
                         }
                         return Some(Ok(items));
                     }
-                    Pick::Unpaired(i, n) => {
-                        let len = slots[i].queue.len();
-                        let gone = slots[i].queue.drain(..n.min(len)).count();
+                    Pick::Unpaired(i) => {
+                        let gone = slots[i].queue.drain(..).count();
                         self.dropped[i] += gone as u64;
                         self.unpaired += 1;
                         unpaired = Some(i);
