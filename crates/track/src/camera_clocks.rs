@@ -29,14 +29,21 @@ const ADVISE_SHARE: f64 = 0.05;
 /// Collects each camera's capture times from the records of a run.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct ClockTally {
-    /// Per camera: offsets from the frame's instant, s.
-    offsets: Vec<Vec<f64>>,
-    /// Per camera: times between consecutive captures, s.
-    intervals: Vec<Vec<f64>>,
-    /// Per camera: its last capture, s.
-    last: Vec<Option<f64>>,
+    /// Per camera, rig order.
+    cameras: Vec<CameraTally>,
     /// Frames ambiguous because the motion between their cameras' captures was not known.
     between: usize,
+}
+
+/// One camera's captures so far.
+#[derive(Debug, Clone, Default)]
+struct CameraTally {
+    /// Offsets from the frames' instants, s.
+    offsets: Vec<f64>,
+    /// Times between consecutive captures, s.
+    intervals: Vec<f64>,
+    /// The last capture, s.
+    last: Option<f64>,
 }
 
 impl ClockTally {
@@ -50,35 +57,31 @@ impl ClockTally {
         if cameras_s.is_empty() || cameras_s.iter().any(|t| !t.is_finite()) {
             return;
         }
-        let n = cameras_s.len();
-        if self.offsets.len() < n {
-            self.offsets.resize(n, Vec::new());
-            self.intervals.resize(n, Vec::new());
-            self.last.resize(n, None);
+        if self.cameras.len() < cameras_s.len() {
+            self.cameras.resize(cameras_s.len(), CameraTally::default());
         }
-        for (k, &t) in cameras_s.iter().enumerate() {
-            self.offsets[k].push(t - at);
-            if let Some(last) = self.last[k]
+        for (camera, &t) in self.cameras.iter_mut().zip(cameras_s) {
+            camera.offsets.push(t - at);
+            if let Some(last) = camera.last
                 && t > last
             {
-                self.intervals[k].push(t - last);
+                camera.intervals.push(t - last);
             }
-            self.last[k] = Some(t);
+            camera.last = Some(t);
         }
     }
 
     /// Each camera's clock (rig order), empty when the input gave no camera's own times.
     pub(crate) fn clocks(&self) -> Vec<CameraClock> {
-        self.offsets
+        self.cameras
             .iter()
-            .zip(&self.intervals)
-            .map(|(offsets, intervals)| {
-                let mut intervals = intervals.clone();
+            .map(|c| {
+                let mut intervals = c.intervals.clone();
                 let rate_hz = (!intervals.is_empty()).then(|| 1.0 / quantile(&mut intervals, 0.5));
-                let widest = offsets.iter().fold(0.0f64, |w, o| w.max(o.abs()));
+                let widest = c.offsets.iter().fold(0.0f64, |w, o| w.max(o.abs()));
                 CameraClock {
                     rate_hz,
-                    offset_ms: quantile(&mut offsets.clone(), 0.5) * 1e3,
+                    offset_ms: quantile(&mut c.offsets.clone(), 0.5) * 1e3,
                     widest_ms: widest * 1e3,
                 }
             })
