@@ -573,8 +573,9 @@ pub struct FramesArgs {
     #[arg(long, value_name = "NAME=INPUT", value_parser = parse_named_path, conflicts_with_all = ["recording", "images", "masks", "video"])]
     pub camera: Vec<(String, PathBuf)>,
     /// With `--camera`: pair the cameras' frames only within this many ms of one capture
-    /// instant (default 0.6 of the slowest camera's frame interval); sets that cannot be
-    /// paired are counted (summary: unpaired) and not tracked.
+    /// instant (default 0.6 of the slowest camera's frame period, the median of its recent
+    /// frame intervals); sets that cannot be paired are counted (summary: unpaired) and not
+    /// tracked.
     #[arg(long, value_name = "MS", requires = "camera")]
     pub pair_within: Option<f64>,
     /// The rig: a rig TOML or a folder of OpenCV camera files (NAME.yml). Default: the

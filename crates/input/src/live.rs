@@ -5,7 +5,7 @@
 //! few frames, each with its capture time. When tracking is ready for a frame it waits until
 //! every camera has delivered a frame it has not taken, then takes each camera's frame nearest
 //! the newest instant all have reached; a set whose frames lie farther apart than the pairing
-//! tolerance (by default 0.6 of the slowest camera's frame interval) is not taken but counted
+//! tolerance (by default 0.6 of the slowest camera's frame period) is not taken but counted
 //! as unpaired. Frames passed over are dropped and counted.
 //!
 //! Capture times: devices of one machine (their driver's timestamps) and videos (their own
@@ -55,7 +55,7 @@ const SILENCE: std::time::Duration = std::time::Duration::from_secs(10);
 /// delivery delays.
 const KEPT: usize = 6;
 
-/// The default pairing tolerance, a share of the slowest camera's frame interval: cameras
+/// The default pairing tolerance, a share of the slowest camera's frame period: cameras
 /// of one rate are always within half an interval of each other, so a set farther apart
 /// misses a frame.
 const WITHIN_INTERVAL: f64 = 0.6;
@@ -111,7 +111,7 @@ impl LiveSource {
     }
 
     /// Pairs frames only within `within_s` seconds of one instant (`None`: 0.6 of the
-    /// slowest camera's frame interval).
+    /// slowest camera's frame period, the median of its recent frame intervals).
     pub fn pair_within(mut self, within_s: Option<f64>) -> Self {
         self.within_s = within_s;
         self
