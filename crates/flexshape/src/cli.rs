@@ -643,9 +643,18 @@ pub struct TrackArgs {
     /// pose (/tf_static) and the record (JSON); lengths in metres (docs/formats.md).
     #[arg(long, value_name = "FILE")]
     pub mcap: Option<PathBuf>,
-    /// Put every camera's image in the MCAP file too (about 0.9 MB per 640×480 image).
-    #[arg(long, requires = "mcap")]
-    pub mcap_images: bool,
+    /// Put every camera's image and silhouette in the MCAP file too: `raw` (the default when
+    /// no format is given; `sensor_msgs/Image`, about 0.9 MB per 640×480 image), `jpeg`
+    /// (`CompressedImage`, about 45 kB; silhouettes as PNG) or `png` (lossless).
+    #[arg(
+        long,
+        value_enum,
+        value_name = "FORMAT",
+        num_args = 0..=1,
+        default_missing_value = "raw",
+        requires = "mcap"
+    )]
+    pub mcap_images: Option<ImageFormatArg>,
     /// Replace existing --out, --csv and --mcap files and PLY clouds.
     #[arg(long)]
     pub overwrite: bool,
@@ -961,6 +970,27 @@ pub struct BackgroundArgs {
 }
 
 /// `--method`: how the centerline is found.
+/// How images go into an MCAP file or a live connection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ImageFormatArg {
+    /// `sensor_msgs/Image`: `rgb8` images, `mono8` silhouettes, as captured.
+    Raw,
+    /// `sensor_msgs/CompressedImage`: JPEG images, PNG silhouettes.
+    Jpeg,
+    /// `sensor_msgs/CompressedImage`: PNG images and silhouettes, lossless.
+    Png,
+}
+
+impl From<ImageFormatArg> for flexshape_mcap::ImageFormat {
+    fn from(f: ImageFormatArg) -> Self {
+        match f {
+            ImageFormatArg::Raw => flexshape_mcap::ImageFormat::Raw,
+            ImageFormatArg::Jpeg => flexshape_mcap::ImageFormat::Jpeg,
+            ImageFormatArg::Png => flexshape_mcap::ImageFormat::Png,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum MethodArg {
     /// The tube fitted to the sub-pixel outlines in every camera, checked against them.

@@ -47,7 +47,7 @@ const ROI: (&str, &str) = (
     "sensor_msgs/RegionOfInterest",
     "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify",
 );
-const COMPRESSED_IMAGE: (&str, &str) = (
+const COMPRESSED: (&str, &str) = (
     "sensor_msgs/CompressedImage",
     "std_msgs/Header header\nstring format\nuint8[] data",
 );
@@ -112,6 +112,13 @@ pub const IMAGE: MessageType = MessageType {
     uses: &[HEADER, TIME],
 };
 
+/// `sensor_msgs/msg/CompressedImage`: a camera image or silhouette as a JPEG or PNG file.
+pub const COMPRESSED_IMAGE: MessageType = MessageType {
+    name: "sensor_msgs/msg/CompressedImage",
+    definition: COMPRESSED.1,
+    uses: &[HEADER, TIME],
+};
+
 /// `tf2_msgs/msg/TFMessage`: the cameras' poses in the world frame.
 pub const TF_MESSAGE: MessageType = MessageType {
     name: "tf2_msgs/msg/TFMessage",
@@ -132,17 +139,7 @@ pub const MARKER_ARRAY: MessageType = MessageType {
     name: "visualization_msgs/msg/MarkerArray",
     definition: "visualization_msgs/Marker[] markers",
     uses: &[
-        MARKER,
-        HEADER,
-        TIME,
-        POSE,
-        POINT,
-        QUATERNION,
-        VECTOR3,
-        COLOR,
-        DURATION,
-        COMPRESSED_IMAGE,
-        UV,
+        MARKER, HEADER, TIME, POSE, POINT, QUATERNION, VECTOR3, COLOR, DURATION, COMPRESSED, UV,
         MESH_FILE,
     ],
 };
@@ -234,6 +231,15 @@ pub fn image(
         .u8(0)
         .u32(step)
         .bytes(data);
+    c.finish()
+}
+
+/// A `sensor_msgs/CompressedImage` holding `data`, a whole image file in `format` (`jpeg` or
+/// `png`, as ROS's image_transport and Foxglove name them).
+pub fn compressed_image(stamp_ns: u64, frame_id: &str, format: &str, data: &[u8]) -> Vec<u8> {
+    let mut c = Cdr::new();
+    header(&mut c, stamp_ns, frame_id);
+    c.string(format).bytes(data);
     c.finish()
 }
 

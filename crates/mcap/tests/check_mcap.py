@@ -4,7 +4,7 @@ Python readers (mcap + mcap-ros2-support), independently of our own CDR encoder.
 
     python3 -m venv /tmp/v && /tmp/v/bin/pip install mcap mcap-ros2-support
     flexshape simulate --out REC --frames 5
-    flexshape track REC -o /tmp/run.jsonl --mcap /tmp/run.mcap --mcap-images
+    flexshape track REC -o /tmp/run.jsonl --mcap /tmp/run.mcap --mcap-images   # or --mcap-images jpeg
     /tmp/v/bin/python crates/mcap/tests/check_mcap.py /tmp/run.mcap
 
 Not run by the test command (the product and its tests need no Python).
@@ -39,6 +39,10 @@ with open(sys.argv[1], "rb") as f:
                 print(channel.topic, decoded.width, decoded.height, decoded.distortion_model, list(decoded.k)[:3])
             elif schema.name == "sensor_msgs/msg/Image":
                 print(channel.topic, decoded.width, decoded.height, decoded.encoding, len(decoded.data))
+            elif schema.name == "sensor_msgs/msg/CompressedImage":
+                print(channel.topic, decoded.format, len(decoded.data), bytes(decoded.data[:4]))
             else:
                 print(channel.topic, schema.name, decoded["frame"], decoded["status"])
     print(seen)
+    tf = [c for c in summary.channels.values() if c.topic == "/tf_static"]
+    print("/tf_static QoS", tf[0].metadata.get("offered_qos_profiles", "none").replace("\n", " "))

@@ -7,7 +7,7 @@ use std::ops::ControlFlow;
 use std::sync::atomic::AtomicBool;
 
 use flexshape_lab::demo::Demo;
-use flexshape_mcap::{McapOptions, McapSink};
+use flexshape_mcap::{ImageFormat, McapOptions, McapSink};
 use flexshape_model::{ManipulatorParams, Model};
 use flexshape_sim::SimConfig;
 use flexshape_track::TrackRecord;
@@ -48,8 +48,18 @@ impl Reader<'_> {
 /// One message read back: schema name, schema encoding, data, log time.
 type Message = (String, String, Vec<u8>, u64);
 
-#[test]
-fn a_tracked_run_reads_back_with_standard_schemas() {
+/// Three frames of the demo tracked and written with `images`: the records, each topic's
+/// messages, each topic's channel metadata, and the rig's cameras.
+struct Written {
+    records: Vec<TrackRecord>,
+    by_topic: BTreeMap<String, Vec<Message>>,
+    metadata: BTreeMap<String, BTreeMap<String, String>>,
+    cameras: Vec<(String, flexshape_camera::Camera)>,
+    path: std::path::PathBuf,
+    _dir: tempfile::TempDir,
+}
+
+fn written(images: ImageFormat) -> Written {
     let model = Model::new(ManipulatorParams::paper_like()).unwrap();
     let demo = Demo::new(SimConfig::default(), model, None, 1).unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -61,7 +71,7 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
         .map(|c| (c.name.clone(), c.camera.clone()))
         .collect();
     let options = McapOptions {
-        images: true,
+        images,
         overwrite: false,
     };
     let mut sink = McapSink::create(&path, rig, options).unwrap();
@@ -85,9 +95,11 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
 
     let bytes = std::fs::read(&path).unwrap();
     let mut by_topic: BTreeMap<String, Vec<Message>> = BTreeMap::new();
+    let mut metadata = BTreeMap::new();
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
         let schema = m.channel.schema.as_ref().unwrap();
+        metadata.insert(m.channel.topic.clone(), m.channel.metadata.clone());
         by_topic.entry(m.channel.topic.clone()).or_default().push((
             schema.name.clone(),
             schema.encoding.clone(),
@@ -95,6 +107,26 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
             m.log_time,
         ));
     }
+    Written {
+        records,
+        by_topic,
+        metadata,
+        cameras,
+        path,
+        _dir: dir,
+    }
+}
+
+#[test]
+fn a_tracked_run_reads_back_with_standard_schemas() {
+    let Written {
+        records,
+        by_topic,
+        metadata,
+        cameras,
+        path,
+        _dir,
+    } = written(ImageFormat::Raw);
     let expect = [
         ("/flexshape/centerline", "nav_msgs/msg/Path", 3),
         ("/flexshape/tube", "visualization_msgs/msg/MarkerArray", 3),
@@ -183,7 +215,49 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
     let json: serde_json::Value = serde_json::from_slice(data).unwrap();
     assert_eq!(json["frame"], records[2].frame);
 
+    // The cameras' poses are latched for `ros2 bag play` (transient local), the rest not.
+    let qos = &metadata["/tf_static"]["offered_qos_profiles"];
+    assert!(
+        qos.contains("durability: 1") && qos.contains("reliability: 1"),
+        "{qos}"
+    );
+    assert!(metadata["/flexshape/centerline"].is_empty());
+
     // An existing file is not replaced unless asked.
-    let again = McapSink::create(&path, rig, McapOptions::default());
+    let model = Model::new(ManipulatorParams::paper_like()).unwrap();
+    let demo = Demo::new(SimConfig::default(), model, None, 1).unwrap();
+    let again = McapSink::create(&path, demo.simulator().rig(), McapOptions::default());
     assert!(again.is_err_and(|e| e.to_string().contains("--overwrite")));
+}
+
+#[test]
+fn compressed_images_decode_to_the_cameras_views() {
+    let w = written(ImageFormat::Jpeg);
+    // Images as JPEG, silhouettes as PNG, one each per frame and camera.
+    for (name, camera) in &w.cameras {
+        let k = &camera.intrinsics;
+        for (kind, format) in [("image", "jpeg"), ("silhouette", "png")] {
+            let got = &w.by_topic[&format!("/flexshape/{name}/{kind}")];
+            assert_eq!(got.len(), 3, "{name} {kind}");
+            assert_eq!(got[0].0, "sensor_msgs/msg/CompressedImage");
+            let data = &got[1].2;
+            let mut r = Reader { b: data, at: 4 };
+            assert_eq!(r.header().2, *name);
+            assert_eq!(r.string(), format);
+            let n = r.u32() as usize;
+            assert_eq!(r.at + n, data.len(), "the file fills the message");
+            let file = &data[r.at..];
+            assert!(n < 200_000, "{name} {kind}: {n} bytes");
+            let img = image::load_from_memory(file).unwrap();
+            assert_eq!((img.width(), img.height()), (k.width, k.height));
+            if kind == "silhouette" {
+                let mask = img.to_luma8();
+                let object = mask.pixels().filter(|p| p.0[0] == 255).count();
+                let rest = mask.pixels().filter(|p| p.0[0] == 0).count();
+                assert_eq!(object + rest, mask.len(), "a lossless mask");
+                assert!(object > 100, "{object} object pixels");
+            }
+        }
+    }
+    assert_eq!(w.records.len(), 3);
 }

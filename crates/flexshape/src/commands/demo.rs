@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use flexshape_input::FrameSource;
 use flexshape_lab::demo::{Demo, DemoFigures};
-use flexshape_mcap::{McapOptions, McapSink};
+use flexshape_mcap::{ImageFormat, McapOptions, McapSink};
 use flexshape_model::{ManipulatorParams, Model};
 use flexshape_track::{Processed, Tally, TrackRecord};
 
@@ -114,7 +114,7 @@ fn mcap(args: &DemoArgs, demo: &Demo) -> anyhow::Result<Option<McapSink>> {
         return Ok(None);
     };
     let options = McapOptions {
-        images: true,
+        images: ImageFormat::Raw,
         overwrite: true,
     };
     Ok(Some(McapSink::create(

@@ -122,7 +122,7 @@ fn open_mcap(args: &TrackArgs, input: &Input) -> anyhow::Result<Option<McapSink>
         return Ok(None);
     };
     let options = McapOptions {
-        images: args.mcap_images,
+        images: args.mcap_images.map(Into::into).unwrap_or_default(),
         overwrite: args.overwrite,
     };
     Ok(Some(McapSink::create(path, &input.rig, options)?))
