@@ -655,6 +655,17 @@ pub struct TrackArgs {
         requires = "mcap"
     )]
     pub mcap_images: Option<ImageFormatArg>,
+    /// Serve the run live to Foxglove at ADDR (default 127.0.0.1:8765, Foxglove's own; port 0
+    /// picks a free one): in Foxglove, Open connection → Foxglove WebSocket. The MCAP file's
+    /// topics, with the cameras' images as JPEG at most 10 frames a second; the server ends
+    /// with the run.
+    #[arg(
+        long,
+        value_name = "ADDR",
+        num_args = 0..=1,
+        default_missing_value = flexshape_foxglove::DEFAULT_ADDRESS
+    )]
+    pub foxglove: Option<String>,
     /// Replace existing --out, --csv and --mcap files and PLY clouds.
     #[arg(long)]
     pub overwrite: bool,
@@ -688,7 +699,8 @@ pub struct ViewerArgs {
     /// Serve the live viewer at ADDR (default 127.0.0.1:8080; port 0 picks a free port).
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8080")]
     pub viewer: Option<String>,
-    /// Allow the viewer on a non-loopback address (anyone who can reach it sees the cameras).
+    /// Allow the viewer or the Foxglove server on a non-loopback address (anyone who can
+    /// reach it sees the cameras).
     #[arg(long)]
     pub allow_remote: bool,
     /// End when the input ends instead of keeping the last frame on the viewer until Ctrl-C.
@@ -1036,7 +1048,7 @@ pub struct DemoArgs {
     /// Serve the live viewer here (default 127.0.0.1:8080, or any free port if that is taken).
     #[arg(long, value_name = "ADDR", conflicts_with = "no_viewer")]
     pub viewer: Option<String>,
-    /// Allow the viewer on a non-loopback address.
+    /// Allow the viewer or the Foxglove server on a non-loopback address.
     #[arg(long)]
     pub allow_remote: bool,
     /// Frame rate of the simulated cameras in the live demo (rendering three 640×480 views
@@ -1056,6 +1068,17 @@ pub struct DemoArgs {
     /// --mcap --mcap-images` does; replaces an existing one).
     #[arg(long, value_name = "FILE")]
     pub mcap: Option<PathBuf>,
+    /// Serve the run live to Foxglove at ADDR (default 127.0.0.1:8765, Foxglove's own; port 0
+    /// picks a free one): in Foxglove, Open connection → Foxglove WebSocket. The MCAP file's
+    /// topics, with the cameras' images as JPEG at most 10 frames a second; the server ends
+    /// with the run.
+    #[arg(
+        long,
+        value_name = "ADDR",
+        num_args = 0..=1,
+        default_missing_value = flexshape_foxglove::DEFAULT_ADDRESS
+    )]
+    pub foxglove: Option<String>,
     #[command(flatten)]
     pub sim: SimArgs,
 }

@@ -12,6 +12,7 @@ use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
+use flexshape_foxglove::FoxgloveServer;
 use flexshape_input::FrameSource;
 use flexshape_lab::demo::{Demo, DemoFigures};
 use flexshape_mcap::{ImageFormat, McapOptions, McapSink};
@@ -45,10 +46,16 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     .context("cannot set up the demo")?;
     println!("{}", demo.introduction(setup.elapsed()));
     let viewer = viewer(args, &demo)?;
+    let foxglove = super::foxglove::start(
+        args.foxglove.as_deref(),
+        args.allow_remote,
+        demo.simulator().rig(),
+    )?;
     let mut source = source(args, &demo);
     let mut frames = Frames {
         demo: &demo,
         mcap: mcap(args, &demo)?,
+        foxglove,
         failure: None,
         headless: args.no_viewer,
         viewer,
@@ -147,6 +154,8 @@ struct Frames<'a> {
     demo: &'a Demo,
     /// The MCAP file (`--mcap`), and why writing it failed (which stops the run).
     mcap: Option<McapSink>,
+    /// The live Foxglove server (`--foxglove`).
+    foxglove: Option<FoxgloveServer>,
     failure: Option<flexshape_mcap::McapError>,
     headless: bool,
     viewer: Option<super::viewer::Live>,
@@ -176,6 +185,9 @@ impl Frames<'_> {
         if let Some(Err(e)) = self.mcap.as_mut().map(|m| m.write(&record, &p)) {
             self.failure = Some(e);
             return ControlFlow::Break(());
+        }
+        if let Some(f) = &mut self.foxglove {
+            f.publish(&record, &p);
         }
         if let Some(v) = &mut self.viewer {
             let truth = errors.as_ref().map(|e| (e.centerline_rms, e.tip));

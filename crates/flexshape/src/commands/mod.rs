@@ -6,6 +6,7 @@ mod calibrate;
 mod capture;
 mod carve;
 mod demo;
+mod foxglove;
 mod frames;
 mod model;
 mod model_fit;

@@ -1,5 +1,6 @@
 //! `flexshape track`: every frame of a recording, image folders, videos or live cameras through
-//! the sensing chain, as JSON Lines (plus optional CSV rows, PLY clouds and the live viewer).
+//! the sensing chain, as JSON Lines (plus optional CSV rows, PLY clouds, MCAP, the live viewer
+//! and a live Foxglove connection).
 //!
 //! Each record is written whole and flushed as soon as its frame is done; frames are processed
 //! several at a time but written in input order. A frame that cannot be read or processed gets
@@ -10,6 +11,7 @@ use std::collections::HashSet;
 use std::ops::ControlFlow;
 
 use anyhow::{Context, bail};
+use flexshape_foxglove::FoxgloveServer;
 use flexshape_input::FrameSource;
 use flexshape_mcap::{McapOptions, McapSink};
 use flexshape_track::output::{SinkSpec, Sinks};
@@ -42,11 +44,17 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         .map(super::model::load_frame)
         .transpose()?;
     let viewer = super::viewer::start(&args.viewer, &pipeline)?;
+    let foxglove = super::foxglove::start(
+        args.foxglove.as_deref(),
+        args.viewer.allow_remote,
+        &input.rig,
+    )?;
     let sinks = Sinks::open(&spec, &input.files)?;
     let mut frames = Frames {
         model_frame,
         sinks,
         mcap: open_mcap(args, &input)?,
+        foxglove,
         viewer,
         bar: progress(input.source.as_ref()),
         tally: Tally::new(),
@@ -133,6 +141,7 @@ struct Frames {
     model_frame: Option<ModelFrame>,
     sinks: Sinks,
     mcap: Option<McapSink>,
+    foxglove: Option<FoxgloveServer>,
     viewer: Option<super::viewer::Live>,
     bar: ProgressBar,
     tally: Tally,
@@ -174,6 +183,9 @@ impl Frames {
         if let Some(Err(e)) = self.mcap.as_mut().map(|m| m.write(&record, &p)) {
             self.failure = Some(anyhow::Error::new(e));
             return ControlFlow::Break(());
+        }
+        if let Some(f) = &mut self.foxglove {
+            f.publish(&record, &p);
         }
         if let Some(v) = &mut self.viewer {
             v.publish(p, record, None);
