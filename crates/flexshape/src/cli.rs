@@ -666,6 +666,11 @@ pub struct TrackArgs {
         default_missing_value = flexshape_foxglove::DEFAULT_ADDRESS
     )]
     pub foxglove: Option<String>,
+    /// Publish the run live as ROS 2 topics (the MCAP file's, under ROS 2's DDS names; no ROS
+    /// installation needed) on domain DOMAIN (default: ROS_DOMAIN_ID, else 0). Any node on the
+    /// domain and network sees them: `ros2 topic echo /flexshape/centerline`.
+    #[arg(long, value_name = "DOMAIN", num_args = 0..=1)]
+    pub ros2: Option<Option<u16>>,
     /// Replace existing --out, --csv and --mcap files and PLY clouds.
     #[arg(long)]
     pub overwrite: bool,
@@ -1079,6 +1084,11 @@ pub struct DemoArgs {
         default_missing_value = flexshape_foxglove::DEFAULT_ADDRESS
     )]
     pub foxglove: Option<String>,
+    /// Publish the run live as ROS 2 topics (the MCAP file's, under ROS 2's DDS names; no ROS
+    /// installation needed) on domain DOMAIN (default: ROS_DOMAIN_ID, else 0). Any node on the
+    /// domain and network sees them: `ros2 topic echo /flexshape/centerline`.
+    #[arg(long, value_name = "DOMAIN", num_args = 0..=1)]
+    pub ros2: Option<Option<u16>>,
     #[command(flatten)]
     pub sim: SimArgs,
 }

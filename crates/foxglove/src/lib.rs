@@ -28,9 +28,10 @@
 
 use std::net::{IpAddr, SocketAddr};
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use flexshape_mcap::{FrameTopics, ImageFormat, TopicId, stamp_ns};
+pub use flexshape_mcap::LiveOptions;
+use flexshape_mcap::{FrameTopics, ImageRate, TopicId, stamp_ns};
 use flexshape_rig::Rig;
 use flexshape_track::{Processed, TrackRecord};
 use foxglove::{Context, PartialMetadata, RawChannel, Schema, WebSocketServer};
@@ -77,26 +78,6 @@ pub enum FoxgloveError {
     Runtime(std::io::Error),
 }
 
-/// What the live connection carries beyond the shapes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LiveOptions {
-    /// The cameras' images and silhouettes, in this format ([`ImageFormat::None`]: none).
-    pub images: ImageFormat,
-    /// At most this many frames' images a second (wall clock): a 640×480 JPEG is about
-    /// 45 kB, raw 0.9 MB.
-    pub image_hz: f64,
-}
-
-impl Default for LiveOptions {
-    /// JPEG images (PNG silhouettes) at most 10 frames a second.
-    fn default() -> Self {
-        LiveOptions {
-            images: ImageFormat::Jpeg,
-            image_hz: 10.0,
-        }
-    }
-}
-
 /// A Foxglove WebSocket server publishing every tracked frame; stops when dropped.
 pub struct FoxgloveServer {
     server: Option<foxglove::WebSocketServerHandle>,
@@ -106,8 +87,7 @@ pub struct FoxgloveServer {
     _context: Arc<Context>,
     topics: FrameTopics,
     channels: Vec<(TopicId, Arc<RawChannel>)>,
-    image_every: Duration,
-    last_images: Option<Instant>,
+    images: ImageRate,
     url: String,
 }
 
@@ -168,18 +148,13 @@ impl FoxgloveServer {
             ip => ip.to_string(),
         };
         let url = format!("ws://{host}:{}", server.port());
-        let image_every = match options.image_hz > 0.0 && options.image_hz.is_finite() {
-            true => Duration::from_secs_f64(1.0 / options.image_hz),
-            false => Duration::ZERO,
-        };
         Ok(FoxgloveServer {
             server: Some(server),
             runtime: Some(runtime),
             _context: context,
             topics,
             channels,
-            image_every,
-            last_images: None,
+            images: ImageRate::new(options.image_hz),
             url,
         })
     }
@@ -204,9 +179,7 @@ impl FoxgloveServer {
     pub fn publish(&mut self, record: &TrackRecord, p: &Processed) {
         let stamp = stamp_ns(record);
         let meta = PartialMetadata::with_log_time(stamp);
-        let images_due = self
-            .last_images
-            .is_none_or(|t| t.elapsed() >= self.image_every);
+        let images_due = self.images.due();
         let channel = |id: TopicId| {
             self.channels
                 .iter()
@@ -232,7 +205,7 @@ impl FoxgloveServer {
             Ok::<(), std::convert::Infallible>(())
         });
         if sent_images {
-            self.last_images = Some(Instant::now());
+            self.images.sent();
         }
     }
 }

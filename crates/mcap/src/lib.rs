@@ -43,7 +43,9 @@ use mcap::records::MessageHeader;
 use thiserror::Error;
 
 pub use cdr::Cdr;
-pub use topics::{FrameTopics, ImageFormat, Topic, TopicId, WORLD_FRAME, stamp_ns};
+pub use topics::{
+    FrameTopics, ImageFormat, ImageRate, LiveOptions, Topic, TopicId, WORLD_FRAME, stamp_ns,
+};
 
 /// Why the MCAP file cannot be written.
 #[derive(Debug, Error)]

@@ -119,6 +119,13 @@ pub const COMPRESSED_IMAGE: MessageType = MessageType {
     uses: &[HEADER, TIME],
 };
 
+/// `std_msgs/msg/String`: text (the record's JSON on ROS 2, which has no JSON encoding).
+pub const STRING: MessageType = MessageType {
+    name: "std_msgs/msg/String",
+    definition: "string data",
+    uses: &[],
+};
+
 /// `tf2_msgs/msg/TFMessage`: the cameras' poses in the world frame.
 pub const TF_MESSAGE: MessageType = MessageType {
     name: "tf2_msgs/msg/TFMessage",
@@ -240,6 +247,13 @@ pub fn compressed_image(stamp_ns: u64, frame_id: &str, format: &str, data: &[u8]
     let mut c = Cdr::new();
     header(&mut c, stamp_ns, frame_id);
     c.string(format).bytes(data);
+    c.finish()
+}
+
+/// A `std_msgs/String` holding `text`.
+pub fn string(text: &str) -> Vec<u8> {
+    let mut c = Cdr::new();
+    c.string(text);
     c.finish()
 }
 

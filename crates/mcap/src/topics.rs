@@ -71,6 +71,56 @@ impl ImageFormat {
     }
 }
 
+/// What a live carrier (Foxglove, ROS 2) sends of the cameras' views: a live viewer wants the
+/// images, but not at the price of the shapes' pace.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LiveOptions {
+    /// The cameras' images and silhouettes, in this format ([`ImageFormat::None`]: none).
+    pub images: ImageFormat,
+    /// At most this many frames' images a second (wall clock): a 640×480 JPEG is about
+    /// 45 kB, raw 0.9 MB.
+    pub image_hz: f64,
+}
+
+impl Default for LiveOptions {
+    /// JPEG images (PNG silhouettes) at most 10 frames a second.
+    fn default() -> Self {
+        LiveOptions {
+            images: ImageFormat::Jpeg,
+            image_hz: 10.0,
+        }
+    }
+}
+
+/// When a live carrier sends the next frame's images: at most [`LiveOptions::image_hz`] a
+/// second.
+#[derive(Debug, Clone)]
+pub struct ImageRate {
+    every: std::time::Duration,
+    last: Option<std::time::Instant>,
+}
+
+impl ImageRate {
+    /// At most `hz` frames' images a second (every frame when `hz` is not a positive number).
+    pub fn new(hz: f64) -> Self {
+        let every = match hz > 0.0 && hz.is_finite() {
+            true => std::time::Duration::from_secs_f64(1.0 / hz),
+            false => std::time::Duration::ZERO,
+        };
+        ImageRate { every, last: None }
+    }
+
+    /// Whether this frame's images may go.
+    pub fn due(&self) -> bool {
+        self.last.is_none_or(|t| t.elapsed() >= self.every)
+    }
+
+    /// This frame's images went.
+    pub fn sent(&mut self) {
+        self.last = Some(std::time::Instant::now());
+    }
+}
+
 /// One topic: its name, the schema its messages follow, how they are encoded.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Topic {

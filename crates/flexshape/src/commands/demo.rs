@@ -51,11 +51,13 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         args.allow_remote,
         demo.simulator().rig(),
     )?;
+    let ros2 = super::ros2::start(args.ros2, demo.simulator().rig())?;
     let mut source = source(args, &demo);
     let mut frames = Frames {
         demo: &demo,
         mcap: mcap(args, &demo)?,
         foxglove,
+        ros2,
         failure: None,
         headless: args.no_viewer,
         viewer,
@@ -82,6 +84,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     if let Some(mcap) = frames.mcap.take() {
         mcap.finish()?;
     }
+    super::ros2::finish(frames.ros2.as_ref());
     if let Some(e) = end.input_error {
         return Err(e).context("the simulated rig stopped");
     }
@@ -156,6 +159,8 @@ struct Frames<'a> {
     mcap: Option<McapSink>,
     /// The live Foxglove server (`--foxglove`).
     foxglove: Option<FoxgloveServer>,
+    /// The live ROS 2 topics (`--ros2`).
+    ros2: Option<super::ros2::Publisher>,
     failure: Option<flexshape_mcap::McapError>,
     headless: bool,
     viewer: Option<super::viewer::Live>,
@@ -189,6 +194,7 @@ impl Frames<'_> {
         if let Some(f) = &mut self.foxglove {
             f.publish(&record, &p);
         }
+        super::ros2::publish(self.ros2.as_mut(), &record, &p);
         if let Some(v) = &mut self.viewer {
             let truth = errors.as_ref().map(|e| (e.centerline_rms, e.tip));
             v.publish(p, record, truth);

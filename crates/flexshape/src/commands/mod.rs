@@ -16,6 +16,7 @@ mod report;
 mod rig_check;
 mod rig_import;
 mod rig_refine;
+mod ros2;
 mod silhouettes;
 mod simulate;
 mod track;

@@ -1,6 +1,6 @@
 //! `flexshape track`: every frame of a recording, image folders, videos or live cameras through
-//! the sensing chain, as JSON Lines (plus optional CSV rows, PLY clouds, MCAP, the live viewer
-//! and a live Foxglove connection).
+//! the sensing chain, as JSON Lines (plus optional CSV rows, PLY clouds, MCAP, the live viewer,
+//! a live Foxglove connection and live ROS 2 topics).
 //!
 //! Each record is written whole and flushed as soon as its frame is done; frames are processed
 //! several at a time but written in input order. A frame that cannot be read or processed gets
@@ -49,12 +49,14 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         args.viewer.allow_remote,
         &input.rig,
     )?;
+    let ros2 = super::ros2::start(args.ros2, &input.rig)?;
     let sinks = Sinks::open(&spec, &input.files)?;
     let mut frames = Frames {
         model_frame,
         sinks,
         mcap: open_mcap(args, &input)?,
         foxglove,
+        ros2,
         viewer,
         bar: progress(input.source.as_ref()),
         tally: Tally::new(),
@@ -82,6 +84,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     if let Some(mcap) = frames.mcap.take() {
         mcap.finish()?;
     }
+    super::ros2::finish(frames.ros2.as_ref());
     if let Some(e) = frames.failure {
         return Err(e);
     }
@@ -142,6 +145,7 @@ struct Frames {
     sinks: Sinks,
     mcap: Option<McapSink>,
     foxglove: Option<FoxgloveServer>,
+    ros2: Option<super::ros2::Publisher>,
     viewer: Option<super::viewer::Live>,
     bar: ProgressBar,
     tally: Tally,
@@ -187,6 +191,7 @@ impl Frames {
         if let Some(f) = &mut self.foxglove {
             f.publish(&record, &p);
         }
+        super::ros2::publish(self.ros2.as_mut(), &record, &p);
         if let Some(v) = &mut self.viewer {
             v.publish(p, record, None);
         }
