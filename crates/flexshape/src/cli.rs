@@ -266,6 +266,8 @@ pub struct ModelSteerArgs {
     /// curvatures over the frames); it keeps serving after the last frame until Ctrl-C.
     #[command(flatten)]
     pub viewer: ViewerArgs,
+    #[command(flatten)]
+    pub live: LiveArgs,
 }
 
 #[derive(Debug, Args)]
@@ -655,22 +657,8 @@ pub struct TrackArgs {
         requires = "mcap"
     )]
     pub mcap_images: Option<ImageFormatArg>,
-    /// Serve the run live to Foxglove at ADDR (default 127.0.0.1:8765, Foxglove's own; port 0
-    /// picks a free one): in Foxglove, Open connection → Foxglove WebSocket. The MCAP file's
-    /// topics, with the cameras' images as JPEG at most 10 frames a second; the server ends
-    /// with the run.
-    #[arg(
-        long,
-        value_name = "ADDR",
-        num_args = 0..=1,
-        default_missing_value = flexshape_foxglove::DEFAULT_ADDRESS
-    )]
-    pub foxglove: Option<String>,
-    /// Publish the run live as ROS 2 topics (the MCAP file's, under ROS 2's DDS names; no ROS
-    /// installation needed) on domain DOMAIN (default: ROS_DOMAIN_ID, else 0). Any node on the
-    /// domain and network sees them: `ros2 topic echo /flexshape/centerline`.
-    #[arg(long, value_name = "DOMAIN", num_args = 0..=1)]
-    pub ros2: Option<Option<u16>>,
+    #[command(flatten)]
+    pub live: LiveArgs,
     /// Replace existing --out, --csv and --mcap files and PLY clouds.
     #[arg(long)]
     pub overwrite: bool,
@@ -711,6 +699,27 @@ pub struct ViewerArgs {
     /// End when the input ends instead of keeping the last frame on the viewer until Ctrl-C.
     #[arg(long, requires = "viewer")]
     pub viewer_exit: bool,
+}
+
+/// The run served live to the tools labs run (beside `--viewer`).
+#[derive(Debug, Args)]
+pub struct LiveArgs {
+    /// Serve the run live to Foxglove at ADDR (default 127.0.0.1:8765, Foxglove's own; port 0
+    /// picks a free one): in Foxglove, Open connection → Foxglove WebSocket. The MCAP file's
+    /// topics, with the cameras' images as JPEG at most 10 frames a second; the server ends
+    /// with the run.
+    #[arg(
+        long,
+        value_name = "ADDR",
+        num_args = 0..=1,
+        default_missing_value = flexshape_foxglove::DEFAULT_ADDRESS
+    )]
+    pub foxglove: Option<String>,
+    /// Publish the run live as ROS 2 topics (the MCAP file's, under ROS 2's DDS names; no ROS
+    /// installation needed) on domain DOMAIN (default: ROS_DOMAIN_ID, else 0). Any node on the
+    /// domain and network sees them: `ros2 topic echo /flexshape/centerline`.
+    #[arg(long, value_name = "DOMAIN", num_args = 0..=1)]
+    pub ros2: Option<Option<u16>>,
 }
 
 /// Settings of the simulated rig shared by `demo` and `simulate`.
@@ -1073,22 +1082,8 @@ pub struct DemoArgs {
     /// --mcap --mcap-images` does; replaces an existing one).
     #[arg(long, value_name = "FILE")]
     pub mcap: Option<PathBuf>,
-    /// Serve the run live to Foxglove at ADDR (default 127.0.0.1:8765, Foxglove's own; port 0
-    /// picks a free one): in Foxglove, Open connection → Foxglove WebSocket. The MCAP file's
-    /// topics, with the cameras' images as JPEG at most 10 frames a second; the server ends
-    /// with the run.
-    #[arg(
-        long,
-        value_name = "ADDR",
-        num_args = 0..=1,
-        default_missing_value = flexshape_foxglove::DEFAULT_ADDRESS
-    )]
-    pub foxglove: Option<String>,
-    /// Publish the run live as ROS 2 topics (the MCAP file's, under ROS 2's DDS names; no ROS
-    /// installation needed) on domain DOMAIN (default: ROS_DOMAIN_ID, else 0). Any node on the
-    /// domain and network sees them: `ros2 topic echo /flexshape/centerline`.
-    #[arg(long, value_name = "DOMAIN", num_args = 0..=1)]
-    pub ros2: Option<Option<u16>>,
+    #[command(flatten)]
+    pub live: LiveArgs,
     #[command(flatten)]
     pub sim: SimArgs,
 }

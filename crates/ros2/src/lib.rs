@@ -87,9 +87,11 @@ struct Writer {
 
 /// A ROS 2 publisher of every tracked frame on the rig's topics.
 pub struct Ros2Publisher {
+    /// Dropped before the participant they belong to (fields drop in this order), which
+    /// must outlive them to remove them cleanly.
+    writers: Vec<Writer>,
     participant: DomainParticipant,
     topics: FrameTopics,
-    writers: Vec<Writer>,
     tf_sent: bool,
     images: ImageRate,
     /// Writes refused so far (said once in the log, counted).

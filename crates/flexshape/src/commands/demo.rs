@@ -12,13 +12,13 @@ use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use flexshape_foxglove::FoxgloveServer;
 use flexshape_input::FrameSource;
 use flexshape_lab::demo::{Demo, DemoFigures};
 use flexshape_mcap::{ImageFormat, McapOptions, McapSink};
 use flexshape_model::{ManipulatorParams, Model};
 use flexshape_track::{Processed, Tally, TrackRecord};
 
+use super::live::LiveOutputs;
 use crate::cli::DemoArgs;
 use crate::interrupt::Interrupt;
 
@@ -46,18 +46,12 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     .context("cannot set up the demo")?;
     println!("{}", demo.introduction(setup.elapsed()));
     let viewer = viewer(args, &demo)?;
-    let foxglove = super::foxglove::start(
-        args.foxglove.as_deref(),
-        args.allow_remote,
-        demo.simulator().rig(),
-    )?;
-    let ros2 = super::ros2::start(args.ros2, demo.simulator().rig())?;
+    let live = LiveOutputs::start(&args.live, args.allow_remote, demo.simulator().rig())?;
     let mut source = source(args, &demo);
     let mut frames = Frames {
         demo: &demo,
         mcap: mcap(args, &demo)?,
-        foxglove,
-        ros2,
+        live,
         failure: None,
         headless: args.no_viewer,
         viewer,
@@ -84,7 +78,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     if let Some(mcap) = frames.mcap.take() {
         mcap.finish()?;
     }
-    super::ros2::finish(frames.ros2.as_ref());
+    frames.live.finish();
     if let Some(e) = end.input_error {
         return Err(e).context("the simulated rig stopped");
     }
@@ -157,10 +151,8 @@ struct Frames<'a> {
     demo: &'a Demo,
     /// The MCAP file (`--mcap`), and why writing it failed (which stops the run).
     mcap: Option<McapSink>,
-    /// The live Foxglove server (`--foxglove`).
-    foxglove: Option<FoxgloveServer>,
-    /// The live ROS 2 topics (`--ros2`).
-    ros2: Option<super::ros2::Publisher>,
+    /// `--foxglove` and `--ros2`.
+    live: LiveOutputs,
     failure: Option<flexshape_mcap::McapError>,
     headless: bool,
     viewer: Option<super::viewer::Live>,
@@ -191,10 +183,7 @@ impl Frames<'_> {
             self.failure = Some(e);
             return ControlFlow::Break(());
         }
-        if let Some(f) = &mut self.foxglove {
-            f.publish(&record, &p);
-        }
-        super::ros2::publish(self.ros2.as_mut(), &record, &p);
+        self.live.publish(&record, &p);
         if let Some(v) = &mut self.viewer {
             let truth = errors.as_ref().map(|e| (e.centerline_rms, e.tip));
             v.publish(p, record, truth);

@@ -10,9 +10,10 @@ use flexshape_sim::SimConfig;
 use flexshape_steer::{
     SteerFrame, SteerSettings, SteerStep, SteerSummary, reachable_targets, steer_with_frames,
 };
-use flexshape_track::Processed;
+use flexshape_track::{Processed, TrackRecord};
 use flexshape_viewer::{Steering, SteeringSample};
 
+use super::live::LiveOutputs;
 use crate::cli::ModelSteerArgs;
 use crate::commands::viewer::{Live, start_at};
 use crate::interrupt::Interrupt;
@@ -39,6 +40,11 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
     };
     let targets = reachable_targets(&truth, args.targets, settings.control.preload_strain)
         .context("cannot find targets the catheter reaches")?;
+    let rig = SimConfig::default()
+        .rig
+        .rig()
+        .context("cannot set up the simulated rig")?;
+    let live_outputs = LiveOutputs::start(&args.live, args.viewer.allow_remote, &rig)?;
     let stop = Interrupt::install();
     if !args.json {
         println!("{}", SteerStep::table_header());
@@ -48,6 +54,7 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
         args,
         stop: &stop,
         live: None,
+        live_outputs,
         history: VecDeque::new(),
         targets: targets.len(),
         true_stiffness,
@@ -61,6 +68,7 @@ pub fn run(args: &ModelSteerArgs) -> anyhow::Result<()> {
         |s, seen| frames.take(s, seen),
     )
     .context("the closed loop stopped")?;
+    frames.live_outputs.finish();
     ensure!(
         args.viewer.viewer.is_none() || frames.live.is_some() || steps.is_empty(),
         "the viewer could not start"
@@ -97,6 +105,8 @@ struct Frames<'a> {
     args: &'a ModelSteerArgs,
     stop: &'a Interrupt,
     live: Option<Live>,
+    /// `--foxglove` and `--ros2`.
+    live_outputs: LiveOutputs,
     history: VecDeque<SteeringSample>,
     targets: usize,
     true_stiffness: [f64; 2],
@@ -104,20 +114,22 @@ struct Frames<'a> {
 
 impl Frames<'_> {
     fn take(&mut self, s: &SteerStep, seen: SteerFrame<'_>) -> ControlFlow<()> {
-        if let Some(addr) = &self.args.viewer.viewer {
-            if self.live.is_none() {
-                match start_at(addr, self.args.viewer.allow_remote, seen.pipeline) {
-                    Ok(l) => self.live = Some(l),
-                    Err(e) => {
-                        eprintln!("{e:#}");
-                        return ControlFlow::Break(());
-                    }
+        if let Some(addr) = &self.args.viewer.viewer
+            && self.live.is_none()
+        {
+            match start_at(addr, self.args.viewer.allow_remote, seen.pipeline) {
+                Ok(l) => self.live = Some(l),
+                Err(e) => {
+                    eprintln!("{e:#}");
+                    return ControlFlow::Break(());
                 }
             }
-            if let Some(l) = &mut self.live {
-                let steering = steering_of(s, &mut self.history, self.targets, self.true_stiffness);
-                show(l, s, seen, steering);
-            }
+        }
+        let (processed, record) = processed(s, seen);
+        self.live_outputs.publish(&record, &processed);
+        if let Some(l) = &mut self.live {
+            let steering = steering_of(s, &mut self.history, self.targets, self.true_stiffness);
+            l.publish_steering(processed, record, steering);
         }
         if self.args.json {
             if let Ok(line) = serde_json::to_string(s) {
@@ -162,8 +174,8 @@ fn steering_of(
     }
 }
 
-/// Hands one frame of the loop to the viewer.
-fn show(live: &mut Live, step: &SteerStep, seen: SteerFrame<'_>, steering: Steering) {
+/// One frame of the loop as a tracked frame, with its record.
+fn processed(step: &SteerStep, seen: SteerFrame<'_>) -> (Processed, TrackRecord) {
     let SteerFrame {
         images,
         tracked,
@@ -185,5 +197,5 @@ fn show(live: &mut Live, step: &SteerStep, seen: SteerFrame<'_>, steering: Steer
         camera_times: None,
         processed_s: None,
     };
-    live.publish_steering(processed, record, steering);
+    (processed, record)
 }

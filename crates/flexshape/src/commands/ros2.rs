@@ -1,6 +1,7 @@
 //! `--ros2`: the run published live as ROS 2 topics while it goes on.
 
 use flexshape_rig::Rig;
+#[cfg(not(feature = "ros2"))]
 use flexshape_track::{Processed, TrackRecord};
 
 /// The live ROS 2 publisher of this build.
@@ -60,18 +61,4 @@ fn open(_: u16, _: &Rig) -> anyhow::Result<Publisher> {
     anyhow::bail!(
         "this flexshape was built without ROS 2 (cargo's --no-default-features): build it with the `ros2` feature for --ros2"
     )
-}
-
-/// Says what the publisher lost, if anything, when the run ends.
-pub fn finish(publisher: Option<&Publisher>) {
-    if let Some(lost) = publisher.map(Publisher::failed_writes).filter(|&n| n > 0) {
-        eprintln!("ros2: {lost} messages could not be sent (the middleware refused them)");
-    }
-}
-
-/// Publishes one frame, when asked to.
-pub fn publish(publisher: Option<&mut Publisher>, record: &TrackRecord, p: &Processed) {
-    if let Some(publisher) = publisher {
-        publisher.publish(record, p);
-    }
 }

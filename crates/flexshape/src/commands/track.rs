@@ -11,7 +11,6 @@ use std::collections::HashSet;
 use std::ops::ControlFlow;
 
 use anyhow::{Context, bail};
-use flexshape_foxglove::FoxgloveServer;
 use flexshape_input::FrameSource;
 use flexshape_mcap::{McapOptions, McapSink};
 use flexshape_track::output::{SinkSpec, Sinks};
@@ -22,6 +21,7 @@ use flexshape_track::{
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::frames;
+use super::live::LiveOutputs;
 use crate::cli::TrackArgs;
 use crate::interrupt::Interrupt;
 
@@ -44,19 +44,13 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         .map(super::model::load_frame)
         .transpose()?;
     let viewer = super::viewer::start(&args.viewer, &pipeline)?;
-    let foxglove = super::foxglove::start(
-        args.foxglove.as_deref(),
-        args.viewer.allow_remote,
-        &input.rig,
-    )?;
-    let ros2 = super::ros2::start(args.ros2, &input.rig)?;
+    let live = LiveOutputs::start(&args.live, args.viewer.allow_remote, &input.rig)?;
     let sinks = Sinks::open(&spec, &input.files)?;
     let mut frames = Frames {
         model_frame,
         sinks,
         mcap: open_mcap(args, &input)?,
-        foxglove,
-        ros2,
+        live,
         viewer,
         bar: progress(input.source.as_ref()),
         tally: Tally::new(),
@@ -84,7 +78,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     if let Some(mcap) = frames.mcap.take() {
         mcap.finish()?;
     }
-    super::ros2::finish(frames.ros2.as_ref());
+    frames.live.finish();
     if let Some(e) = frames.failure {
         return Err(e);
     }
@@ -144,8 +138,8 @@ struct Frames {
     model_frame: Option<ModelFrame>,
     sinks: Sinks,
     mcap: Option<McapSink>,
-    foxglove: Option<FoxgloveServer>,
-    ros2: Option<super::ros2::Publisher>,
+    /// `--foxglove` and `--ros2`.
+    live: LiveOutputs,
     viewer: Option<super::viewer::Live>,
     bar: ProgressBar,
     tally: Tally,
@@ -188,10 +182,7 @@ impl Frames {
             self.failure = Some(anyhow::Error::new(e));
             return ControlFlow::Break(());
         }
-        if let Some(f) = &mut self.foxglove {
-            f.publish(&record, &p);
-        }
-        super::ros2::publish(self.ros2.as_mut(), &record, &p);
+        self.live.publish(&record, &p);
         if let Some(v) = &mut self.viewer {
             v.publish(p, record, None);
         }

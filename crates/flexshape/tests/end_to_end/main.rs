@@ -8,6 +8,7 @@ mod calibrate;
 mod capture;
 mod carve;
 mod cli;
+mod live;
 mod model_fit;
 mod rig_refine;
 mod track;

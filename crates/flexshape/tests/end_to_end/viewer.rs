@@ -306,7 +306,9 @@ async fn the_viewer_shows_a_live_demo_in_chromium() {
         .collect();
     assert!(inked[6] >= 6.0, "frames remembered: {}", inked[6]);
     assert!(
-        inked[..5].iter().all(|&n| n > 100.0) && inked[5] > 5000.0,
+        // A drawn line inks 97–650 px of a panel over its first dozen frames (the least on
+        // a loaded machine, whose fewer frames span less of it); an undrawn one none.
+        inked[..5].iter().all(|&n| n > 50.0) && inked[5] > 5000.0,
         "{inked:?}"
     );
 
