@@ -26,7 +26,7 @@ pub struct HullRecord {
     pub voxels: usize,
     /// Their volume, mm³.
     pub volume_mm3: f64,
-    /// The hull surface's area, mm² (0 unless `ok`).
+    /// The watertight hull surface's area, mm² (0 unless `ok`; see `Occupancy::surface`).
     pub surface_mm2: f64,
     /// Smallest and largest corner of the occupied voxels' box, world mm.
     #[serde(skip_serializing_if = "Option::is_none")]
