@@ -439,7 +439,8 @@ pub struct RigRefineArgs {
 pub struct RigImportArgs {
     /// The format: projection (3×4 P = K[R|t] as text, KITTI `NAME:` lines or NumPy .npy),
     /// middlebury (*_par.txt), camera-info (ROS CameraInfo YAML, one per camera), kalibr
-    /// (camchain.yaml) or colmap (the folder of cameras.txt and images.txt).
+    /// (camchain.yaml), colmap (the folder of cameras.txt and images.txt) or opencv-stereo
+    /// (`cv2.stereoCalibrate`'s K1, D1, K2, D2, R, T saved by FileStorage or `np.savez`).
     #[arg(value_enum)]
     pub format: ImportFormatArg,
     /// The files (or the COLMAP folder).
@@ -448,11 +449,12 @@ pub struct RigImportArgs {
     /// Output folder for NAME.yml per camera and rig.toml.
     #[arg(long, short = 'o', value_name = "DIR")]
     pub out: PathBuf,
-    /// Image size where the format lacks it (projection; middlebury without its images).
+    /// Image size where the format lacks it (projection; middlebury without its images;
+    /// opencv-stereo files without imageSize).
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// Length unit of the files: mm, cm or m. Needed for projection and colmap (their files do
-    /// not say); the others default to metres, as their tools write them.
+    /// Length unit of the files: mm, cm or m. Needed for projection, colmap and opencv-stereo
+    /// (their files do not say); the others default to metres, as their tools write them.
     #[arg(long, value_parser = parse_unit)]
     pub unit: Option<flexshape_rig::import::Unit>,
     /// The working volume written into rig.toml, world mm (default: 256 mm cube at the
@@ -505,6 +507,9 @@ pub enum ImportFormatArg {
     Kalibr,
     /// COLMAP text model folder.
     Colmap,
+    /// OpenCV stereo calibration (`cv2.stereoCalibrate`'s K1, D1, K2, D2, R, T) as a
+    /// FileStorage .yml/.json or a NumPy .npz.
+    OpencvStereo,
 }
 
 impl From<ImportFormatArg> for flexshape_rig::import::Format {
@@ -516,6 +521,7 @@ impl From<ImportFormatArg> for flexshape_rig::import::Format {
             ImportFormatArg::CameraInfo => Format::CameraInfo,
             ImportFormatArg::Kalibr => Format::Kalibr,
             ImportFormatArg::Colmap => Format::Colmap,
+            ImportFormatArg::OpencvStereo => Format::OpencvStereo,
         }
     }
 }

@@ -212,3 +212,92 @@ fn an_imported_rig_exports_and_imports_back() {
         .to_string();
     assert!(e.contains("two cameras are named `cam0`"), "{e}");
 }
+
+/// `cv2.stereoCalibrate`'s output as labs save it (`fixtures/opencv_stereo/make.py`): every
+/// form imports to cameras that project as OpenCV's `projectPoints` does.
+#[test]
+fn an_opencv_stereo_calibration_projects_as_opencv_in_every_saved_form() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/opencv_stereo");
+    let reference: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("reference.json")).unwrap())
+            .unwrap();
+    let pts = points(&reference["points_mm"]);
+    let read = |file: &str, size: Option<(u32, u32)>| {
+        import::read(
+            Format::OpencvStereo,
+            &[dir.join(file)],
+            ImportOptions {
+                unit: Some(Unit::Millimetre),
+                size,
+            },
+        )
+    };
+    for (file, size) in [
+        ("stereo.yml", None),
+        ("stereo.json", Some((1280, 720))),
+        ("stereo.npz", None),
+        ("stereo_compressed.npz", Some((1280, 720))),
+    ] {
+        let got = read(file, size).unwrap_or_else(|e| panic!("{file}: {e}"));
+        let names: Vec<&str> = got.cameras.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["cam0", "cam1"], "{file}");
+        for (camera, px) in got.cameras.iter().zip(["cam0_px", "cam1_px"]) {
+            let k = &camera.camera.intrinsics;
+            assert_eq!((k.width, k.height), (1280, 720), "{file}");
+            let err = worst(&camera.camera, &pts, &reference[px]);
+            assert!(err < 1e-6, "{file} {}: {err} px", camera.name);
+        }
+        assert!(
+            got.notes.iter().any(|n| n.contains("world frame")),
+            "{file}"
+        );
+    }
+    // Without the image size the files that lack it are refused, saying what to give; a
+    // length unit must be given (T is in the calibration target's unit).
+    let e = read("stereo.json", None).unwrap_err().to_string();
+    assert!(e.contains("stereo.json") && e.contains("WxH"), "{e}");
+    let e = import::read(
+        Format::OpencvStereo,
+        &[dir.join("stereo.yml")],
+        ImportOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("unit"), "{e}");
+    // A file without the second camera names what it looked for and what it found.
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(dir.join("stereo.yml")).unwrap();
+    let cut = tmp.path().join("cut.yml");
+    std::fs::write(&cut, text.replace("K2:", "Kx:")).unwrap();
+    let e = import::read(
+        Format::OpencvStereo,
+        &[cut],
+        ImportOptions {
+            unit: Some(Unit::Millimetre),
+            size: None,
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("K2") && e.contains("cameraMatrix2") && e.contains("Kx"),
+        "{e}"
+    );
+    // Bytes that are not an .npz say so instead of printing them.
+    let junk = tmp.path().join("junk.npz");
+    std::fs::write(&junk, [0x93, b'N', 0xff, 0x00, 0x12]).unwrap();
+    let e = import::read(
+        Format::OpencvStereo,
+        &[junk],
+        ImportOptions {
+            unit: Some(Unit::Millimetre),
+            size: None,
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("not a NumPy .npz") && !e.contains('\u{fffd}'),
+        "{e}"
+    );
+}

@@ -7,6 +7,8 @@
 //!   a stereo pair's rectification and projection giving the poses; also written.
 //! - [`kalibr`]: Kalibr's `camchain.yaml` (pinhole, radtan), chained `T_cn_cnm1`.
 //! - [`colmap`]: a COLMAP text model (`cameras.txt`, `images.txt`); also written.
+//! - [`opencv_stereo`]: `cv2.stereoCalibrate`'s `K1, D1, K2, D2, R, T` in a FileStorage file
+//!   or a NumPy `.npz`.
 //! - Middlebury `*_par.txt`: [`crate::middlebury`].
 //!
 //! Every reader names the file and field of a problem. Lengths come in the file's unit
@@ -16,6 +18,7 @@ pub mod camera_info;
 pub mod colmap;
 pub mod kalibr;
 mod npy;
+pub mod opencv_stereo;
 pub mod projection;
 
 use std::path::{Path, PathBuf};
@@ -141,6 +144,8 @@ pub enum Format {
     Kalibr,
     /// COLMAP text model ([`colmap`]); its folder.
     Colmap,
+    /// OpenCV stereo calibration ([`opencv_stereo`]); one file.
+    OpencvStereo,
 }
 
 impl Format {
@@ -148,7 +153,7 @@ impl Format {
     /// do not say, so it must be given).
     pub fn default_unit(self) -> Option<Unit> {
         match self {
-            Format::Projection | Format::Colmap => None,
+            Format::Projection | Format::Colmap | Format::OpencvStereo => None,
             Format::Middlebury | Format::CameraInfo | Format::Kalibr => Some(Unit::Metre),
         }
     }
@@ -239,6 +244,12 @@ pub fn read(
             .collect::<Result<_, _>>()?,
         Format::Kalibr => kalibr::read(one("a Kalibr camchain")?, unit)?,
         Format::Colmap => colmap::read(one("a COLMAP model")?, unit)?,
+        Format::OpencvStereo => {
+            let (cameras, said) =
+                opencv_stereo::read(one("an OpenCV stereo calibration")?, unit, options.size)?;
+            notes.extend(said);
+            cameras
+        }
     };
     if options.size.is_some() && format.has_size() {
         notes.push("the files give each camera's image size; the size given was not used".into());

@@ -1,5 +1,5 @@
-//! NumPy `.npy` arrays of floats (format versions 1–3): little- or big-endian `f8`/`f4`, C or
-//! Fortran order. Enough for the projection matrices labs save with `np.save`.
+//! NumPy `.npy` arrays of numbers (format versions 1–3): little- or big-endian `f8`/`f4`/`i8`/`i4`,
+//! C or Fortran order. Enough for the matrices (and image sizes) labs save with `np.save`.
 
 use std::path::Path;
 
@@ -36,14 +36,19 @@ pub(crate) fn parse(path: &Path, bytes: &[u8]) -> Result<Array, RigError> {
         .split(['\'', '"'])
         .next()
         .unwrap_or("");
-    let (size, big) = match descr {
-        "<f8" | "=f8" | "|f8" => (8, false),
-        ">f8" => (8, true),
-        "<f4" | "=f4" | "|f4" => (4, false),
-        ">f4" => (4, true),
+    // (bytes per element, big-endian, integer): integers for sizes saved as `np.array(size)`.
+    let (size, big, int) = match descr {
+        "<f8" | "=f8" | "|f8" => (8, false, false),
+        ">f8" => (8, true, false),
+        "<f4" | "=f4" | "|f4" => (4, false, false),
+        ">f4" => (4, true, false),
+        "<i8" | "=i8" => (8, false, true),
+        ">i8" => (8, true, true),
+        "<i4" | "=i4" => (4, false, true),
+        ">i4" => (4, true, true),
         other => {
             return Err(bad(&format!(
-                "element type {other}: only float64 or float32 arrays are read (save with .astype(np.float64))"
+                "element type {other}: only float64, float32, int64 or int32 arrays are read (save with .astype(np.float64))"
             )));
         }
     };
@@ -79,11 +84,19 @@ pub(crate) fn parse(path: &Path, bytes: &[u8]) -> Result<Array, RigError> {
     }
     let mut data: Vec<f64> = body
         .chunks_exact(size)
-        .map(|c| match (size, big) {
-            (8, false) => f64::from_le_bytes(c.try_into().unwrap_or([0; 8])),
-            (8, true) => f64::from_be_bytes(c.try_into().unwrap_or([0; 8])),
-            (_, false) => f32::from_le_bytes(c.try_into().unwrap_or([0; 4])) as f64,
-            (_, true) => f32::from_be_bytes(c.try_into().unwrap_or([0; 4])) as f64,
+        .map(|c| {
+            let b8 = || c.try_into().unwrap_or([0; 8]);
+            let b4 = || c.try_into().unwrap_or([0; 4]);
+            match (size, big, int) {
+                (8, false, false) => f64::from_le_bytes(b8()),
+                (8, true, false) => f64::from_be_bytes(b8()),
+                (8, false, true) => i64::from_le_bytes(b8()) as f64,
+                (8, true, true) => i64::from_be_bytes(b8()) as f64,
+                (_, false, false) => f32::from_le_bytes(b4()) as f64,
+                (_, true, false) => f32::from_be_bytes(b4()) as f64,
+                (_, false, true) => i32::from_le_bytes(b4()) as f64,
+                (_, true, true) => i32::from_be_bytes(b4()) as f64,
+            }
         })
         .collect();
     if fortran && shape.len() > 1 {
@@ -160,9 +173,16 @@ mod tests {
     fn refuses_what_it_cannot_read_naming_why() {
         let e = parse(Path::new("x.npy"), b"hello").unwrap_err().to_string();
         assert!(e.contains("x.npy") && e.contains("magic"), "{e}");
-        let ints = npy("<i8", false, "(1,)", &[0; 8]);
-        let e = parse(Path::new("i.npy"), &ints).unwrap_err().to_string();
+        let bools = npy("|b1", false, "(1,)", &[0]);
+        let e = parse(Path::new("b.npy"), &bools).unwrap_err().to_string();
         assert!(e.contains("float64"), "{e}");
+        // Integers are read (an image size saved as np.array((1280, 720))).
+        let ints: Vec<u8> = [1280i64, 720]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let i = parse(Path::new("i.npy"), &npy("<i8", false, "(2,)", &ints)).unwrap();
+        assert_eq!(i.data, [1280.0, 720.0]);
         let short = npy("<f8", false, "(3, 4)", &[0; 8]);
         let e = parse(Path::new("s.npy"), &short).unwrap_err().to_string();
         assert!(e.contains("96 bytes"), "{e}");
