@@ -188,15 +188,33 @@ fn an_imported_rig_exports_and_imports_back() {
         Unit::Metre,
     )
     .unwrap();
-    let one = import::read(Format::CameraInfo, &files[..1], ImportOptions::default()).unwrap();
+    // The CameraInfo files and, last, the poses beside them as TF has them.
+    let (yamls, extrinsics) = files.split_at(files.len() - 1);
+    assert!(extrinsics[0].ends_with("extrinsics.yaml"));
+    let one = import::read(Format::CameraInfo, &yamls[..1], ImportOptions::default()).unwrap();
     assert_eq!(
         one.cameras[0].camera.intrinsics,
         chain.cameras[0].camera.intrinsics
     );
-    assert!(one.notes.is_empty(), "{:?}", one.notes);
-    // All of them back: the files hold no poses, and the import says so.
-    let all = import::read(Format::CameraInfo, &files, ImportOptions::default()).unwrap();
-    assert!(all.cameras.len() >= 2);
+    // All of them back, placed where the rig had them.
+    let all = import::read(Format::CameraInfo, yamls, ImportOptions::default()).unwrap();
+    assert_eq!(all.cameras.len(), chain.cameras.len());
+    for (a, b) in chain.cameras.iter().zip(&all.cameras) {
+        assert_eq!(a.name, b.name);
+        for p in &pts {
+            let d = a.camera.project(p).unwrap().pixel - b.camera.project(p).unwrap().pixel;
+            assert!(d.norm() < 1e-6, "{}: {} px", a.name, d.norm());
+        }
+    }
+    let said = all.notes.join("\n");
+    assert!(
+        said.contains("poses of") && said.contains("extrinsics.yaml"),
+        "{said}"
+    );
+    assert!(!said.contains("one pose"), "{said}");
+    // Without the poses' file the CameraInfo files hold none, and the import says so.
+    std::fs::remove_file(&extrinsics[0]).unwrap();
+    let all = import::read(Format::CameraInfo, yamls, ImportOptions::default()).unwrap();
     let said = all.notes.join("\n");
     assert!(
         said.contains("imported at one pose") && said.contains(&all.cameras[1].name),

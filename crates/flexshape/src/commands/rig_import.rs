@@ -63,17 +63,7 @@ pub fn import(args: &RigImportArgs) -> anyhow::Result<()> {
 pub fn export(args: &RigExportArgs) -> anyhow::Result<()> {
     let rig = super::load_rig(&args.rig)?;
     let format = args.format.into();
-    let planned: Vec<PathBuf> = match format {
-        import::ExportFormat::CameraInfo => rig
-            .cameras
-            .iter()
-            .map(|c| args.out.join(format!("{}.yaml", c.name)))
-            .collect(),
-        import::ExportFormat::Colmap => ["cameras.txt", "images.txt", "points3D.txt"]
-            .iter()
-            .map(|f| args.out.join(f))
-            .collect(),
-    };
+    let planned = import::export_files(&rig, format, &args.out);
     // The rig read (a folder of camera files as a whole, or a rig file and the camera files
     // it names): an export written among them would replace them, or be loaded with them.
     let mut inputs = vec![args.rig.clone()];
@@ -96,7 +86,7 @@ pub fn export(args: &RigExportArgs) -> anyhow::Result<()> {
             .collect::<Vec<_>>()
             .join(", "),
         if format == import::ExportFormat::CameraInfo {
-            " (CameraInfo holds intrinsics only: publish the poses as TF from the rig's camera files)"
+            " (CameraInfo holds intrinsics only; the poses are in extrinsics.yaml, as TF has them, with the static_transform_publisher line for each camera, and rig import camera-info reads them back)"
         } else {
             ""
         }

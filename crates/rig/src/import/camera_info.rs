@@ -11,11 +11,14 @@
 //! `x_cam = Rᵀ·(X + (Tx/fx', Ty/fy', 0))`. Lengths are in metres (REP 103) unless told.
 //!
 //! Written files carry the intrinsics with `R = I` and `P = [K | 0]`: CameraInfo has no place
-//! for a general rig's poses (ROS keeps them in TF; flexshape in the camera files).
+//! for a general rig's poses (ROS keeps them in TF; flexshape in the camera files). The poses
+//! go beside them in [`EXTRINSICS_FILE`], as TF has them; an import that finds that file beside
+//! its CameraInfo files takes each named camera's pose from it instead.
 
+use std::collections::BTreeMap;
 use std::path::Path;
 
-use flexshape_camera::nalgebra::{Matrix3, Vector3};
+use flexshape_camera::nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use flexshape_camera::{Camera, Distortion, Intrinsics, Pose};
 use serde::Deserialize;
 
@@ -141,6 +144,87 @@ pub fn read(path: &Path, unit: Unit) -> Result<Imported, RigError> {
         name,
         camera: Camera::new(intrinsics, pose),
     })
+}
+
+/// The file of a CameraInfo export's poses, beside its `NAME.yaml` files.
+pub const EXTRINSICS_FILE: &str = "extrinsics.yaml";
+
+/// One camera's pose as TF has it: its optical frame (OpenCV's axes: x right, y down, z
+/// forward) in the world frame.
+#[derive(Debug, Deserialize)]
+struct RawExtrinsic {
+    /// The optical frame's origin (the camera's centre), metres.
+    translation: [f64; 3],
+    /// Its orientation, `[x, y, z, w]`.
+    rotation: [f64; 4],
+}
+
+/// The file: `cameras` by name (a `frame_id` key names the world frame; any is taken).
+#[derive(Debug, Deserialize)]
+struct RawExtrinsics {
+    cameras: BTreeMap<String, RawExtrinsic>,
+}
+
+/// The poses of `cameras` as [`EXTRINSICS_FILE`]'s text: per camera its centre (m) and the
+/// rotation of its optical frame in the world frame, with the `static_transform_publisher`
+/// line that publishes it.
+pub fn extrinsics_yaml(cameras: &[(String, Camera)]) -> String {
+    let mut s = String::from(
+        "# flexshape rig export: each camera's pose as ROS TF has it, the camera's optical frame\n\
+         # (OpenCV axes: x right, y down, z forward) in the world frame; translation in metres,\n\
+         # rotation as a quaternion [x, y, z, w]. `rig import camera-info` reads it back.\n\
+         frame_id: world\ncameras:\n",
+    );
+    for (name, camera) in cameras {
+        // + 0.0 writes a negative zero as 0.
+        let c = camera.centre().map(|v| v / 1e3 + 0.0);
+        let q = UnitQuaternion::from_rotation_matrix(&camera.pose.rotation.inverse());
+        let q = q.coords.map(|v| v + 0.0);
+        s.push_str(&format!(
+            "  # ros2 run tf2_ros static_transform_publisher --x {} --y {} --z {} --qx {} --qy {} --qz {} --qw {} --frame-id world --child-frame-id {name}\n  {name}:\n    translation: [{}, {}, {}]\n    rotation: [{}, {}, {}, {}]\n",
+            c.x, c.y, c.z, q.x, q.y, q.z, q.w, c.x, c.y, c.z, q.x, q.y, q.z, q.w
+        ));
+    }
+    s
+}
+
+/// The poses in `path` (an [`EXTRINSICS_FILE`]) by camera name, world frame, millimetres.
+pub fn read_extrinsics(path: &Path) -> Result<BTreeMap<String, Pose>, RigError> {
+    let text = crate::files::read_text(path, "extrinsics file").map_err(RigError::from)?;
+    let raw: RawExtrinsics = serde_saphyr::from_str(&text).map_err(|e| RigError::Syntax {
+        file: path.to_path_buf(),
+        message: format!("not a flexshape extrinsics file ({e})"),
+    })?;
+    let mut poses = BTreeMap::new();
+    for (name, e) in raw.cameras {
+        let field = format!("cameras.{name}");
+        for v in e.translation.iter().chain(&e.rotation) {
+            finite(path, &field, *v)?;
+        }
+        let [x, y, z, w] = e.rotation;
+        let q = Quaternion::new(w, x, y, z);
+        if (q.norm() - 1.0).abs() > 1e-6 {
+            return Err(RigError::field(
+                path,
+                &field,
+                format!("rotation has norm {:.6}: not a unit quaternion", q.norm()),
+            ));
+        }
+        // The optical frame turned by Rᵀ and placed at C: R = (Rᵀ)ᵀ, t = −R·C.
+        let rotation = UnitQuaternion::from_quaternion(q)
+            .to_rotation_matrix()
+            .inverse();
+        let centre = Vector3::from(e.translation) * 1e3;
+        let translation = -(rotation * centre);
+        poses.insert(
+            name,
+            Pose {
+                rotation,
+                translation,
+            },
+        );
+    }
+    Ok(poses)
 }
 
 /// `camera`'s intrinsics as CameraInfo YAML named `name` (`R = I`, `P = [K | 0]`).

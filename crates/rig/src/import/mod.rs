@@ -238,10 +238,14 @@ pub fn read(
         Format::Middlebury => {
             middlebury_cameras(one("a Middlebury *_par.txt")?, options.size, unit)?
         }
-        Format::CameraInfo => inputs
-            .iter()
-            .map(|p| camera_info::read(p, unit))
-            .collect::<Result<_, _>>()?,
+        Format::CameraInfo => {
+            let mut cameras: Vec<Imported> = inputs
+                .iter()
+                .map(|p| camera_info::read(p, unit))
+                .collect::<Result<_, _>>()?;
+            notes.extend(exported_poses(first, &mut cameras)?);
+            cameras
+        }
         Format::Kalibr => kalibr::read(one("a Kalibr camchain")?, unit)?,
         Format::Colmap => colmap::read(one("a COLMAP model")?, unit)?,
         Format::OpencvStereo => {
@@ -256,6 +260,44 @@ pub fn read(
     }
     notes.extend(one_pose(&cameras));
     Ok(Import { cameras, notes })
+}
+
+/// CameraInfo files that `rig export` wrote: the poses its [`camera_info::EXTRINSICS_FILE`]
+/// beside `first` holds, set on the cameras it names. What to say of it.
+fn exported_poses(first: &Path, cameras: &mut [Imported]) -> Result<Option<String>, RigError> {
+    let path = first
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(camera_info::EXTRINSICS_FILE);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let poses = camera_info::read_extrinsics(&path)?;
+    let mut set = Vec::new();
+    for c in cameras.iter_mut() {
+        if let Some(pose) = poses.get(&c.name) {
+            c.camera.pose = *pose;
+            set.push(c.name.clone());
+        }
+    }
+    let unnamed: Vec<&str> = cameras
+        .iter()
+        .map(|c| c.name.as_str())
+        .filter(|n| !poses.contains_key(*n))
+        .collect();
+    Ok(Some(match unnamed.is_empty() {
+        true => format!("poses of {} from {}", set.join(", "), path.display()),
+        false => format!(
+            "poses of {} from {}; it does not name {}, which keep their CameraInfo poses",
+            if set.is_empty() {
+                "no camera".to_string()
+            } else {
+                set.join(", ")
+            },
+            path.display(),
+            unnamed.join(", ")
+        ),
+    }))
 }
 
 /// What to say when several cameras were imported at one pose: files that hold no rig pose
@@ -339,33 +381,46 @@ pub fn export(
         file: dir.to_path_buf(),
         source,
     })?;
+    let cameras: Vec<(String, Camera)> = rig
+        .cameras
+        .iter()
+        .map(|c| (c.name.clone(), c.camera.clone()))
+        .collect();
+    let write = |path: &Path, text: String| {
+        std::fs::write(path, text).map_err(|source| RigError::Write {
+            file: path.to_path_buf(),
+            source,
+        })
+    };
+    let files = export_files(rig, format, dir);
+    match format {
+        ExportFormat::CameraInfo => {
+            for ((name, camera), path) in cameras.iter().zip(&files) {
+                write(path, camera_info::to_yaml(name, camera))?;
+            }
+            write(
+                &dir.join(camera_info::EXTRINSICS_FILE),
+                camera_info::extrinsics_yaml(&cameras),
+            )?;
+        }
+        ExportFormat::Colmap => colmap::write(dir, &cameras, unit)?,
+    }
+    Ok(files)
+}
+
+/// The files [`export`] writes into `dir`, in the order it lists them.
+pub fn export_files(rig: &Rig, format: ExportFormat, dir: &Path) -> Vec<PathBuf> {
     match format {
         ExportFormat::CameraInfo => rig
             .cameras
             .iter()
-            .map(|c| {
-                let path = dir.join(format!("{}.yaml", c.name));
-                std::fs::write(&path, camera_info::to_yaml(&c.name, &c.camera)).map_err(
-                    |source| RigError::Write {
-                        file: path.clone(),
-                        source,
-                    },
-                )?;
-                Ok(path)
-            })
+            .map(|c| dir.join(format!("{}.yaml", c.name)))
+            .chain([dir.join(camera_info::EXTRINSICS_FILE)])
             .collect(),
-        ExportFormat::Colmap => {
-            let cams: Vec<(String, Camera)> = rig
-                .cameras
-                .iter()
-                .map(|c| (c.name.clone(), c.camera.clone()))
-                .collect();
-            colmap::write(dir, &cams, unit)?;
-            Ok(["cameras.txt", "images.txt", "points3D.txt"]
-                .iter()
-                .map(|f| dir.join(f))
-                .collect())
-        }
+        ExportFormat::Colmap => ["cameras.txt", "images.txt", "points3D.txt"]
+            .iter()
+            .map(|f| dir.join(f))
+            .collect(),
     }
 }
 
