@@ -2,7 +2,10 @@
 
 use image::RgbImage;
 use numpy::ndarray::{Array1, Array2, Array3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray3, PyUntypedArrayMethods};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDescrMethods, PyReadonlyArray3,
+    PyUntypedArray, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -42,9 +45,10 @@ pub(crate) fn bgr(channels: &str) -> PyResult<bool> {
 }
 
 /// Images from a list of arrays, one per camera, their channels in the order `channels`
-/// names ([`bgr`]); `what` names them in errors.
+/// names ([`bgr`]); `what` names them in errors. Anything but a `(height, width, 3)` `uint8`
+/// array is a `ValueError` naming the item (`images[1]`), its shape or type, and what to give.
 pub(crate) fn images_from(
-    arrays: Vec<PyReadonlyArray3<'_, u8>>,
+    arrays: Vec<Bound<'_, PyAny>>,
     what: &str,
     channels: &str,
 ) -> PyResult<Vec<RgbImage>> {
@@ -53,7 +57,8 @@ pub(crate) fn images_from(
         .iter()
         .enumerate()
         .map(|(k, a)| {
-            let mut image = image_from(a, &format!("{what}[{k}]"))?;
+            let name = format!("{what}[{k}]");
+            let mut image = image_from(&image_array(a, &name)?, &name)?;
             if swap {
                 for p in image.pixels_mut() {
                     p.0.swap(0, 2);
@@ -62,6 +67,53 @@ pub(crate) fn images_from(
             Ok(image)
         })
         .collect()
+}
+
+/// A shape as NumPy prints it: `(480, 640)`, `(5,)`.
+fn shape_text(shape: &[usize]) -> String {
+    match shape {
+        [n] => format!("({n},)"),
+        _ => format!(
+            "({})",
+            shape
+                .iter()
+                .map(usize::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// `object` as a `(height, width, 3)` `uint8` array, or a `ValueError` saying why not.
+fn image_array<'py>(object: &Bound<'py, PyAny>, what: &str) -> PyResult<PyReadonlyArray3<'py, u8>> {
+    let wanted = "give a NumPy array of shape (height, width, 3), dtype uint8, RGB";
+    let Ok(array) = object.cast::<PyUntypedArray>() else {
+        let kind = object
+            .get_type()
+            .name()
+            .map_or_else(|_| "?".to_string(), |n| n.to_string());
+        return Err(PyValueError::new_err(format!(
+            "{what}: {wanted}; got a {kind}"
+        )));
+    };
+    if array.ndim() != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{what}: {wanted}; got shape {}{}",
+            shape_text(array.shape()),
+            if array.ndim() == 2 {
+                " (a grey image: stack it to three channels)"
+            } else {
+                ""
+            }
+        )));
+    }
+    let dtype = array.dtype();
+    if !dtype.is_equiv_to(&numpy::dtype::<u8>(object.py())) {
+        return Err(PyValueError::new_err(format!(
+            "{what}: {wanted}; got dtype {dtype} (convert with .astype(np.uint8) after scaling to 0–255)"
+        )));
+    }
+    object.extract::<PyReadonlyArray3<'py, u8>>()
 }
 
 /// An RGB image as a `(height, width, 3)` `uint8` array.

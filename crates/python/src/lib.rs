@@ -19,6 +19,7 @@ use pyo3::prelude::*;
 
 mod arrays;
 mod record;
+mod rig;
 mod sim;
 mod tracker;
 mod workflows;
@@ -31,9 +32,9 @@ create_exception!(
      message says what and what to do."
 );
 
-/// `error` as a [`FlexshapeError`], with its causes.
+/// `error` as a [`FlexshapeError`], with its causes, in Python's terms.
 pub(crate) fn fail(error: &dyn std::error::Error) -> PyErr {
-    FlexshapeError::new_err(chain(error))
+    fail_with(chain(error))
 }
 
 /// `error` and its causes as one line, each cause appended where the text before leaves it
@@ -51,9 +52,15 @@ pub(crate) fn chain(error: &dyn std::error::Error) -> String {
     text
 }
 
-/// A [`FlexshapeError`] with `text`.
+/// A [`FlexshapeError`] with `text`, in Python's terms: the library's advice names the
+/// program's options, which are keyword arguments here.
 pub(crate) fn fail_with(text: impl Into<String>) -> PyErr {
-    FlexshapeError::new_err(text.into())
+    FlexshapeError::new_err(python_terms(&text.into()))
+}
+
+/// The program's options that the library's messages name, as this package's arguments.
+fn python_terms(text: &str) -> String {
+    text.replace("--overwrite", "overwrite=True")
 }
 
 /// The module: its classes, functions and error type.
@@ -62,10 +69,13 @@ fn _flexshape(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("FlexshapeError", m.py().get_type::<FlexshapeError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<record::PyRecord>()?;
-    m.add_class::<tracker::PyRig>()?;
+    m.add_class::<rig::PyRig>()?;
+    m.add_class::<rig::PyCamera>()?;
     m.add_class::<tracker::PyTracker>()?;
     m.add_function(wrap_pyfunction!(tracker::track, m)?)?;
     m.add_function(wrap_pyfunction!(tracker::read_records, m)?)?;
+    m.add_function(wrap_pyfunction!(tracker::iter_track, m)?)?;
+    m.add_class::<tracker::PyTrackIter>()?;
     m.add_class::<sim::PySimulator>()?;
     m.add_class::<sim::PyPose>()?;
     m.add_class::<sim::PySimFrame>()?;

@@ -22,6 +22,30 @@ impl PyRecord {
 
 #[pymethods]
 impl PyRecord {
+    /// A record from its JSON (a line of `flexshape track`'s output, or `Record.json()`):
+    /// how records are pickled and sent to other processes.
+    #[new]
+    fn from_json(json: &str) -> PyResult<Self> {
+        let record: TrackRecord = serde_json::from_str(json).map_err(|e| {
+            pyo3::exceptions::PyValueError::new_err(format!("json: not a flexshape record ({e})"))
+        })?;
+        Ok(PyRecord { record })
+    }
+
+    /// Pickling: the record rebuilt from its JSON, whole.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let class = py.get_type::<PyRecord>().into_any();
+        Ok((class, (self.json()?,)))
+    }
+
+    /// Records are equal when their JSON records are (a value JSON cannot hold, a NaN,
+    /// is `null` in both).
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .extract::<PyRef<'_, PyRecord>>()
+            .is_ok_and(|o| matches!((o.json(), self.json()), (Ok(a), Ok(b)) if a == b))
+    }
+
     /// Frame number.
     #[getter]
     fn frame(&self) -> u64 {

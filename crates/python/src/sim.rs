@@ -13,7 +13,7 @@ use pyo3::prelude::*;
 
 use crate::arrays::{image_to, rows_to, to_python, vector_to};
 use crate::fail;
-use crate::tracker::PyRig;
+use crate::rig::PyRig;
 
 /// The simulator's settings from the few a Python user sets (the rest as `flexshape simulate`
 /// defaults them): `cams` cameras of `width` × `height` px (focal length 800 px at 640 px

@@ -3,108 +3,18 @@
 use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 
-use flexshape_rig::Rig;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_track::{CameraTimes, Pipeline, Recent, Recording, TrackRecord};
-use nalgebra::Point3;
-use numpy::{PyArray2, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyBool;
 
-use crate::arrays::{images_from, rows_to};
+use crate::arrays::images_from;
 use crate::record::PyRecord;
+use crate::rig::PyRig;
 use crate::{chain, fail, fail_with};
-
-/// A camera rig: every camera's intrinsics, lens distortion and pose in one world frame, the
-/// carving volume and the processing settings (the `rig.toml` of docs/formats.md).
-#[pyclass(name = "Rig", module = "flexshape", frozen)]
-#[derive(Clone)]
-pub(crate) struct PyRig {
-    pub(crate) rig: Rig,
-}
-
-#[pymethods]
-impl PyRig {
-    /// Opens a rig: a rig TOML file, or a folder of OpenCV camera files (with the default
-    /// volume). Files in such a folder that are not camera files are skipped.
-    #[staticmethod]
-    fn open(path: PathBuf) -> PyResult<Self> {
-        let (rig, _skipped) = Rig::open(&path).map_err(|e| {
-            fail_with(format!(
-                "{} is not a valid rig: {}",
-                path.display(),
-                chain(&e)
-            ))
-        })?;
-        Ok(PyRig { rig })
-    }
-
-    /// The cameras' names, in the rig's order (the order images are given in).
-    #[getter]
-    fn cameras(&self) -> Vec<String> {
-        self.rig.cameras.iter().map(|c| c.name.clone()).collect()
-    }
-
-    /// Each camera's image size, `(width, height)` px, in the rig's order.
-    #[getter]
-    fn image_sizes(&self) -> Vec<(u32, u32)> {
-        self.rig
-            .cameras
-            .iter()
-            .map(|c| (c.camera.intrinsics.width, c.camera.intrinsics.height))
-            .collect()
-    }
-
-    /// Projects world points `(N, 3)` (mm) into camera `camera` (index in the rig's order) with
-    /// its lens distortion: `(N, 2)` pixels, OpenCV's convention (pixel (0, 0) is the centre of
-    /// the top-left pixel); NaN for a point behind the camera.
-    fn project<'py>(
-        &self,
-        py: Python<'py>,
-        camera: usize,
-        points: PyReadonlyArray2<'py, f64>,
-    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let cam = &self
-            .rig
-            .cameras
-            .get(camera)
-            .ok_or_else(|| {
-                PyValueError::new_err(format!(
-                    "camera {camera}: the rig has {} cameras",
-                    self.rig.cameras.len()
-                ))
-            })?
-            .camera;
-        if points.shape()[1] != 3 {
-            return Err(PyValueError::new_err(format!(
-                "points: give an (N, 3) array of world points, mm; got {:?}",
-                points.shape()
-            )));
-        }
-        let pixels: Vec<[f64; 2]> = points
-            .as_array()
-            .rows()
-            .into_iter()
-            .map(|p| match cam.project(&Point3::new(p[0], p[1], p[2])) {
-                Ok(q) => [q.pixel.x, q.pixel.y],
-                Err(_) => [f64::NAN, f64::NAN],
-            })
-            .collect();
-        Ok(rows_to(py, &pixels))
-    }
-
-    /// The rig in a few lines: each camera, where it looks from, and the volume.
-    fn summary(&self) -> String {
-        self.rig.summary()
-    }
-
-    fn __repr__(&self) -> String {
-        let names: Vec<String> = self.cameras().iter().map(|n| format!("'{n}'")).collect();
-        format!("Rig(cameras=[{}])", names.join(", "))
-    }
-}
 
 /// Follows the tube from frame to frame in the images of the lab's own cameras: each frame
 /// starts from the newest right shape (no carving while it follows) and falls back to the
@@ -126,7 +36,7 @@ impl PyTracker {
     #[pyo3(signature = (rig, backgrounds, follow = true, channels = "rgb"))]
     fn new(
         rig: &PyRig,
-        backgrounds: Vec<PyReadonlyArray3<'_, u8>>,
+        backgrounds: Vec<Bound<'_, PyAny>>,
         follow: bool,
         channels: &str,
     ) -> PyResult<Self> {
@@ -162,7 +72,7 @@ impl PyTracker {
     fn process(
         &mut self,
         py: Python<'_>,
-        images: Vec<PyReadonlyArray3<'_, u8>>,
+        images: Vec<Bound<'_, PyAny>>,
         frame: Option<u64>,
         captured_s: Option<f64>,
         camera_captured_s: Option<Vec<f64>>,
@@ -293,6 +203,123 @@ pub(crate) fn track(
         )));
     }
     Ok(records.into_iter().map(PyRecord::new).collect())
+}
+
+/// Tracks a recording folder as `flexshape track REC` does, on `threads` threads, yielding
+/// each record in frame order as soon as it is made (the frames after it are tracked
+/// meanwhile): `for record in flexshape.iter_track("rec"): ...`. Breaking out of the loop (or
+/// `close()`) stops the tracking; a frame that cannot be read ends the iteration with an error
+/// naming it; Ctrl-C raises KeyboardInterrupt.
+#[pyfunction]
+#[pyo3(signature = (recording, threads = 2))]
+pub(crate) fn iter_track(recording: PathBuf, threads: usize) -> PyResult<PyTrackIter> {
+    if threads == 0 {
+        return Err(PyValueError::new_err("threads=0: give 1 or more"));
+    }
+    let mut opened = Recording::open(&recording).map_err(|e| fail(&e))?;
+    let pipeline = opened.pipeline().map_err(|e| fail(&e))?;
+    let stop = Arc::new(AtomicBool::new(false));
+    // A few records ahead at most: the consumer sets the pace.
+    let (sender, records) = std::sync::mpsc::sync_channel(2 * threads);
+    let stopping = stop.clone();
+    let path = recording.clone();
+    let worker = std::thread::Builder::new()
+        .name("flexshape-track".into())
+        .spawn(move || {
+            let end =
+                flexshape_track::run(&mut opened.source, &pipeline, threads, &stopping, |p| {
+                    match sender.send(TrackRecord::from_processed(&p)) {
+                        Ok(()) => ControlFlow::Continue(()),
+                        // The iterator is gone: nobody reads on.
+                        Err(_) => ControlFlow::Break(()),
+                    }
+                });
+            end.input_error.map(|e| {
+                format!(
+                    "{} after {} frames: {}",
+                    path.display(),
+                    end.frames,
+                    chain(&e)
+                )
+            })
+        })
+        .map_err(|e| fail_with(format!("cannot start tracking: {e}")))?;
+    Ok(PyTrackIter {
+        records: Some(Mutex::new(records)),
+        stop,
+        worker: Some(worker),
+    })
+}
+
+/// The records of [`iter_track`], as they come.
+#[pyclass(name = "TrackIter", module = "flexshape")]
+pub(crate) struct PyTrackIter {
+    /// Behind a lock so that waiting for the next one can release the interpreter.
+    records: Option<Mutex<std::sync::mpsc::Receiver<TrackRecord>>>,
+    stop: Arc<AtomicBool>,
+    /// The tracking thread; its answer is why the input broke, if it did.
+    worker: Option<std::thread::JoinHandle<Option<String>>>,
+}
+
+#[pymethods]
+impl PyTrackIter {
+    fn __iter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    fn __next__(&mut self, py: Python<'_>) -> PyResult<Option<PyRecord>> {
+        use std::sync::mpsc::RecvTimeoutError;
+        loop {
+            let Some(records) = &self.records else {
+                return Ok(None);
+            };
+            let got = py.detach(|| match records.lock() {
+                Ok(r) => r.recv_timeout(std::time::Duration::from_millis(100)),
+                Err(_) => Err(RecvTimeoutError::Disconnected),
+            });
+            match got {
+                Ok(record) => return Ok(Some(PyRecord::new(record))),
+                Err(RecvTimeoutError::Timeout) => {
+                    if let Err(e) = py.check_signals() {
+                        self.finish(py);
+                        return Err(e);
+                    }
+                }
+                Err(RecvTimeoutError::Disconnected) => {
+                    return match self.finish(py) {
+                        Some(broke) => Err(fail_with(broke)),
+                        None => Ok(None),
+                    };
+                }
+            }
+        }
+    }
+
+    /// Stops the tracking (the frames in flight are dropped) and waits for it to end.
+    fn close(&mut self, py: Python<'_>) {
+        self.finish(py);
+    }
+}
+
+impl PyTrackIter {
+    /// Stops and joins the tracking thread; why the input broke, if it did.
+    fn finish(&mut self, py: Python<'_>) -> Option<String> {
+        self.stop.store(true, Ordering::Relaxed);
+        // Dropping the receiver lets a tracking thread blocked on a full queue end.
+        self.records = None;
+        let worker = self.worker.take()?;
+        py.detach(|| worker.join().ok().flatten())
+    }
+}
+
+impl Drop for PyTrackIter {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        self.records = None;
+        if let Some(worker) = self.worker.take() {
+            let _ = worker.join();
+        }
+    }
 }
 
 /// The records of a JSON Lines file written by `flexshape track` (or `demo --jsonl`), in

@@ -16,7 +16,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use crate::arrays::to_python;
-use crate::tracker::PyRig;
+use crate::rig::PyRig;
 use crate::{fail, fail_with};
 
 /// A calibrated rig and the reports it rests on (`flexshape calibrate`).

@@ -117,9 +117,43 @@ def test_recordings_track_stop_and_read_back(tmp_path):
     assert pixel.shape == (1, 2) and 0 <= pixel[0, 0] < width and 0 <= pixel[0, 1] < height
     tracker = flexshape.Tracker.from_recording(rec, follow=False)
     assert tracker.follows is False
-    # Not over an existing recording without overwrite=True.
-    with pytest.raises(flexshape.FlexshapeError, match="rec"):
+    # Not over an existing recording without overwrite=True, said in Python's terms.
+    with pytest.raises(flexshape.FlexshapeError, match="rec") as refused:
         flexshape.simulate(rec, frames=1)
+    assert "overwrite=True" in str(refused.value) and "--" not in str(refused.value)
+    # Lazily: each record as it is made, the same as track()'s; leaving the loop stops it.
+    shape = lambda r: (r.frame, r.status, r.centerline.tolist())  # the rest holds timings
+    lazily = []
+    for r in flexshape.iter_track(rec, threads=2):
+        lazily.append(r)
+    assert [shape(r) for r in lazily] == [shape(r) for r in records]
+    it = flexshape.iter_track(rec, threads=2)
+    first = next(it)
+    it.close()
+    assert shape(first) == shape(records[0]) and list(it) == []
+    with pytest.raises(flexshape.FlexshapeError, match="missing"):
+        flexshape.iter_track(tmp_path / "missing")
+    # Records pickle whole (multiprocessing sends them so) and rebuild from their JSON.
+    import pickle
+    assert pickle.loads(pickle.dumps(records[1])) == records[1]
+    assert flexshape.Record(records[2].json()).to_dict() == records[2].to_dict()
+    with pytest.raises(ValueError, match="json"):
+        flexshape.Record("{}")
+    # The rig's cameras as OpenCV has them: by name or index, K, D, R, t.
+    cam = rig["cam1"]
+    assert cam.name == "cam1" and len(rig) == 3 and rig[-2].name == "cam1"
+    assert cam.K.shape == (3, 3) and cam.K[2, 2] == 1 and cam.D.shape == (5,)
+    assert np.allclose(cam.R @ cam.R.T, np.eye(3)) and cam.t.shape == (3,)
+    assert np.allclose(cam.centre, -cam.R.T @ cam.t)
+    # Projecting by hand with K, R, t (no distortion at the image centre's ray) agrees.
+    X = cam.centre + 500.0 * cam.R.T @ np.linalg.inv(cam.K) @ np.array([cam.K[0, 2], cam.K[1, 2], 1.0])
+    assert np.allclose(cam.project(X[None, :]), [[cam.K[0, 2], cam.K[1, 2]]], atol=1e-6)
+    assert np.allclose(cam.project(X[None, :]), rig.project(1, X[None, :]))
+    assert cam.image_size == rig.image_sizes[1]
+    with pytest.raises(KeyError, match="cam0, cam1, cam2"):
+        rig["left"]
+    with pytest.raises(IndexError, match="3 cameras"):
+        rig[3]
 
 
 def test_bad_input_is_a_clear_error(sim, tmp_path):
@@ -132,8 +166,13 @@ def test_bad_input_is_a_clear_error(sim, tmp_path):
         tracker.process(small)
     with pytest.raises(ValueError, match="RGB"):
         tracker.process([np.zeros((480, 640, 4), np.uint8)] * 3)
-    with pytest.raises(TypeError):
-        tracker.process([np.zeros((480, 640), np.uint8)] * 3)
+    # Every wrong array is a ValueError naming it and saying what to give.
+    with pytest.raises(ValueError, match=r"images\[1\].*shape \(480, 640\).*grey"):
+        tracker.process([np.zeros((480, 640, 3), np.uint8), np.zeros((480, 640), np.uint8)] * 1 + [np.zeros((480, 640, 3), np.uint8)])
+    with pytest.raises(ValueError, match=r"images\[0\].*dtype float64.*astype"):
+        tracker.process([np.zeros((480, 640, 3))] * 3)
+    with pytest.raises(ValueError, match=r"backgrounds\[2\].*got a list"):
+        flexshape.Tracker(sim.rig, backgrounds[:2] + [[1, 2, 3]])
     with pytest.raises(flexshape.FlexshapeError, match="missing.toml"):
         flexshape.Rig.open(tmp_path / "missing.toml")
     broken = tmp_path / "broken.jsonl"

@@ -16,8 +16,11 @@ class FlexshapeError(Exception):
     """Bad input (a file, a field, a frame) or a failed computation; the message says what."""
 
 class Record:
-    """One frame's shape and how far to trust it (a `flexshape track` JSON Lines record)."""
+    """One frame's shape and how far to trust it (a `flexshape track` JSON Lines record).
+    Picklable; equal when their JSON records are."""
 
+    def __init__(self, json: str) -> None:
+        """A record from its JSON (a line of `flexshape track`'s output, or `Record.json()`)."""
     @property
     def frame(self) -> int: ...
     @property
@@ -60,7 +63,40 @@ class Rig:
         """(width, height) px per camera."""
     def project(self, camera: int, points: _Points) -> npt.NDArray[np.float64]:
         """(N, 2) pixels of world points (N, 3) mm in camera `camera`; NaN behind it."""
+    def camera(self, key: Union[str, int]) -> "Camera":
+        """A camera by name or index (negative from the end)."""
+    def __getitem__(self, key: Union[str, int]) -> "Camera": ...
+    def __len__(self) -> int: ...
     def summary(self) -> str: ...
+
+class Camera:
+    """One camera as OpenCV has it: x_cam = R·X_world + t (mm); pixels from K and D."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """(width, height) px."""
+    @property
+    def K(self) -> npt.NDArray[np.float64]:
+        """(3, 3) camera matrix, px."""
+    @property
+    def D(self) -> npt.NDArray[np.float64]:
+        """Distortion coefficients in OpenCV's order (k1, k2, p1, p2, k3[, …])."""
+    @property
+    def R(self) -> npt.NDArray[np.float64]:
+        """(3, 3) rotation world → camera."""
+    @property
+    def t(self) -> npt.NDArray[np.float64]:
+        """(3,) translation world → camera, mm."""
+    @property
+    def rvec(self) -> npt.NDArray[np.float64]:
+        """(3,) Rodrigues vector of R, rad (cv2.Rodrigues)."""
+    @property
+    def centre(self) -> npt.NDArray[np.float64]:
+        """(3,) the camera's centre in the world frame, mm."""
+    def project(self, points: _Points) -> npt.NDArray[np.float64]:
+        """(N, 2) pixels of world points (N, 3) mm; NaN behind the camera."""
 
 class Tracker:
     """Follows the tube from frame to frame in images from your own cameras."""
@@ -95,6 +131,15 @@ def track(
     on_record: Optional[Callable[[Record], Optional[bool]]] = None,
 ) -> list[Record]:
     """Tracks a recording folder; `on_record` returning False stops early."""
+
+def iter_track(recording: _Path, threads: int = 2) -> "TrackIter":
+    """Tracks a recording folder, yielding each record as soon as it is made; breaking out
+    of the loop (or `close()`) stops the tracking."""
+
+class TrackIter:
+    def __iter__(self) -> "TrackIter": ...
+    def __next__(self) -> Record: ...
+    def close(self) -> None: ...
 
 def read_records(path: _Path) -> list[Record]:
     """The records of a `flexshape track` JSON Lines file."""
