@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 /// From `from_tip_mm` of arc length from the tip on toward the proximal end, the tube's radius
 /// is `radius_mm` (until the next step).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RadiusStep {
     /// Where the step is: arc length from the tip, mm.

@@ -16,7 +16,7 @@ use crate::tube::Tube;
 use crate::width::WidthProfile;
 
 /// How well the fitted tube explains one camera's image.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct CameraCheck {
     /// The camera's name in the rig.
     pub camera: String,
@@ -150,7 +150,7 @@ pub struct CameraCheck {
 /// Statistics of a camera's outline residuals with each boundary's blur allowed for: the
 /// residual's size less, or plus, what blur adds to its ¼–¾ rise beyond [`STILL_RAMP_PX`]
 /// (at least 0), pixels.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct OutlineResiduals {
     /// Their RMS.
     pub residual_px: f64,

@@ -215,8 +215,9 @@ impl FrameTopics {
             name: "/flexshape/record".into(),
             schema_name: "flexshape.TrackRecord",
             schema_encoding: "jsonschema",
-            schema: r#"{"type":"object","description":"A flexshape JSON Lines record (docs/formats.md)"}"#
-                .into(),
+            // The record's own JSON Schema (docs/record.schema.json's record), which Foxglove
+            // reads to show and plot its fields.
+            schema: serde_json::to_string(&flexshape_track::record_schema()).unwrap_or_default(),
             message_encoding: "json",
             qos: None,
         });

@@ -210,6 +210,20 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
     let object = data[r.at..r.at + n].iter().filter(|&&v| v == 255).count();
     assert!(object > 1000 && object < n / 10, "{object} object pixels");
 
+    // The record channel's schema is the record's JSON Schema; the channel holds the record.
+    let bytes = std::fs::read(&path).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    let record_schema = summary
+        .schemas
+        .values()
+        .find(|s| s.name == "flexshape.TrackRecord")
+        .unwrap();
+    let schema: serde_json::Value = serde_json::from_slice(&record_schema.data).unwrap();
+    assert_eq!(
+        schema,
+        serde_json::to_value(flexshape_track::record_schema()).unwrap()
+    );
+    assert!(schema["properties"]["centerline"].is_object(), "{schema}");
     // The record channel holds the JSON record itself.
     let (_, _, data, _) = &by_topic["/flexshape/record"][2];
     let json: serde_json::Value = serde_json::from_slice(data).unwrap();

@@ -4,7 +4,9 @@
 use serde::{Deserialize, Serialize};
 
 /// The role of a commanded pose in the model experiment (paper, Section V).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum PoseRole {
     /// The relaxed pose (all displacements zero): the origin of the proximal compression.

@@ -95,7 +95,7 @@ pub struct Rig {
 
 /// The `[refined]` table a refined rig carries: which cameras `flexshape rig refine` moved,
 /// and how far the world frame may have moved with them.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Refined {
     /// The cameras whose poses were refined, by name; the others kept their calibrated poses.

@@ -74,7 +74,7 @@ pub(crate) const BOOTSTRAP_ATTEMPTS: usize = 3;
 
 /// A camera whose background took a frame's colours: the backdrop had changed there since the
 /// background was captured.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct BackgroundUpdate {
     /// The camera's name.
     pub camera: String,

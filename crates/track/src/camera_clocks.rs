@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::record::quantile;
 
 /// One camera's clock as a run measured it (rig order in the summary).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct CameraClock {
     /// Frames per second: one over the median time between its consecutive captures (absent
     /// before two frames).

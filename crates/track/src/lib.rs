@@ -35,6 +35,7 @@ mod record;
 mod refine;
 mod refine_report;
 mod runner;
+mod schema;
 mod source;
 mod state;
 mod status;
@@ -67,8 +68,9 @@ pub use refine::{
     refine_cameras, refined_camera_file, sample_frames,
 };
 pub use runner::{Processed, Recent, RunEnd, run};
+pub use schema::{json_lines_schema, record_schema};
 pub use source::{Input, SourceSpec};
-pub use status::RecordStatus;
+pub use status::{RecordStatus, STATUSES};
 
 /// Why a frame (or the pipeline's setup) failed.
 #[derive(Debug, Error)]

@@ -37,7 +37,7 @@ use crate::state::{RunState, Shared, Turn};
 use crate::usual::share;
 
 /// Milliseconds per stage of one frame.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct StageTimings {
     /// All cameras' silhouettes.
     #[serde(serialize_with = "crate::precision::ms")]

@@ -15,7 +15,7 @@ use crate::runner::{Processed, RunEnd};
 use crate::status::RecordStatus;
 
 /// A band on the centerline.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TrackBand {
     /// Centre, world mm.
     #[serde(serialize_with = "crate::precision::point")]
@@ -26,7 +26,7 @@ pub struct TrackBand {
 }
 
 /// The circular-arc fit of the bending section, in world coordinates.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TrackArcFit {
     /// Curvature, 1/mm.
     #[serde(serialize_with = "crate::precision::per_mm")]
@@ -118,7 +118,7 @@ impl ModelFrame {
 }
 
 /// One frame.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TrackRecord {
     /// Frame number.
     pub frame: u64,
@@ -280,7 +280,7 @@ pub struct TrackRecord {
 }
 
 /// A measured axial strain.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TrackCompression {
     /// The section's name.
     pub name: String,
@@ -475,7 +475,7 @@ impl TrackRecord {
 }
 
 /// Median and 95th percentile of one stage's time, ms.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct StageSummary {
     /// Stage name.
     pub stage: String,
@@ -589,7 +589,7 @@ impl Tally {
 }
 
 /// The last line of a run: `{"summary": {…}}`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TrackSummary {
     /// Frames read.
     pub frames: usize,
@@ -658,7 +658,7 @@ fn is_zero<N: Default + PartialEq>(n: &N) -> bool {
 }
 
 /// The summary as its own line.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct SummaryLine {
     /// The summary.
     pub summary: TrackSummary,

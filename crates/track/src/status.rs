@@ -52,6 +52,34 @@ impl RecordStatus {
     }
 }
 
+/// The statuses this version writes, in the order [`RecordStatus`] lists them.
+pub const STATUSES: [&str; 8] = [
+    "ok",
+    "no_object",
+    "ambiguous",
+    "leaves_volume",
+    "inconsistent",
+    "bad_silhouette",
+    "bands_missing",
+    "error",
+];
+
+impl schemars::JsonSchema for RecordStatus {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "RecordStatus".into()
+    }
+
+    /// The documented strings (a reader of a newer writer's file keeps an unknown one as
+    /// written; this version writes only these).
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({
+            "type": "string",
+            "enum": STATUSES,
+            "description": "How the frame came out: `ok` only for a shape that explains every image; otherwise why not (`reason` says more)."
+        })
+    }
+}
+
 impl From<&Status> for RecordStatus {
     fn from(s: &Status) -> Self {
         match s {

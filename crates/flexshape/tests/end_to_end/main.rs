@@ -11,6 +11,7 @@ mod cli;
 mod live;
 mod model_fit;
 mod rig_refine;
+mod schema;
 mod track;
 mod validate;
 mod viewer;
