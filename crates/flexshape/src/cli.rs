@@ -663,6 +663,16 @@ pub struct TrackArgs {
         requires = "mcap"
     )]
     pub mcap_images: Option<ImageFormatArg>,
+    /// The MCAP file's chunk compression: zstd (every MCAP reader reads it; raw images about
+    /// 43 % smaller, compressed on a thread of its own) or none.
+    #[arg(
+        long,
+        value_enum,
+        value_name = "KIND",
+        default_value = "zstd",
+        requires = "mcap"
+    )]
+    pub mcap_compression: CompressionArg,
     #[command(flatten)]
     pub live: LiveArgs,
     /// Replace existing --out, --csv and --mcap files and PLY clouds.
@@ -1002,6 +1012,24 @@ pub struct BackgroundArgs {
 }
 
 /// `--method`: how the centerline is found.
+/// An MCAP file's chunk compression.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CompressionArg {
+    /// zstd.
+    Zstd,
+    /// None.
+    None,
+}
+
+impl From<CompressionArg> for flexshape_mcap::Compression {
+    fn from(c: CompressionArg) -> Self {
+        match c {
+            CompressionArg::Zstd => flexshape_mcap::Compression::Zstd,
+            CompressionArg::None => flexshape_mcap::Compression::None,
+        }
+    }
+}
+
 /// How images go into an MCAP file or a live connection.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ImageFormatArg {

@@ -7,7 +7,7 @@ use std::ops::ControlFlow;
 use std::sync::atomic::AtomicBool;
 
 use flexshape_lab::demo::Demo;
-use flexshape_mcap::{ImageFormat, McapOptions, McapSink};
+use flexshape_mcap::{Compression, ImageFormat, McapOptions, McapSink};
 use flexshape_model::{ManipulatorParams, Model};
 use flexshape_sim::SimConfig;
 use flexshape_track::TrackRecord;
@@ -59,7 +59,7 @@ struct Written {
     _dir: tempfile::TempDir,
 }
 
-fn written(images: ImageFormat) -> Written {
+fn written(images: ImageFormat, compression: Compression) -> Written {
     let model = Model::new(ManipulatorParams::paper_like()).unwrap();
     let demo = Demo::new(SimConfig::default(), model, None, 1).unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -72,6 +72,7 @@ fn written(images: ImageFormat) -> Written {
         .collect();
     let options = McapOptions {
         images,
+        compression,
         overwrite: false,
     };
     let mut sink = McapSink::create(&path, rig, options).unwrap();
@@ -126,7 +127,7 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
         cameras,
         path,
         _dir,
-    } = written(ImageFormat::Raw);
+    } = written(ImageFormat::Raw, Compression::Zstd);
     let expect = [
         ("/flexshape/centerline", "nav_msgs/msg/Path", 3),
         ("/flexshape/tube", "visualization_msgs/msg/MarkerArray", 3),
@@ -219,6 +220,14 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
         .find(|s| s.name == "flexshape.TrackRecord")
         .unwrap();
     let schema: serde_json::Value = serde_json::from_slice(&record_schema.data).unwrap();
+    // Its chunks are zstd, which every MCAP reader reads.
+    assert!(!summary.chunk_indexes.is_empty());
+    assert!(
+        summary
+            .chunk_indexes
+            .iter()
+            .all(|c| c.compression == "zstd")
+    );
     assert_eq!(
         schema,
         serde_json::to_value(flexshape_track::record_schema()).unwrap()
@@ -246,7 +255,15 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
 
 #[test]
 fn compressed_images_decode_to_the_cameras_views() {
-    let w = written(ImageFormat::Jpeg);
+    let w = written(ImageFormat::Jpeg, Compression::None);
+    let bytes = std::fs::read(&w.path).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    assert!(
+        summary
+            .chunk_indexes
+            .iter()
+            .all(|c| c.compression.is_empty())
+    );
     // Images as JPEG, silhouettes as PNG, one each per frame and camera.
     for (name, camera) in &w.cameras {
         let k = &camera.intrinsics;

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use flexshape_input::FrameSource;
 use flexshape_lab::demo::{Demo, DemoFigures};
-use flexshape_mcap::{ImageFormat, McapOptions, McapSink};
+use flexshape_mcap::{Compression, ImageFormat, McapOptions, McapSink};
 use flexshape_model::{ManipulatorParams, Model};
 use flexshape_track::{Processed, Tally, TrackRecord};
 
@@ -119,6 +119,7 @@ fn mcap(args: &DemoArgs, demo: &Demo) -> anyhow::Result<Option<McapSink>> {
     };
     let options = McapOptions {
         images: ImageFormat::Raw,
+        compression: Compression::Zstd,
         overwrite: true,
     };
     Ok(Some(McapSink::create(

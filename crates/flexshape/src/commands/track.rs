@@ -128,6 +128,7 @@ fn open_mcap(args: &TrackArgs, input: &Input) -> anyhow::Result<Option<McapSink>
     };
     let options = McapOptions {
         images: args.mcap_images.map(Into::into).unwrap_or_default(),
+        compression: args.mcap_compression.into(),
         overwrite: args.overwrite,
     };
     Ok(Some(McapSink::create(path, &input.rig, options)?))
