@@ -3,7 +3,6 @@
 //! the MCAP file holds, stamped with the frames' times.
 
 use std::collections::BTreeMap;
-use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
@@ -21,23 +20,6 @@ use tokio_tungstenite::tungstenite::client::IntoClientRequest;
 fn demo() -> Demo {
     let model = Model::new(ManipulatorParams::paper_like()).unwrap();
     Demo::new(SimConfig::default(), model, None, 1).unwrap()
-}
-
-/// Three tracked frames of the demo, with their records.
-fn tracked(demo: &Demo) -> Vec<(TrackRecord, Processed)> {
-    let mut frames = Vec::new();
-    let mut source = demo.on_demand(Some(3), 30.0);
-    flexshape_track::run(
-        &mut source,
-        &demo.pipeline,
-        1,
-        &AtomicBool::new(false),
-        |p| {
-            frames.push((TrackRecord::from_processed(&p), p));
-            ControlFlow::Continue(())
-        },
-    );
-    frames
 }
 
 /// What the client received on one topic: (log time, payload).
@@ -116,7 +98,7 @@ async fn client(
 #[test]
 fn a_foxglove_client_receives_the_tracked_frames_live() {
     let demo = demo();
-    let frames = tracked(&demo);
+    let frames = demo.tracked(3);
     assert!(frames.iter().all(|(r, _)| r.status.as_str() == "ok"));
     let rig = demo.simulator().rig();
     let mut live =

@@ -3,8 +3,6 @@
 //! records' figures (in metres).
 
 use std::collections::BTreeMap;
-use std::ops::ControlFlow;
-use std::sync::atomic::AtomicBool;
 
 use flexshape_lab::demo::Demo;
 use flexshape_mcap::{Compression, ImageFormat, McapOptions, McapSink};
@@ -77,19 +75,10 @@ fn written(images: ImageFormat, compression: Compression) -> Written {
     };
     let mut sink = McapSink::create(&path, rig, options).unwrap();
     let mut records = Vec::new();
-    let mut source = demo.on_demand(Some(3), 30.0);
-    flexshape_track::run(
-        &mut source,
-        &demo.pipeline,
-        1,
-        &AtomicBool::new(false),
-        |p| {
-            let record = TrackRecord::from_processed(&p);
-            sink.write(&record, &p).unwrap();
-            records.push(record);
-            ControlFlow::Continue(())
-        },
-    );
+    for (record, p) in demo.tracked(3) {
+        sink.write(&record, &p).unwrap();
+        records.push(record);
+    }
     sink.finish().unwrap();
     assert_eq!(records.len(), 3);
     assert!(records.iter().all(|r| r.status.as_str() == "ok"));

@@ -287,16 +287,16 @@ fn an_opencv_stereo_calibration_projects_as_opencv_in_every_saved_form() {
     let text = std::fs::read_to_string(dir.join("stereo.yml")).unwrap();
     let cut = tmp.path().join("cut.yml");
     std::fs::write(&cut, text.replace("K2:", "Kx:")).unwrap();
-    let e = import::read(
-        Format::OpencvStereo,
-        &[cut],
-        ImportOptions {
+    let in_mm = |path: PathBuf| {
+        let options = ImportOptions {
             unit: Some(Unit::Millimetre),
             size: None,
-        },
-    )
-    .unwrap_err()
-    .to_string();
+        };
+        import::read(Format::OpencvStereo, &[path], options)
+            .unwrap_err()
+            .to_string()
+    };
+    let e = in_mm(cut);
     assert!(
         e.contains("K2") && e.contains("cameraMatrix2") && e.contains("Kx"),
         "{e}"
@@ -304,16 +304,7 @@ fn an_opencv_stereo_calibration_projects_as_opencv_in_every_saved_form() {
     // Bytes that are not an .npz say so instead of printing them.
     let junk = tmp.path().join("junk.npz");
     std::fs::write(&junk, [0x93, b'N', 0xff, 0x00, 0x12]).unwrap();
-    let e = import::read(
-        Format::OpencvStereo,
-        &[junk],
-        ImportOptions {
-            unit: Some(Unit::Millimetre),
-            size: None,
-        },
-    )
-    .unwrap_err()
-    .to_string();
+    let e = in_mm(junk);
     assert!(
         e.contains("not a NumPy .npz") && !e.contains('\u{fffd}'),
         "{e}"

@@ -3,8 +3,6 @@
 //! record as a `std_msgs/String`, and `/tf_static` latched for a subscriber that joined late.
 
 use std::collections::BTreeMap;
-use std::ops::ControlFlow;
-use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use flexshape_lab::demo::Demo;
@@ -16,23 +14,6 @@ use flexshape_track::{Processed, TrackRecord};
 use rustdds::no_key::DataReader;
 use rustdds::policy::{Durability, History, Reliability};
 use rustdds::{DomainParticipant, QosPolicyBuilder, TopicKind};
-
-/// Three tracked frames of the demo, with their records.
-fn tracked(demo: &Demo) -> Vec<(TrackRecord, Processed)> {
-    let mut frames = Vec::new();
-    let mut source = demo.on_demand(Some(3), 30.0);
-    flexshape_track::run(
-        &mut source,
-        &demo.pipeline,
-        1,
-        &AtomicBool::new(false),
-        |p| {
-            frames.push((TrackRecord::from_processed(&p), p));
-            ControlFlow::Continue(())
-        },
-    );
-    frames
-}
 
 /// A message's header stamp (ns): its first two fields after the encapsulation header.
 fn header_stamp(m: &[u8]) -> u64 {
@@ -52,7 +33,7 @@ fn same_message(m: &[u8], expected: &[u8]) -> bool {
 fn a_ros2_subscriber_receives_the_tracked_frames_live() {
     let model = Model::new(ManipulatorParams::paper_like()).unwrap();
     let demo = Demo::new(SimConfig::default(), model, None, 1).unwrap();
-    let frames = tracked(&demo);
+    let frames = demo.tracked(3);
     assert!(frames.iter().all(|(r, _)| r.status.as_str() == "ok"));
     let rig = demo.simulator().rig();
     // A domain of this process's own, so that parallel runs on one machine do not mix.

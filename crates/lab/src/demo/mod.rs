@@ -35,7 +35,7 @@ use flexshape_input::NewestSource;
 use flexshape_model::{Model, Sweep};
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, Simulator};
-use flexshape_track::{ModelFrame, Pipeline, Processed};
+use flexshape_track::{ModelFrame, Pipeline, Processed, TrackRecord};
 
 pub use errors::{DemoFigures, ShapeErrors};
 pub use flexshape_recording::RightBounds;
@@ -112,6 +112,24 @@ impl Demo {
     /// command of frame `n` the sweep's at `n / fps` seconds.
     pub fn on_demand(&self, frames: Option<u64>, fps: f64) -> OnDemand {
         OnDemand::new(self.rig.clone(), frames, fps)
+    }
+
+    /// The first `frames` frames of the sweep tracked on one thread, each with its record:
+    /// material for what consumes tracked frames (outputs, live carriers) and its tests.
+    pub fn tracked(&self, frames: u64) -> Vec<(TrackRecord, Processed)> {
+        let mut tracked = Vec::new();
+        let mut source = self.on_demand(Some(frames), 30.0);
+        flexshape_track::run(
+            &mut source,
+            &self.pipeline,
+            1,
+            &std::sync::atomic::AtomicBool::new(false),
+            |p| {
+                tracked.push((TrackRecord::from_processed(&p), p));
+                std::ops::ControlFlow::Continue(())
+            },
+        );
+        tracked
     }
 
     /// Live cameras: frames rendered on their own clock at `fps`; tracking takes the newest
