@@ -186,21 +186,16 @@ impl FoxgloveServer {
                 .find(|(topic, _)| *topic == id)
                 .map(|(_, c)| c)
         };
-        let subscribed = |id: TopicId| channel(id).is_some_and(|c| c.has_sinks());
-        if subscribed(TopicId::Transforms)
-            && let Some(c) = channel(TopicId::Transforms)
-        {
+        let subscribed = |id: TopicId| channel(id).filter(|c| c.has_sinks());
+        if let Some(c) = subscribed(TopicId::Transforms) {
             c.log_with_meta(&self.topics.transforms(stamp), meta);
         }
         let mut sent_images = false;
-        let wanted = |id: TopicId| match id {
-            TopicId::Image(_) | TopicId::Silhouette(_) => images_due && subscribed(id),
-            _ => subscribed(id),
-        };
+        let wanted = |id: TopicId| (images_due || !id.is_view()) && subscribed(id).is_some();
         let _ = self.topics.messages(record, p, wanted, |id, data| {
             if let Some(c) = channel(id) {
                 c.log_with_meta(data, meta);
-                sent_images |= matches!(id, TopicId::Image(_) | TopicId::Silhouette(_));
+                sent_images |= id.is_view();
             }
             Ok::<(), std::convert::Infallible>(())
         });

@@ -40,6 +40,14 @@ pub enum TopicId {
     Silhouette(usize),
 }
 
+impl TopicId {
+    /// Whether the topic carries a camera's view (its image or silhouette): what live carriers
+    /// send at a capped rate.
+    pub fn is_view(self) -> bool {
+        matches!(self, TopicId::Image(_) | TopicId::Silhouette(_))
+    }
+}
+
 /// How camera images and silhouettes are carried, if at all.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ImageFormat {
@@ -231,8 +239,10 @@ impl FrameTopics {
             .cameras
             .iter()
             .map(|(name, camera)| {
-                let c = camera.centre();
-                let q = UnitQuaternion::from_rotation_matrix(&camera.pose.rotation.inverse());
+                // TF's transform is the pose's inverse (camera → world).
+                let frame = camera.pose.inverse();
+                let c = frame.translation;
+                let q = UnitQuaternion::from_rotation_matrix(&frame.rotation);
                 Transform {
                     parent: WORLD_FRAME,
                     child: name,

@@ -194,13 +194,8 @@ pub(crate) fn track(
     if let Some(e) = raised {
         return Err(e);
     }
-    if let Some(e) = end.input_error {
-        return Err(fail_with(format!(
-            "{} after {} frames: {}",
-            recording.display(),
-            end.frames,
-            chain(&e)
-        )));
+    if let Some(broke) = input_broke(&recording, end) {
+        return Err(fail_with(broke));
     }
     Ok(records.into_iter().map(PyRecord::new).collect())
 }
@@ -234,14 +229,7 @@ pub(crate) fn iter_track(recording: PathBuf, threads: usize) -> PyResult<PyTrack
                         Err(_) => ControlFlow::Break(()),
                     }
                 });
-            end.input_error.map(|e| {
-                format!(
-                    "{} after {} frames: {}",
-                    path.display(),
-                    end.frames,
-                    chain(&e)
-                )
-            })
+            input_broke(&path, end)
         })
         .map_err(|e| fail_with(format!("cannot start tracking: {e}")))?;
     Ok(PyTrackIter {
@@ -304,22 +292,33 @@ impl PyTrackIter {
 impl PyTrackIter {
     /// Stops and joins the tracking thread; why the input broke, if it did.
     fn finish(&mut self, py: Python<'_>) -> Option<String> {
+        py.detach(|| self.halt())
+    }
+
+    /// Stops and joins the tracking thread (once; later calls say nothing).
+    fn halt(&mut self) -> Option<String> {
         self.stop.store(true, Ordering::Relaxed);
         // Dropping the receiver lets a tracking thread blocked on a full queue end.
         self.records = None;
-        let worker = self.worker.take()?;
-        py.detach(|| worker.join().ok().flatten())
+        self.worker.take()?.join().ok().flatten()
     }
 }
 
 impl Drop for PyTrackIter {
     fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        self.records = None;
-        if let Some(worker) = self.worker.take() {
-            let _ = worker.join();
-        }
+        self.halt();
     }
+}
+
+/// Why a run's input broke, naming the recording and how far it got (`None`: it did not).
+fn input_broke(recording: &std::path::Path, end: flexshape_track::RunEnd) -> Option<String> {
+    let e = end.input_error?;
+    Some(format!(
+        "{} after {} frames: {}",
+        recording.display(),
+        end.frames,
+        chain(&e)
+    ))
 }
 
 /// The records of a JSON Lines file written by `flexshape track` (or `demo --jsonl`), in

@@ -154,7 +154,7 @@ impl Ros2Publisher {
         let stamp = stamp_ns(record);
         if !self.tf_sent {
             let tf = self.topics.transforms(stamp);
-            self.write(TopicId::Transforms, &tf, stamp);
+            self.write(TopicId::Transforms, tf, stamp);
             self.tf_sent = true;
         }
         let images_due = self.images.due();
@@ -168,15 +168,13 @@ impl Ros2Publisher {
                 .collect(),
             false => Vec::new(),
         };
-        let wanted = |id: TopicId| match id {
-            TopicId::Image(_) | TopicId::Silhouette(_) => {
-                images_due
+        let wanted = |id: TopicId| {
+            !id.is_view()
+                || images_due
                     && self
                         .writers
                         .iter()
                         .any(|w| w.id == id && watched.contains(&w.dds_name))
-            }
-            _ => true,
         };
         let mut out: Vec<(TopicId, Vec<u8>)> = Vec::new();
         let _ = self.topics.messages(record, p, wanted, |id, data| {
@@ -187,25 +185,20 @@ impl Ros2Publisher {
             out.push((id, data));
             Ok::<(), std::convert::Infallible>(())
         });
-        if out
-            .iter()
-            .any(|(id, _)| matches!(id, TopicId::Image(_) | TopicId::Silhouette(_)))
-        {
+        if out.iter().any(|(id, _)| id.is_view()) {
             self.images.sent();
         }
         for (id, data) in out {
-            self.write(id, &data, stamp);
+            self.write(id, data, stamp);
         }
     }
 
     /// Writes one message, its source timestamp the frame's.
-    fn write(&mut self, id: TopicId, data: &[u8], stamp_ns: u64) {
+    fn write(&mut self, id: TopicId, data: Vec<u8>, stamp_ns: u64) {
         let Some(w) = self.writers.iter().find(|w| w.id == id) else {
             return;
         };
-        let written = w
-            .writer
-            .write(CdrMessage(data.to_vec()), Some(timestamp(stamp_ns)));
+        let written = w.writer.write(CdrMessage(data), Some(timestamp(stamp_ns)));
         if let Err(e) = written {
             if self.failed_writes == 0 {
                 tracing::warn!("ROS 2: a message on {} was lost: {e}", w.dds_name);

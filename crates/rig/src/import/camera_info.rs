@@ -176,9 +176,11 @@ pub fn extrinsics_yaml(cameras: &[(String, Camera)]) -> String {
          frame_id: world\ncameras:\n",
     );
     for (name, camera) in cameras {
-        // + 0.0 writes a negative zero as 0.
-        let c = camera.centre().map(|v| v / 1e3 + 0.0);
-        let q = UnitQuaternion::from_rotation_matrix(&camera.pose.rotation.inverse());
+        // TF's transform is the pose's inverse: the optical frame placed at the centre and
+        // turned by Rᵀ. `+ 0.0` writes a negative zero as 0.
+        let frame = camera.pose.inverse();
+        let c = frame.translation.map(|v| v / 1e3 + 0.0);
+        let q = UnitQuaternion::from_rotation_matrix(&frame.rotation);
         let q = q.coords.map(|v| v + 0.0);
         s.push_str(&format!(
             "  # ros2 run tf2_ros static_transform_publisher --x {} --y {} --z {} --qx {} --qy {} --qz {} --qw {} --frame-id world --child-frame-id {name}\n  {name}:\n    translation: [{}, {}, {}]\n    rotation: [{}, {}, {}, {}]\n",
@@ -210,19 +212,12 @@ pub fn read_extrinsics(path: &Path) -> Result<BTreeMap<String, Pose>, RigError> 
                 format!("rotation has norm {:.6}: not a unit quaternion", q.norm()),
             ));
         }
-        // The optical frame turned by Rᵀ and placed at C: R = (Rᵀ)ᵀ, t = −R·C.
-        let rotation = UnitQuaternion::from_quaternion(q)
-            .to_rotation_matrix()
-            .inverse();
-        let centre = Vector3::from(e.translation) * 1e3;
-        let translation = -(rotation * centre);
-        poses.insert(
-            name,
-            Pose {
-                rotation,
-                translation,
-            },
-        );
+        // The optical frame in the world (TF's transform) is the pose's inverse.
+        let frame = Pose {
+            rotation: UnitQuaternion::from_quaternion(q).to_rotation_matrix(),
+            translation: Vector3::from(e.translation) * 1e3,
+        };
+        poses.insert(name, frame.inverse());
     }
     Ok(poses)
 }

@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
 
-use flexshape_camera::nalgebra::{Matrix3, Rotation3, Vector3};
+use flexshape_camera::nalgebra::{Matrix3, Vector3};
 use flexshape_camera::{Camera, Distortion, Intrinsics, Pose};
 use serde::Deserialize;
 
@@ -137,13 +137,6 @@ pub fn read(
         finite(path, "R", *v)?;
     }
     let r = Matrix3::from_row_slice(&r);
-    if (r.transpose() * r - Matrix3::identity()).amax() > 1e-6 || r.determinant() < 0.0 {
-        return Err(RigError::field(
-            path,
-            "R",
-            "not a rotation (RᵀR ≠ I or det R < 0)",
-        ));
-    }
     let (_, (rows, cols, t)) = field(&["T"])?;
     if rows * cols != 3 {
         return Err(RigError::field(
@@ -160,10 +153,8 @@ pub fn read(
         "cam0 is the calibration's first camera and the world frame (origin and axes); cam1 sits {:.1} mm from it",
         t.norm()
     ));
-    let pose = Pose {
-        rotation: Rotation3::from_matrix_unchecked(r),
-        translation: t,
-    };
+    // The camera files' own test of a rotation (orthonormal within 1e-6, determinant +1).
+    let pose = Pose::from_matrix(&r, t).map_err(|e| camera_error(path, "R", e))?;
     Ok((
         vec![
             Imported {
