@@ -44,6 +44,24 @@ const MIN_CAP_FOUND: usize = 3;
 /// at the start of the first cannot pass both.
 pub(crate) const GOES_ON_STRETCHES_MM: [(f64, f64); 2] = [(4.0, 9.0), (9.0, 14.0)];
 
+/// How far off an end's tangent [`TubeFitter::goes_on`] also looks for the tube going on,
+/// radians (25°): a tube bending with a radius of 25 mm turns its chord over the goes-on
+/// stretches by about that much. A fit capped where the tube bends (its silhouettes lost the
+/// rest) saw nothing straight on, and a tip 35 mm short passed as `ok`.
+const BEND_PROBE_RAD: f64 = 25.0 * std::f64::consts::PI / 180.0;
+
+/// The four directions [`BEND_PROBE_RAD`] off the unit vector `dir`, in two planes through it
+/// at right angles.
+fn bent_off(dir: nalgebra::Vector3<f64>) -> [nalgebra::Vector3<f64>; 4] {
+    let across = dir
+        .cross(&nalgebra::Vector3::z())
+        .try_normalize(1e-6)
+        .unwrap_or_else(|| dir.cross(&nalgebra::Vector3::x()).normalize());
+    let other = dir.cross(&across);
+    let (c, s) = (BEND_PROBE_RAD.cos(), BEND_PROBE_RAD.sin());
+    [across, -across, other, -other].map(|n| dir * c + n * s)
+}
+
 /// Shortest stretch of tube along two cameras' epipolar plane that a refusal names, mm: over
 /// shorter ones the curve's smoothness bridges the depth the cameras leave open (the drawn-mask
 /// frames refused for it ran along the plane for 30–50 mm).
@@ -144,9 +162,10 @@ impl TubeFitter {
     }
 
     /// Per capped end of `tube` (proximal end, tip): whether `img` (camera `cam`'s) shows the
-    /// tube going on straight beyond it ([`TubeFitter::shows_tube`] along each of
-    /// [`GOES_ON_STRETCHES_MM`]) — a tube whose silhouette was lost there (too little contrast
-    /// against the backdrop) and that the fit capped short. Beyond a real end the profile is
+    /// tube going on beyond it, straight on or bending off by [`BEND_PROBE_RAD`]
+    /// ([`TubeFitter::shows_tube`] along each of [`GOES_ON_STRETCHES_MM`]) — a tube whose
+    /// silhouette was lost there (too little contrast against the backdrop) and that the fit
+    /// capped short. Beyond a real end the profile is
     /// the backdrop's, or whatever lies there at another width.
     pub(crate) fn goes_on(
         &self,
@@ -162,15 +181,18 @@ impl TubeFitter {
             let (at, tangent) = tube.frame(end as f64);
             let dir = if end == 0 { -tangent } else { tangent };
             let r = tube.radius_at(end as f64, tube.length());
-            out[end] = GOES_ON_STRETCHES_MM.iter().all(|&(from, to)| {
-                self.shows_tube(
-                    cam,
-                    (img, own),
-                    at + dir * (r + from),
-                    at + dir * (r + to),
-                    r,
-                )
-            });
+            let along = |dir: nalgebra::Vector3<f64>| {
+                GOES_ON_STRETCHES_MM.iter().all(|&(from, to)| {
+                    self.shows_tube(
+                        cam,
+                        (img, own),
+                        at + dir * (r + from),
+                        at + dir * (r + to),
+                        r,
+                    )
+                })
+            };
+            out[end] = along(dir) || bent_off(dir).iter().any(|&d| along(d));
         }
         out
     }
@@ -586,7 +608,7 @@ fn goes_on(cameras: &[CameraCheck]) -> Option<String> {
             .collect();
         let which = if end == 1 { "tip" } else { "proximal end" };
         (seen.len() >= 2).then(|| format!(
-            "cameras {}: the tube goes on beyond its {which}: the images show it 4–14 mm straight on from where the fit capped it; the silhouettes lost the rest (too little contrast between the tube and the backdrop?)",
+            "cameras {}: the tube goes on beyond its {which}: the images show it 4–14 mm on from where the fit capped it; the silhouettes lost the rest (too little contrast between the tube and the backdrop?)",
             seen.join(", ")
         ))
     })
