@@ -246,6 +246,81 @@ impl Classifier {
     }
 }
 
+/// The squared chromaticity distortion the frame's noise alone exceeds in one pixel of the
+/// backdrop in twenty, read from a sparse sample of `area` (every 4th row, every 8th column):
+/// with noise of equal spread across the chromaticity's two directions, `CD²` is exponential,
+/// its lower quartile `0.575 s²` and its 95th percentile `6 s²`. The lower quartile holds
+/// while up to half of the sample is object (a tracker's area around the tube).
+fn chroma_noise2(
+    area: &impl Area,
+    w: usize,
+    h: usize,
+    cd2_at: &impl Fn(usize, usize) -> f32,
+) -> f32 {
+    let mut sample: Vec<f32> = area
+        .rows(h)
+        .step_by(4)
+        .flat_map(|y| area.columns(y, w).step_by(8).map(move |x| (x, y)))
+        .map(|(x, y)| cd2_at(x, y))
+        .collect();
+    if sample.len() < 16 {
+        return 0.0;
+    }
+    let q = sample.len() / 4;
+    let (_, lower_quartile, _) = sample.select_nth_unstable_by(q, f32::total_cmp);
+    *lower_quartile * (6.0 / 0.575)
+}
+
+/// How far from the plain backdrop a loose pixel may lie and still be followed along a thin
+/// tube, px: every pixel of a tube up to 6 px wide in focus is within 3 px of the backdrop
+/// (its boundary pixels mix the two over one pixel); a soft shadow's darkest core lies
+/// inside its penumbra, farther from it.
+const THIN_REACH: usize = 3;
+
+/// Follows the object from `out` (updated in place), 8-connected, through loose pixels that
+/// are `tinted` (off the backdrop's chromaticity beyond the noise) and lie within
+/// [`THIN_REACH`] of the plain backdrop (neither loose, shadow-like nor strict). A tube 3–4 px
+/// wide covers no pixel wholly: a grey one reaches the strict test nowhere along most of its
+/// length (half covered, it is as dark as a shadow), and its strict specks left the
+/// silhouette in pieces that carved two objects. A shadow keeps the backdrop's chromaticity,
+/// and a soft one's darkest core lies inside its penumbra: neither is followed.
+fn along_thin_tube(
+    out: &mut BitMask,
+    weak: &BitMask,
+    shady: &BitMask,
+    strong: &BitMask,
+    tinted: impl Fn(usize, usize) -> bool,
+) {
+    let (w, h) = (out.width(), out.height());
+    let plain = |x: usize, y: usize| !weak.get(x, y) && !shady.get(x, y) && !strong.get(x, y);
+    let near_plain = |x: usize, y: usize| {
+        (y.saturating_sub(THIN_REACH)..=(y + THIN_REACH).min(h - 1)).any(|yy| {
+            (x.saturating_sub(THIN_REACH)..=(x + THIN_REACH).min(w - 1)).any(|xx| plain(xx, yy))
+        })
+    };
+    let mut seen = out.clone();
+    let mut stack = Vec::new();
+    let edge = weak.and(&out.dilate(1)).and_not(out);
+    for_each_set(&edge, |x, y| {
+        seen.set(x, y, true);
+        stack.push((x, y));
+    });
+    while let Some((x, y)) = stack.pop() {
+        if !tinted(x, y) || !near_plain(x, y) {
+            continue;
+        }
+        out.set(x, y, true);
+        for yy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+            for xx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
+                if weak.get(xx, yy) && !seen.get(xx, yy) {
+                    seen.set(xx, yy, true);
+                    stack.push((xx, yy));
+                }
+            }
+        }
+    }
+}
+
 /// How many pixels deep the object's own colours are followed from its strict pixels (a
 /// highlight is a stripe a few pixels wide).
 const OWN_COLOUR_STEPS: usize = 4;
@@ -270,12 +345,14 @@ enum Kind {
     /// Foreground iff some channel differs from `bg[i]` by more than `margin[i]`.
     Difference { bg: Vec<[f32; 3]>, margin: Vec<f32> },
     /// Per pixel, each in its own plane (a block of pixels is read as whole vectors):
-    /// background colour channel by channel, `1 / E·E`, and the strict and loose squared
-    /// chromaticity thresholds.
+    /// background colour channel by channel, `1 / E·E`, the strict and loose squared
+    /// chromaticity thresholds, and the squared chromaticity distortion the noise alone gives
+    /// one pixel in twenty, `(2σ / ‖E‖)²`.
     Colour {
         bg: [Vec<f32>; 3],
         inv_e2: Vec<f32>,
         cd2: [Vec<f32>; 2],
+        noise_cd2: Vec<f32>,
         dark: f32,
         dark_weak: f32,
         bright: f32,
@@ -342,6 +419,7 @@ impl Prepared {
                 let mut bg: [Vec<f32>; 3] = std::array::from_fn(|_| Vec::with_capacity(n));
                 let mut inv_e2 = Vec::with_capacity(n);
                 let mut cd2: [Vec<f32>; 2] = std::array::from_fn(|_| Vec::with_capacity(n));
+                let mut noise_cd2 = Vec::with_capacity(n);
                 for (i, tol) in tolerance.iter_mut().enumerate() {
                     let e = model.mean(i);
                     let e2 = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).max(1.0);
@@ -359,11 +437,13 @@ impl Prepared {
                     inv_e2.push(1.0 / e2);
                     cd2[0].push(s * s);
                     cd2[1].push(w * w);
+                    noise_cd2.push((2.0 * model.spread(i)).powi(2) / e2);
                 }
                 Kind::Colour {
                     bg,
                     inv_e2,
                     cd2,
+                    noise_cd2,
                     dark,
                     dark_weak,
                     bright,
@@ -476,6 +556,7 @@ impl Prepared {
             bg,
             inv_e2,
             cd2,
+            noise_cd2,
             edge,
             ..
         } = &self.kind
@@ -562,6 +643,24 @@ impl Prepared {
             }
             ring = weak.and(&joined.dilate(1)).and_not(&out);
         }
+        // Off the backdrop's chromaticity beyond its noise, one pixel of the backdrop in
+        // twenty: a shadow keeps the chromaticity, and the few of its pixels the noise lifts
+        // past this do not join up; a grey tube half covering a pixel of green cloth is 4–6
+        // noise spreads off it. The noise is the larger of the background model's and the
+        // frame's own (a model from one frame knows only a default spread).
+        let cd2_at = |x: usize, y: usize| {
+            let k = y * w + x;
+            let i = colour(x, y);
+            let alpha = (i[0] * bg[0][k] + i[1] * bg[1][k] + i[2] * bg[2][k]) * inv_e2[k];
+            (i[0] * i[0] + i[1] * i[1] + i[2] * i[2]) * inv_e2[k] - alpha * alpha
+        };
+        let seen_noise = std::cell::OnceCell::new();
+        let tinted = |x: usize, y: usize| {
+            let seen = *seen_noise.get_or_init(|| chroma_noise2(region, w, h, &cd2_at));
+            cd2_at(x, y) > noise_cd2[y * w + x].max(seen)
+        };
+        let judged = weak.and(&beside).and_not(&out);
+        along_thin_tube(&mut out, &weak.and_not(&judged), &shady, &strong, tinted);
         if *edge > 0.0 {
             let alpha = |x: usize, y: usize| {
                 let i = y * w + x;

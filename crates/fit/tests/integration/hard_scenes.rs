@@ -176,12 +176,14 @@ fn a_tube_on_a_backdrop_of_its_hue_is_placed_by_its_outline() {
     // pixels of the tube's hue at the cloth's brightness beside its strict ones, 4 frames
     // still need a camera's silhouette completed (IoU 0.71–0.73, then 0.97–0.98). Since an
     // end the images show going on is lengthened along them (a proximal shaft one camera's
-    // silhouette lost stopped the hull short), 23 of 24 are ok, 6 completed.
+    // silhouette lost stopped the hull short), 23 of 24 are ok, 6 completed. Since the
+    // silhouettes follow the tube along its loose pixels tinted beyond the noise, none needs
+    // completing (IoU 0.78–0.98), still 23 of 24 `ok`; `check`'s unit tests hold the
+    // completion to its definition.
     assert!(
         ok >= 22 && refused <= 2,
         "{ok} ok, {refused} right but refused"
     );
-    assert!(completed >= 3, "{completed}");
 
     let chain = Chain::with_camera_turned(scene(1), 1, 0.2);
     let sim = &chain.sim;
@@ -306,6 +308,59 @@ fn a_tube_over_a_chessboard_is_held_to_each_boundarys_own_scatter() {
     let chain = Chain::with_camera_turned(scene(1), 1, 0.2);
     let sim = &chain.sim;
     for (n, pose) in sim.sweep(6).iter().enumerate() {
+        let b = chain.run(sim.render(n as u64, pose).unwrap());
+        println!("turned camera, frame {n}: {:?}", b.fitted.status);
+        assert_ne!(b.fitted.status, Status::Ok, "frame {n}");
+    }
+}
+
+/// A thin silvery tube (1.2 mm radius, 3–4 px wide at 640×480; grey 0.35 with a strong
+/// highlight) on the green cloth, three cameras. No pixel of it is wholly covered: half
+/// covered, it is as dark as a shadow and reaches the strict test only in specks, so the
+/// silhouettes followed it only as far as the specks did (IoU 0.45–0.75) and carved two
+/// objects; and its boundaries, projected on the colour read inside (its highlight or its far
+/// rim), were read up to half a pixel off. Followed along its loose pixels near the backdrop,
+/// and unmixed by hue (grey keeps its hue in its highlight): measured 12 of 12 `ok`
+/// (0.027–0.040 mm RMS, tips ≤ 0.12 mm); before, 0 of 30 tracked frames were `ok`, half
+/// without a shape. A camera turned by 0.2° is still refused on every frame.
+#[test]
+fn a_thin_silvery_tube_is_followed_whole_and_read_through_its_highlight() {
+    let scene = |seed: u64| SimConfig {
+        catheter: flexshape_sim::Catheter {
+            radius: 1.2,
+            albedo: [0.35, 0.35, 0.35],
+            gloss: flexshape_sim::Gloss {
+                strength: 0.9,
+                shininess: 20.0,
+            },
+            ..Default::default()
+        },
+        seed,
+        ..SimConfig::default()
+    };
+    let mut tally = Tally::default();
+    for seed in [1, 2, 3] {
+        let chain = Chain::new(scene(seed));
+        let sim = &chain.sim;
+        for (n, pose) in sim.sweep(4).iter().enumerate() {
+            let b = chain.run(sim.render(n as u64, pose).unwrap());
+            let (rms, tip) = b.fitted_errors(sim);
+            let right = rms <= 0.15 && tip <= 0.3;
+            let which = format!("seed {seed} frame {n}: rms {rms:.3} mm, tip {tip:.2} mm");
+            println!("{which}: {:?}", b.fitted.status);
+            tally.add(&b.fitted.status, right, &which);
+        }
+    }
+    let Tally { ok, right_refused } = tally;
+    println!("{ok} of 12 ok, {right_refused} right but refused");
+    assert!(
+        ok >= 11 && right_refused <= 1,
+        "{ok} ok, {right_refused} right but refused"
+    );
+
+    let chain = Chain::with_camera_turned(scene(1), 1, 0.2);
+    let sim = &chain.sim;
+    for (n, pose) in sim.sweep(4).iter().enumerate() {
         let b = chain.run(sim.render(n as u64, pose).unwrap());
         println!("turned camera, frame {n}: {:?}", b.fitted.status);
         assert_ne!(b.fitted.status, Status::Ok, "frame {n}");

@@ -38,12 +38,14 @@ fn a_grey_tube_on_white_paper_is_not_a_shadow() {
     let (ok, _) = run(&sim, &pipeline, &poses);
     let (ok_without, _) = run(&sim, &without, &poses);
     println!("{ok} of 10 ok ({ok_without} without the outline test)");
-    // Measured: 8 and 3 (all right: the shadow carved no second object there). A frame
+    // Measured: 8 and 6 (all right: the shadow carved no second object there). A frame
     // whose silhouettes lost the paper-grey tube's proximal part, fitted with a cap 2.2 mm
     // RMS off the truth, was `ok` without the outline test until the check looked beyond the
     // cap (`goes_on`); since the fit is lengthened along what the images show there, it is
-    // `ok` and right (the third).
-    assert!(ok >= 7 && ok_without <= 3, "{ok} / {ok_without}");
+    // `ok` and right. Without the outline test 3 were `ok` until the silhouettes followed the
+    // tube along its loose pixels tinted beyond the noise (the lamp's shadow keeps the
+    // paper's chromaticity; the shaded tube does not, by a little).
+    assert!(ok >= 7 && ok_without < ok, "{ok} / {ok_without}");
 }
 
 /// A silvery tube (grey, with a strong sharp highlight where it reflects the lamp) over the
