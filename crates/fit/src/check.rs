@@ -167,13 +167,21 @@ pub struct OutlineResiduals {
 /// The samples of each end's cap outline (proximal end, tip) in `measured` where a boundary
 /// was found.
 pub(crate) fn cap_found(measured: &[Measured]) -> [usize; 2] {
-    let mut found = [0; 2];
-    for m in measured.iter().filter(|m| m.residual.is_some()) {
+    cap_samples(measured).map(|(found, _)| found)
+}
+
+/// Per end (proximal end, tip), the samples of its cap outline in `measured` where a
+/// boundary was found, and all of them.
+pub(crate) fn cap_samples(measured: &[Measured]) -> [(usize, usize); 2] {
+    let mut out = [(0, 0); 2];
+    for m in measured {
         if let crate::outline::Part::Cap(end) = m.point.part {
-            found[end.min(1)] += 1;
+            let e = &mut out[end.min(1)];
+            e.0 += usize::from(m.residual.is_some());
+            e.1 += 1;
         }
     }
-    found
+    out
 }
 
 /// Residual statistics of one camera's measured outline: samples, found, RMS and mean, each

@@ -494,7 +494,7 @@ impl TubeFitter {
                     end_residual_px: ends.rms,
                     end_noise_px: ends.noise.0,
                     cap_found: check::cap_found(m),
-                    goes_on: self.goes_on(cam, img, tube, &rendered.0),
+                    goes_on: self.goes_on(cam, img, tube, &rendered.0, check::cap_samples(m)),
                     // A mask's object is white on black: no colour to speak of.
                     lighter_share: if s.masks { 0.0 } else { res.lighter },
                     // (From +0: a negated zero would be written "-0.0".)

@@ -162,10 +162,12 @@ impl TubeFitter {
     }
 
     /// Per capped end of `tube` (proximal end, tip): whether `img` (camera `cam`'s) shows the
-    /// tube going on beyond it, straight on or bending off by [`BEND_PROBE_RAD`]
-    /// ([`TubeFitter::shows_tube`] along each of [`GOES_ON_STRETCHES_MM`]) — a tube whose
-    /// silhouette was lost there (too little contrast against the backdrop) and that the fit
-    /// capped short. Beyond a real end the profile is
+    /// tube going on beyond it ([`TubeFitter::shows_tube`] along each of
+    /// [`GOES_ON_STRETCHES_MM`]) — a tube whose silhouette was lost there (too little contrast
+    /// against the backdrop) and that the fit capped short. Straight on, and, where some of
+    /// the end's cap samples found no boundary (`caps`: found and all, per end), bending off
+    /// by [`BEND_PROBE_RAD`]: a tube going on at an angle crosses the search lines of the cap
+    /// samples facing it, which then meet no backdrop; a cap found all round shows none. Beyond a real end the profile is
     /// the backdrop's, or whatever lies there at another width.
     pub(crate) fn goes_on(
         &self,
@@ -173,6 +175,7 @@ impl TubeFitter {
         img: &EdgeImage<'_>,
         tube: &Tube,
         own: &BitMask,
+        caps: [(usize, usize); 2],
     ) -> [bool; 2] {
         let mut out = [false; 2];
         for end in [0, 1].into_iter().filter(|&e| tube.capped[e]) {
@@ -192,7 +195,8 @@ impl TubeFitter {
                     )
                 })
             };
-            out[end] = along(dir) || bent_off(dir).iter().any(|&d| along(d));
+            let (found, all) = caps[end];
+            out[end] = along(dir) || (found < all && bent_off(dir).iter().any(|&d| along(d)));
         }
         out
     }
