@@ -20,7 +20,11 @@
 //!   contrast whatever the surface colour. A loose pixel whose colour is the object's own —
 //!   off the backdrop's chromaticity, and off the line from `E` to `S` (no mix of the two) or
 //!   of `S`'s chromaticity — joins too, a few pixels deep: a silvery tube's colourless
-//!   highlight on green, a grey tube's lit side. A grey or silvery object on a white backdrop is
+//!   highlight on green, a grey tube's lit side. A tube too thin for any pixel to be wholly
+//!   covered (3–4 px) reaches the strict test only in specks; the object is followed from them
+//!   along loose pixels that are off the backdrop's chromaticity beyond the noise and lie
+//!   within a few pixels of the plain backdrop — a shadow keeps the chromaticity, and a soft
+//!   one's darkest core lies inside its penumbra. A grey or silvery object on a white backdrop is
 //!   shadow-like all over; what tells it from a shadow is its edge: a shadow cast from across
 //!   the room fades in over its penumbra, an object in focus is whole within a pixel or two. So
 //!   a connected region of shadow-like pixels (`α < shade`) whose outline reaches its own
@@ -583,6 +587,13 @@ impl Prepared {
         // by that test alone: a mix judged against a mixed neighbour would creep outward a
         // pixel a step. A step's joins are set after it, so all its pixels are judged against
         // the same neighbours (`own` is `strong` until a pixel joins so).
+        // Squared chromaticity distortion against the backdrop, over ‖E‖².
+        let cd2_at = |x: usize, y: usize| {
+            let k = y * w + x;
+            let i = colour(x, y);
+            let alpha = (i[0] * bg[0][k] + i[1] * bg[1][k] + i[2] * bg[2][k]) * inv_e2[k];
+            (i[0] * i[0] + i[1] * i[1] + i[2] * i[2]) * inv_e2[k] - alpha * alpha
+        };
         let mut out = strong.clone();
         let mut own: Option<BitMask> = None;
         let mut ring = weak.and(&beside).and_not(&strong);
@@ -611,8 +622,7 @@ impl Prepared {
                 let c = (f[0] * d[0] + f[1] * d[1] + f[2] * d[2]) / dd.max(1e-6);
                 // Squared chromaticity distortion against the backdrop, and the squared
                 // distance from the mixing line, both over ‖E‖².
-                let alpha = (i[0] * e[0] + i[1] * e[1] + i[2] * e[2]) * inv_e2[k];
-                let chroma = (i[0] * i[0] + i[1] * i[1] + i[2] * i[2]) * inv_e2[k] - alpha * alpha;
+                let chroma = cd2_at(x, y);
                 let r: [f32; 3] = std::array::from_fn(|m| f[m] - c * d[m]);
                 let off = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) * inv_e2[k];
                 // Squared distance from the neighbours' chromaticity (their colour at any
@@ -648,12 +658,6 @@ impl Prepared {
         // past this do not join up; a grey tube half covering a pixel of green cloth is 4–6
         // noise spreads off it. The noise is the larger of the background model's and the
         // frame's own (a model from one frame knows only a default spread).
-        let cd2_at = |x: usize, y: usize| {
-            let k = y * w + x;
-            let i = colour(x, y);
-            let alpha = (i[0] * bg[0][k] + i[1] * bg[1][k] + i[2] * bg[2][k]) * inv_e2[k];
-            (i[0] * i[0] + i[1] * i[1] + i[2] * i[2]) * inv_e2[k] - alpha * alpha
-        };
         let seen_noise = std::cell::OnceCell::new();
         let tinted = |x: usize, y: usize| {
             let seen = *seen_noise.get_or_init(|| chroma_noise2(region, w, h, &cd2_at));
