@@ -164,12 +164,6 @@ pub struct OutlineResiduals {
     pub outlying_share: f64,
 }
 
-/// The samples of each end's cap outline (proximal end, tip) in `measured` where a boundary
-/// was found.
-pub(crate) fn cap_found(measured: &[Measured]) -> [usize; 2] {
-    cap_samples(measured).map(|(found, _)| found)
-}
-
 /// Per end (proximal end, tip), the samples of its cap outline in `measured` where a
 /// boundary was found, and all of them.
 pub(crate) fn cap_samples(measured: &[Measured]) -> [(usize, usize); 2] {

@@ -459,6 +459,7 @@ impl TubeFitter {
                 let scatter = check::Scatter::of(m);
                 let res = check::residual_stats(m, &scatter, s.max_p90_px, 1.0);
                 let ends = check::end_stats(m, tube, length, &scatter, s.max_p90_px);
+                let caps = check::cap_samples(m);
                 let widths = if s.free_width() {
                     WidthProfile::of(m)
                 } else {
@@ -493,8 +494,8 @@ impl TubeFitter {
                     end_unseen: ends.unseen,
                     end_residual_px: ends.rms,
                     end_noise_px: ends.noise.0,
-                    cap_found: check::cap_found(m),
-                    goes_on: self.goes_on(cam, img, tube, &rendered.0, check::cap_samples(m)),
+                    cap_found: caps.map(|(found, _)| found),
+                    goes_on: self.goes_on(cam, img, tube, &rendered.0, caps),
                     // A mask's object is white on black: no colour to speak of.
                     lighter_share: if s.masks { 0.0 } else { res.lighter },
                     // (From +0: a negated zero would be written "-0.0".)

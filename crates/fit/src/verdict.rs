@@ -167,8 +167,9 @@ impl TubeFitter {
     /// against the backdrop) and that the fit capped short. Straight on, and, where some of
     /// the end's cap samples found no boundary (`caps`: found and all, per end), bending off
     /// by [`BEND_PROBE_RAD`]: a tube going on at an angle crosses the search lines of the cap
-    /// samples facing it, which then meet no backdrop; a cap found all round shows none. Beyond a real end the profile is
-    /// the backdrop's, or whatever lies there at another width.
+    /// samples facing it, which then meet no backdrop; a cap found all round shows none.
+    /// Beyond a real end the profile is the backdrop's, or whatever lies there at another
+    /// width.
     pub(crate) fn goes_on(
         &self,
         cam: &Camera,

@@ -587,12 +587,17 @@ impl Prepared {
         // by that test alone: a mix judged against a mixed neighbour would creep outward a
         // pixel a step. A step's joins are set after it, so all its pixels are judged against
         // the same neighbours (`own` is `strong` until a pixel joins so).
-        // Squared chromaticity distortion against the backdrop, over ‖E‖².
-        let cd2_at = |x: usize, y: usize| {
+        // Brightness distortion `α = I·E / E·E`, and the squared chromaticity distortion
+        // against the backdrop over ‖E‖².
+        let alpha = |x: usize, y: usize| {
             let k = y * w + x;
+            let (p, e) = (colour(x, y), bg.each_ref().map(|plane| plane[k]));
+            (p[0] * e[0] + p[1] * e[1] + p[2] * e[2]) * inv_e2[k]
+        };
+        let cd2_at = |x: usize, y: usize| {
             let i = colour(x, y);
-            let alpha = (i[0] * bg[0][k] + i[1] * bg[1][k] + i[2] * bg[2][k]) * inv_e2[k];
-            (i[0] * i[0] + i[1] * i[1] + i[2] * i[2]) * inv_e2[k] - alpha * alpha
+            let a = alpha(x, y);
+            (i[0] * i[0] + i[1] * i[1] + i[2] * i[2]) * inv_e2[y * w + x] - a * a
         };
         let mut out = strong.clone();
         let mut own: Option<BitMask> = None;
@@ -666,11 +671,6 @@ impl Prepared {
         let judged = weak.and(&beside).and_not(&out);
         along_thin_tube(&mut out, &weak.and_not(&judged), &shady, &strong, tinted);
         if *edge > 0.0 {
-            let alpha = |x: usize, y: usize| {
-                let i = y * w + x;
-                let (p, e) = (colour(x, y), bg.each_ref().map(|plane| plane[i]));
-                (p[0] * e[0] + p[1] * e[1] + p[2] * e[2]) * inv_e2[i]
-            };
             // Pixels beside the strict foreground are its outline, which the ring above
             // decided; what is left are regions of their own.
             let apart = shady.and_not(&beside);
