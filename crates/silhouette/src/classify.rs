@@ -281,22 +281,24 @@ fn chroma_noise2(
 /// inside its penumbra, farther from it.
 const THIN_REACH: usize = 3;
 
-/// Follows the object from `out` (updated in place), 8-connected, through loose pixels that
-/// are `tinted` (off the backdrop's chromaticity beyond the noise) and lie within
-/// [`THIN_REACH`] of the plain backdrop (neither loose, shadow-like nor strict). A tube 3–4 px
+/// Follows the object from `out` (updated in place), 8-connected, through the pixels of
+/// `weak` (loose ones the half-contrast ring has not already refused) that are `tinted` (off
+/// the backdrop's chromaticity beyond the noise) and lie within [`THIN_REACH`] of the plain
+/// backdrop (neither `loose`, shadow-like nor strict). A tube 3–4 px
 /// wide covers no pixel wholly: a grey one reaches the strict test nowhere along most of its
 /// length (half covered, it is as dark as a shadow), and its strict specks left the
 /// silhouette in pieces that carved two objects. A shadow keeps the backdrop's chromaticity,
 /// and a soft one's darkest core lies inside its penumbra: neither is followed.
 fn along_thin_tube(
     out: &mut BitMask,
+    loose: &BitMask,
     weak: &BitMask,
     shady: &BitMask,
     strong: &BitMask,
     tinted: impl Fn(usize, usize) -> bool,
 ) {
     let (w, h) = (out.width(), out.height());
-    let plain = |x: usize, y: usize| !weak.get(x, y) && !shady.get(x, y) && !strong.get(x, y);
+    let plain = |x: usize, y: usize| !loose.get(x, y) && !shady.get(x, y) && !strong.get(x, y);
     let near_plain = |x: usize, y: usize| {
         (y.saturating_sub(THIN_REACH)..=(y + THIN_REACH).min(h - 1)).any(|yy| {
             (x.saturating_sub(THIN_REACH)..=(x + THIN_REACH).min(w - 1)).any(|xx| plain(xx, yy))
@@ -669,7 +671,14 @@ impl Prepared {
             cd2_at(x, y) > noise_cd2[y * w + x].max(seen)
         };
         let judged = weak.and(&beside).and_not(&out);
-        along_thin_tube(&mut out, &weak.and_not(&judged), &shady, &strong, tinted);
+        along_thin_tube(
+            &mut out,
+            &weak,
+            &weak.and_not(&judged),
+            &shady,
+            &strong,
+            tinted,
+        );
         if *edge > 0.0 {
             // Pixels beside the strict foreground are its outline, which the ring above
             // decided; what is left are regions of their own.
