@@ -299,7 +299,7 @@ fn a_tube_over_a_chessboard_is_held_to_each_boundarys_own_scatter() {
 /// A thin silvery tube (1.2 mm radius, 3–4 px wide at 640×480; grey 0.35 with a strong
 /// highlight) on the green cloth, three cameras. No pixel of it is wholly covered: half
 /// covered, it is as dark as a shadow and reaches the strict test only in specks, so the
-/// silhouettes followed it only as far as the specks did (IoU 0.45–0.75) and carved two
+/// silhouettes followed it only as far as the specks did (IoU 0.33 at worst) and carved two
 /// objects; and its boundaries, projected on the colour read inside (its highlight or its far
 /// rim), were read up to half a pixel off. Followed along its loose pixels near the backdrop,
 /// and unmixed by hue (grey keeps its hue in its highlight): measured 12 of 12 `ok`
