@@ -392,6 +392,30 @@ impl Tube {
         (Point3::from(p), t / t.norm().max(1e-300))
     }
 
+    /// The centerline parameter of the point nearest `p` (world mm): the nearest of points
+    /// about half a millimetre apart, refined by a golden-section search between its
+    /// neighbours.
+    pub fn nearest_u(&self, p: &Point3<f64>) -> f64 {
+        let n = ((self.length() / 0.5).ceil() as usize).clamp(2, 4096);
+        let d2 = |u: f64| (Point3::from(self.centerline.point_and_d1(u).0) - p).norm_squared();
+        let step = 1.0 / n as f64;
+        let k = (0..=n)
+            .min_by(|&a, &b| d2(a as f64 * step).total_cmp(&d2(b as f64 * step)))
+            .unwrap_or(0);
+        let (mut lo, mut hi) = ((k as f64 - 1.0) * step, (k as f64 + 1.0) * step);
+        (lo, hi) = (lo.max(0.0), hi.min(1.0));
+        let g = (5f64.sqrt() - 1.0) / 2.0;
+        for _ in 0..20 {
+            let (a, b) = (hi - g * (hi - lo), lo + g * (hi - lo));
+            if d2(a) < d2(b) {
+                hi = b;
+            } else {
+                lo = a;
+            }
+        }
+        (lo + hi) / 2.0
+    }
+
     /// Where an end is and which way the tube goes on beyond it (unit, pointing out of the
     /// tube): the chord over its last 20 mm (or a quarter of the tube), steadier than the end
     /// tangent, which the last few millimetres of outline hardly fix. `end` 0 is the proximal

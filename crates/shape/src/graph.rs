@@ -76,28 +76,33 @@ impl CellGraph {
                 }
             }
         }
-        let mut offsets = vec![0usize; n + 1];
-        for &(a, b, _) in &pairs {
-            offsets[a as usize + 1] += 1;
-            offsets[b as usize + 1] += 1;
-        }
-        for i in 0..n {
-            offsets[i + 1] += offsets[i];
-        }
-        let mut fill = offsets.clone();
-        let mut edges = vec![(0u32, 0.0); 2 * pairs.len()];
-        for &(a, b, d) in &pairs {
-            edges[fill[a as usize]] = (b, d);
-            fill[a as usize] += 1;
-            edges[fill[b as usize]] = (a, d);
-            fill[b as usize] += 1;
-        }
+        let (offsets, edges) = rows(n, &pairs);
         CellGraph {
             node_of_voxel,
             sum,
             count,
             offsets,
             edges,
+        }
+    }
+
+    /// The same graph with `links` added: edges (node, node, length mm) across gaps between
+    /// pieces the graph does not join.
+    pub fn linked(&self, links: &[crate::pieces::Link]) -> CellGraph {
+        let mut pairs: Vec<(u32, u32, f64)> = (0..self.len())
+            .flat_map(|a| {
+                self.neighbours(a)
+                    .iter()
+                    .filter(move |&&(b, _)| (a as u32) < b)
+                    .map(move |&(b, d)| (a as u32, b, d))
+            })
+            .collect();
+        pairs.extend_from_slice(links);
+        let (offsets, edges) = rows(self.len(), &pairs);
+        CellGraph {
+            offsets,
+            edges,
+            ..self.clone()
         }
     }
 
@@ -167,6 +172,27 @@ impl CellGraph {
         }
         dist
     }
+}
+
+/// Compressed rows of `n` nodes' edges, each of `pairs` (node, node, length) stored both ways.
+fn rows(n: usize, pairs: &[(u32, u32, f64)]) -> (Vec<usize>, Vec<(u32, f64)>) {
+    let mut offsets = vec![0usize; n + 1];
+    for &(a, b, _) in pairs {
+        offsets[a as usize + 1] += 1;
+        offsets[b as usize + 1] += 1;
+    }
+    for i in 0..n {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut fill = offsets.clone();
+    let mut edges = vec![(0u32, 0.0); 2 * pairs.len()];
+    for &(a, b, d) in pairs {
+        edges[fill[a as usize]] = (b, d);
+        fill[a as usize] += 1;
+        edges[fill[b as usize]] = (a, d);
+        fill[b as usize] += 1;
+    }
+    (offsets, edges)
 }
 
 /// Half of the 26 neighbour offsets: those after a cell in key order (z, then y, then x).

@@ -44,6 +44,7 @@ mod bands;
 mod centerline;
 mod graph;
 mod order;
+mod pieces;
 mod record;
 mod settings;
 mod spline;
@@ -116,21 +117,45 @@ impl ShapeEstimator {
     /// found them in it. Never fails: a cloud that is not one open tube gives a record whose
     /// status says why.
     pub fn estimate(&self, occupancy: &Occupancy, bands: &[Band]) -> ShapeRecord {
+        self.estimate_with(occupancy, bands, false).0
+    }
+
+    /// As [`ShapeEstimator::estimate`], for a hull in pieces that lie end to end along one
+    /// tube, each running on toward the next (a camera's silhouette lost a stretch of it): the
+    /// shape of the pieces chained across their gaps, and the gaps (each the two facing end
+    /// cells' centroids, world mm), which nothing carved: only the images can say the tube
+    /// runs through them. `None` when the hull is not in such pieces.
+    pub fn estimate_across_gaps(
+        &self,
+        occupancy: &Occupancy,
+        bands: &[Band],
+    ) -> Option<(ShapeRecord, Vec<[[f64; 3]; 2]>)> {
+        let (record, gaps) = self.estimate_with(occupancy, bands, true);
+        (!gaps.is_empty()).then_some((record, gaps))
+    }
+
+    fn estimate_with(
+        &self,
+        occupancy: &Occupancy,
+        bands: &[Band],
+        across_gaps: bool,
+    ) -> (ShapeRecord, Vec<[[f64; 3]; 2]>) {
         let s = &self.settings;
         let t0 = Instant::now();
         // The carvers refuse such a volume; an occupancy built by hand may still hold one,
         // and nothing measured in it would mean anything.
         if let Err(e) = occupancy.volume.validate() {
-            return ShapeRecord::empty(Status::Ambiguous {
+            let status = Status::Ambiguous {
                 reason: format!("the occupancy's volume cannot be sliced: {e}"),
-            });
+            };
+            return (ShapeRecord::empty(status), Vec::new());
         }
-        let mut slices = match order::slice(occupancy, s) {
+        let mut slices = match order::slice(occupancy, s, across_gaps) {
             Ok(slices) => slices,
             Err(status) => {
                 let mut r = ShapeRecord::empty(status);
                 r.timings.order_ms = ms(t0);
-                return r;
+                return (r, Vec::new());
             }
         };
         let vs = occupancy.volume.voxel_size;
@@ -156,7 +181,7 @@ impl ShapeEstimator {
             bands_ms: (t3 - t2).as_secs_f64() * 1e3,
             arc_fit_ms: ms(t3),
         };
-        record
+        (record, std::mem::take(&mut slices.gaps))
     }
 
     /// The status of a shape whose direction nothing decided: neither end `open_by` (what

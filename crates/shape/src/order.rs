@@ -43,6 +43,9 @@ pub(crate) struct Slices {
     /// Whether something decided which end is proximal (the volume's boundary or the hint);
     /// false when it was only guessed (the end nearer the boundary).
     pub oriented: bool,
+    /// Gaps between pieces of the hull chained into this one tube, world mm (empty unless
+    /// asked for; see [`slice`]).
+    pub gaps: Vec<crate::pieces::Gap>,
 }
 
 /// A polyline with cumulative chord lengths, for projecting voxels onto.
@@ -180,8 +183,14 @@ impl Cut {
     }
 }
 
-/// Orders the occupancy into slices, or says why it cannot.
-pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices, Status> {
+/// Orders the occupancy into slices, or says why it cannot. With `across_gaps`, a hull in
+/// pieces that lie end to end along one tube is chained across its gaps
+/// ([`crate::pieces::chain`]), which [`Slices::gaps`] lists; without, it is two objects.
+pub(crate) fn slice(
+    occ: &Occupancy,
+    settings: &ShapeSettings,
+    across_gaps: bool,
+) -> Result<Slices, Status> {
     let n = occ.voxels.len();
     if n < settings.min_voxels {
         return Err(Status::NoObject { voxels: n });
@@ -196,23 +205,38 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
         voxel.clamp(SPACING_MM.0, SPACING_MM.1)
     };
     let cell_mm = settings.cell_voxels as f64 * vs.iter().copied().fold(0.0, f64::max);
-    let graph = CellGraph::new(occ, settings.cell_voxels);
-    let components = graph.components();
-    let main = &components[0];
-    let main_voxels = graph.voxels_in(main) as usize;
+    let mut graph = CellGraph::new(occ, settings.cell_voxels);
+    let mut components = graph.components();
+    let main_voxels = graph.voxels_in(&components[0]) as usize;
     if main_voxels < settings.min_voxels {
         return Err(Status::NoObject { voxels: n });
     }
-    if let Some(second) = components.get(1) {
-        let second = graph.voxels_in(second) as usize;
-        if second >= settings.min_voxels.max(main_voxels / 10) {
+    // Pieces as large as a tenth of the largest count as objects; smaller ones are left out.
+    let large = settings.min_voxels.max(main_voxels / 10);
+    let pieces: Vec<&[u32]> = components
+        .iter()
+        .take_while(|c| graph.voxels_in(c) as usize >= large)
+        .map(|c| c.as_slice())
+        .collect();
+    let mut gaps = Vec::new();
+    if pieces.len() >= 2 {
+        let chained = across_gaps
+            .then(|| crate::pieces::chain(&graph, &pieces, cell_mm))
+            .flatten();
+        let Some((links, crossed)) = chained else {
+            let second = graph.voxels_in(pieces[1]);
             return Err(Status::Ambiguous {
                 reason: format!(
                     "two separate objects ({main_voxels} and {second} voxels); check for occluders or a second instrument in the volume"
                 ),
             });
-        }
+        };
+        graph = graph.linked(&links);
+        components = graph.components();
+        gaps = crossed;
     }
+    let main = &components[0];
+    let main_voxels = graph.voxels_in(main) as usize;
     let (a, _) = farthest(&graph.distances(main[0]));
     let from_a = graph.distances(a);
     let (_, length) = farthest(&from_a);
@@ -284,6 +308,7 @@ pub(crate) fn slice(occ: &Occupancy, settings: &ShapeSettings) -> Result<Slices,
         enters_volume: false,
         oriented: false,
         leaves_volume: false,
+        gaps,
     };
     orient(occ, &mut slices, voxel, settings);
     Ok(slices)

@@ -245,3 +245,63 @@ fn clouds_that_are_not_one_open_tube_get_a_status() {
     let json = serde_json::to_string(&r).unwrap();
     assert!(json.contains("\"status\":\"ambiguous\""), "{json}");
 }
+
+/// The arc of [`arc`] between `from` and `to` radians, as one stretch of tube.
+fn stretch(r: f64, from: f64, to: f64) -> Vec<Point3<f64>> {
+    arc(r, to - from, from)
+}
+
+#[test]
+fn a_tube_in_pieces_end_to_end_is_chained_across_its_gaps_and_two_tubes_are_not() {
+    let e = hinted(Some([200.0, 0.0, 20.0]));
+    // A J lost over two stretches of 15 and 20 mm: three pieces, the middle one 10 mm long
+    // (with its caps shorter than the 10 cells a piece's direction is read over).
+    let whole = stretch(60.0, 0.0, 2.0);
+    let pieces = tube(&[
+        stretch(60.0, 0.0, 0.75),
+        stretch(60.0, 1.0, 1.17),
+        stretch(60.0, 1.5, 2.0),
+    ]);
+    let refused = e.estimate(&pieces, &[]);
+    assert!(
+        matches!(&refused.status, Status::Ambiguous { reason } if reason.contains("two separate")),
+        "{:?}",
+        refused.status
+    );
+    let (chained, gaps) = e
+        .estimate_across_gaps(&pieces, &[])
+        .expect("pieces end to end chain");
+    assert_eq!(gaps.len(), 2, "{gaps:?}");
+    // Each gap lies where a stretch was lost: its middle within a few mm of the arc there.
+    for (gap, lost) in gaps.iter().zip([0.875, 1.335]) {
+        let middle: [f64; 3] = std::array::from_fn(|k| (gap[0][k] + gap[1][k]) / 2.0);
+        let truth = Point3::new(60.0 * f64::cos(lost), 60.0 * f64::sin(lost), 20.0);
+        let off = (Point3::from(middle) - truth).norm();
+        assert!(
+            off < 4.0,
+            "gap {gap:?} is {off:.1} mm from the lost stretch"
+        );
+    }
+    let rms = rms(&chained.points, &whole);
+    let length = 60.0 * 2.0;
+    assert!(rms < 1.0, "chained centerline {rms:.2} mm RMS from the J");
+    assert!(
+        (chained.length - length).abs() < 0.03 * length,
+        "{} mm long, the J {length} mm",
+        chained.length
+    );
+    // Whole, nothing is chained.
+    assert!(e.estimate_across_gaps(&tube(&[whole]), &[]).is_none());
+    // Two tubes side by side, and one ending beside the other's end at a right angle, do not
+    // point at each other: still two objects.
+    let side_by_side = tube(&[
+        line(Point3::new(-50.0, 0.0, 0.0), Point3::new(50.0, 0.0, 0.0)),
+        line(Point3::new(-50.0, 40.0, 0.0), Point3::new(50.0, 40.0, 0.0)),
+    ]);
+    assert!(e.estimate_across_gaps(&side_by_side, &[]).is_none());
+    let corner = tube(&[
+        line(Point3::new(-50.0, 0.0, 0.0), Point3::new(50.0, 0.0, 0.0)),
+        line(Point3::new(50.0, 12.0, 0.0), Point3::new(50.0, 100.0, 0.0)),
+    ]);
+    assert!(e.estimate_across_gaps(&corner, &[]).is_none());
+}

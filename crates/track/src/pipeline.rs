@@ -1302,6 +1302,15 @@ impl Pipeline {
                     &occupancy.centres(),
                     radius,
                 )?;
+                let (shape, fit) = if shape.status.is_right() {
+                    (shape, fit)
+                } else {
+                    match self.across_gaps(views, occupancy, &bands, radius)? {
+                        Some(Chained::Shape(chained)) => *chained,
+                        Some(Chained::Unshown(why)) => (with_reason(shape, &why), fit),
+                        None => (shape, fit),
+                    }
+                };
                 // Two cameras' hull grows ghosts its centerline may follow: a start from the
                 // two silhouettes themselves may find the shape that explains them.
                 let from_views = if shape.status.is_right() {
@@ -1333,6 +1342,64 @@ impl Pipeline {
         })
     }
 
+    /// A hull in pieces that lie end to end along one tube (a camera's silhouette lost a
+    /// stretch of it): the tube fitted from the pieces chained across their gaps
+    /// ([`ShapeEstimator::estimate_across_gaps`]) when its shape is right and every camera's
+    /// image shows it across each gap ([`shown_across`]); when some image does not, why (the
+    /// hull's own refusal, two separate objects, stands with it); nothing when the hull is not
+    /// in such pieces or no right shape came of them.
+    fn across_gaps(
+        &self,
+        views: &[View<'_>],
+        occupancy: &Occupancy,
+        bands: &[Band],
+        radius: Option<f64>,
+    ) -> Result<Option<Chained>, TrackError> {
+        let Some((hull, gaps)) = self.shape.estimate_across_gaps(occupancy, bands) else {
+            return Ok(None);
+        };
+        let (shape, fit) = self.fitter.refine(
+            &self.shape,
+            self.carver.volume(),
+            views,
+            &hull,
+            &occupancy.centres(),
+            radius,
+        )?;
+        let Some(tube) = fit
+            .as_ref()
+            .filter(|_| shape.status.is_right())
+            .map(|f| &f.tube)
+        else {
+            return Ok(None);
+        };
+        let min_found = self.fitter.settings().min_found;
+        for [a, b] in &gaps {
+            let found = self
+                .fitter
+                .found_between(views, tube, (*a).into(), (*b).into())?;
+            if !shown_across(&found, min_found) {
+                let middle: [f64; 3] = std::array::from_fn(|k| (a[k] + b[k]) / 2.0);
+                let gap = ((0..3).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>()).sqrt();
+                let seen: Vec<String> = found
+                    .iter()
+                    .zip(&self.names)
+                    .filter(|((_, all), _)| *all >= MIN_GAP_SAMPLES)
+                    .map(|((found, all), name)| format!("{name} {found} of {all}"))
+                    .collect();
+                return Ok(Some(Chained::Unshown(format!(
+                    "; end to end, they would be one tube across a gap of {gap:.0} mm at ({:.0}, {:.0}, {:.0}) mm, but the images do not show its outline there (found at {} samples; at least {:.0} % in two cameras or more)",
+                    middle[0],
+                    middle[1],
+                    middle[2],
+                    seen.join(", "),
+                    min_found * 100.0
+                ))));
+            }
+        }
+        Ok(Some(Chained::Shape(Box::new((shape, fit)))))
+    }
+
     /// A frame whose shape is not right, once more from its hull without the voxels a sharp
     /// shadow carved ([`shadow_carved`]: held by shadow-coloured pixels in one camera and by
     /// the tube's colour in another): the hull kept, how many voxels were dropped, and its
@@ -1361,6 +1428,43 @@ impl Pipeline {
         let shaped = self.shape_of(views, &kept)?;
         Ok(Some((kept, dropped.len(), shaped)))
     }
+}
+
+/// What came of a hull in pieces chained across its gaps ([`Pipeline::across_gaps`]).
+enum Chained {
+    /// The tube fitted through them, right, and shown across every gap.
+    Shape(Box<(ShapeRecord, Option<Fit>)>),
+    /// Why not: an image does not show the tube across a gap (to add to the hull's refusal).
+    Unshown(String),
+}
+
+/// `shape` with `more` added to its refusal's reason (an `ambiguous` or `inconsistent` one;
+/// any other is returned as it is).
+fn with_reason(mut shape: ShapeRecord, more: &str) -> ShapeRecord {
+    if let Status::Ambiguous { reason } | Status::Inconsistent { reason } = &mut shape.status {
+        reason.push_str(more);
+    }
+    shape
+}
+
+/// Fewest outline samples a camera must have along a gap between pieces of the hull for its
+/// image to count as showing the tube there or not: fewer, it sees the gap nearly end-on.
+const MIN_GAP_SAMPLES: usize = 4;
+
+/// Whether the images show the tube across a gap between pieces of its hull, from each
+/// camera's (found, samples) along it ([`TubeFitter::found_between`]): every camera that sees
+/// the gap ([`MIN_GAP_SAMPLES`]) finds the tube's boundary at `min_found` of its samples there,
+/// as the self-check asks of a whole outline, and two cameras or more see it (one alone
+/// leaves where the tube lies along its rays to the pieces' ends).
+fn shown_across(found: &[(usize, usize)], min_found: f64) -> bool {
+    let seeing: Vec<_> = found
+        .iter()
+        .filter(|(_, all)| *all >= MIN_GAP_SAMPLES)
+        .collect();
+    seeing.len() >= 2
+        && seeing
+            .iter()
+            .all(|&&(found, all)| found as f64 >= min_found * all as f64)
 }
 
 /// A frame's shape from its hull ([`Pipeline::shape_of`]).
