@@ -97,8 +97,10 @@ fn simulated_validation_meets_its_targets_and_the_tools_reproduce_it() {
         &p("object_marks.csv"),
         "--json",
     ]);
+    // The same within the records' rounding (positions to 0.1 µm, each point moved by up to
+    // 0.09 µm; seen 1.3e-6 mm apart).
     assert!(
-        (f(&shape["precision"]["rms_along_3d"]) - f(&pre["rms_along_3d"])).abs() < 1e-6,
+        (f(&shape["precision"]["rms_along_3d"]) - f(&pre["rms_along_3d"])).abs() < 1e-4,
         "{shape}"
     );
     // The report of a tracking output.
