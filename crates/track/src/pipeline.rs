@@ -1294,18 +1294,11 @@ impl Pipeline {
             Method::Hull => (hull, None),
             Method::Fit => {
                 let radius = self.shape.settings().radius_mm;
-                let (shape, fit) = self.fitter.refine(
-                    &self.shape,
-                    self.carver.volume(),
-                    views,
-                    &hull,
-                    &occupancy.centres(),
-                    radius,
-                )?;
+                let (shape, fit) = self.fitted(views, occupancy, &hull)?;
                 let (shape, fit) = if shape.status.is_right() {
                     (shape, fit)
                 } else {
-                    match self.across_gaps(views, occupancy, &bands, radius)? {
+                    match self.across_gaps(views, occupancy, &bands)? {
                         Some(Chained::Shape(chained)) => *chained,
                         Some(Chained::Unshown(why)) => (with_reason(shape, &why), fit),
                         None => (shape, fit),
@@ -1342,6 +1335,24 @@ impl Pipeline {
         })
     }
 
+    /// The tube fitted to `views` from `hull`, the shape of `occupancy` (whose voxels judge the
+    /// fit's ghosts), with the rig's radius where it gives one.
+    fn fitted(
+        &self,
+        views: &[View<'_>],
+        occupancy: &Occupancy,
+        hull: &ShapeRecord,
+    ) -> Result<(ShapeRecord, Option<Fit>), TrackError> {
+        Ok(self.fitter.refine(
+            &self.shape,
+            self.carver.volume(),
+            views,
+            hull,
+            &occupancy.centres(),
+            self.shape.settings().radius_mm,
+        )?)
+    }
+
     /// A hull in pieces that lie end to end along one tube (a camera's silhouette lost a
     /// stretch of it): the tube fitted from the pieces chained across their gaps
     /// ([`ShapeEstimator::estimate_across_gaps`]) when its shape is right and every camera's
@@ -1353,19 +1364,11 @@ impl Pipeline {
         views: &[View<'_>],
         occupancy: &Occupancy,
         bands: &[Band],
-        radius: Option<f64>,
     ) -> Result<Option<Chained>, TrackError> {
         let Some((hull, gaps)) = self.shape.estimate_across_gaps(occupancy, bands) else {
             return Ok(None);
         };
-        let (shape, fit) = self.fitter.refine(
-            &self.shape,
-            self.carver.volume(),
-            views,
-            &hull,
-            &occupancy.centres(),
-            radius,
-        )?;
+        let (shape, fit) = self.fitted(views, occupancy, &hull)?;
         let Some(tube) = fit
             .as_ref()
             .filter(|_| shape.status.is_right())
