@@ -53,11 +53,12 @@ fn sweep(depth: f64, lamp_radius: f64, seed: u64) -> (usize, usize) {
 #[test]
 fn a_soft_shadow_beside_the_tube_leaves_right_frames_ok() {
     let ok: Vec<usize> = [1, 2, 3].map(|seed| sweep(800.0, 15.0, seed).0).to_vec();
-    // Measured: 11, 11, 12 of 12 (the rest right but refused: a shadow at the tip leaves the
-    // free end's boundary found at 7 of 13 samples, or the outline's p90 at 0.27–0.31 px;
-    // issue 44's scaled limits). 10, 11, 12 while a shadow meeting the tip's zone counted as a
-    // missed distal part.
-    assert!(ok.iter().all(|&n| n >= 10), "only {ok:?} of 12 ok");
+    // Measured: 12, 12, 12 of 12. 11, 11, 12 until a line that finds no boundary is read once
+    // more asking for a shadow beside it: the soft edge of the shadow at the tip, taken into
+    // the silhouette rather than marked as shade, left the free end's boundary found at 7 of
+    // 13 samples. 10, 11, 12 while a shadow meeting the tip's zone counted as a missed distal
+    // part.
+    assert!(ok.iter().all(|&n| n >= 12), "only {ok:?} of 12 ok");
 }
 
 /// A small lamp (radius 3 mm) with the backdrop 160 mm behind the volume's centre: a shadow
