@@ -306,8 +306,22 @@ impl<'a> EdgeImage<'a> {
         min_contrast: f64,
     ) -> Option<(Edge, bool)> {
         let line = (origin, direction, inside, search);
-        self.crossing_read(line, min_contrast, false)
-            .or_else(|| self.crossing_read(line, min_contrast, true))
+        self.crossing_read(line, min_contrast, false).or_else(|| {
+            // Read again only where the line, from its outer end in to the predicted outline,
+            // reads the backdrop in shadow before anything else, as the shadow's reading asks
+            // (most lines that find nothing end on the tube or another object).
+            let steps = (search / STEP).floor().max(0.0) as usize;
+            let shadowed = (0..=steps)
+                .map(|k| origin + direction * (search - k as f64 * STEP))
+                .map_while(|p| {
+                    let d = self.difference(p)?;
+                    backdrop_brightness(&d, &self.background_at(p))
+                })
+                .any(|b| b <= MAX_SHADOW);
+            shadowed
+                .then(|| self.crossing_read(line, min_contrast, true))
+                .flatten()
+        })
     }
 
     /// [`EdgeImage::crossing_along`]'s reading of the line `(origin, direction, inside,
