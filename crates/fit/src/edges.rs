@@ -305,70 +305,96 @@ impl<'a> EdgeImage<'a> {
         search: f64,
         min_contrast: f64,
     ) -> Option<(Edge, bool)> {
-        let line = (origin, direction, inside, search);
-        self.crossing_read(line, min_contrast, false).or_else(|| {
-            // Read again only where the line, from its outer end in to the predicted outline,
-            // reads the backdrop in shadow before anything else, as the shadow's reading asks
-            // (most lines that find nothing end on the tube or another object).
-            let steps = (search / STEP).floor().max(0.0) as usize;
-            let shadowed = (0..=steps)
-                .map(|k| origin + direction * (search - k as f64 * STEP))
-                .map_while(|p| {
-                    let d = self.difference(p)?;
-                    backdrop_brightness(&d, &self.background_at(p))
-                })
-                .any(|b| b <= MAX_SHADOW);
-            shadowed
-                .then(|| self.crossing_read(line, min_contrast, true))
-                .flatten()
-        })
+        let line = self.line(origin, direction, inside, search)?;
+        let at = |k: usize| line.at(k);
+        // The samples read against the backdrop in a shadow beside the boundary, where
+        // [`EdgeImage::shadow_beside`] finds one.
+        let in_shadow = || {
+            let (mut diffs, mut lit) = (line.diffs, [1f32; 64]);
+            self.shadow_beside(
+                &mut diffs[..line.count],
+                &mut lit,
+                line.strongest,
+                &at,
+                min_contrast,
+            )
+            .then_some((diffs, lit))
+        };
+        // Lines reaching into the silhouette's shadow-coloured pixels are asked for a shadow
+        // beside the boundary; the rest are read as they are, and asked only when that finds
+        // no boundary and the line, from its outer end in to the predicted outline, reads the
+        // backdrop in shadow before anything else: the soft edge of a lamp's shadow hugging
+        // the tube is often taken into the silhouette, not marked as shade, and the line's
+        // outer end, read against the lit backdrop, counted as covered.
+        if self.meets_shade(line.outer as usize, &at) {
+            return match in_shadow() {
+                Some((diffs, lit)) => self.read_line(&line, &diffs, Some(&lit), min_contrast),
+                None => self.read_line(&line, &line.diffs, None, min_contrast),
+            };
+        }
+        self.read_line(&line, &line.diffs, None, min_contrast)
+            .or_else(|| {
+                let shadowed = (0..=line.outer as usize)
+                    .map_while(|k| backdrop_brightness(&line.diffs[k], &self.background_at(at(k))))
+                    .any(|b| b <= MAX_SHADOW);
+                let (diffs, lit) = shadowed.then(in_shadow).flatten()?;
+                self.read_line(&line, &diffs, Some(&lit), min_contrast)
+            })
     }
 
-    /// [`EdgeImage::crossing_along`]'s reading of the line `(origin, direction, inside,
-    /// search)`, asking for a shadow beside the boundary where the line reaches into the
-    /// silhouette's shadow-coloured pixels — or, `any_shade`, wherever the backdrop outside is
-    /// darker in its own hue: the soft edge of a lamp's shadow hugging the tube is often taken
-    /// into the silhouette, not marked as shade, and the line's outer end, read against the lit
-    /// backdrop, then counts as covered and no boundary was found.
-    fn crossing_read(
+    /// The samples of the line `origin + t·direction` over `t ∈ [−inside, search]` (see
+    /// [`Line`]); `None` when it leaves the image or holds more than 64 samples.
+    fn line(
         &self,
-        (origin, direction, inside, search): (Vector2<f64>, Vector2<f64>, f64, f64),
-        min_contrast: f64,
-        any_shade: bool,
-    ) -> Option<(Edge, bool)> {
+        origin: Vector2<f64>,
+        direction: Vector2<f64>,
+        inside: f64,
+        search: f64,
+    ) -> Option<Line> {
         // Rounded by casts (floor and ceil are library calls without SSE4.1); both ≥ 0 here.
         let (q_out, q_in) = (search / STEP, inside / STEP);
         let outer = q_out as i32 + i32::from((q_out as i32 as f64) < q_out);
         let inner = (q_in as i32).max(1);
-        let mut diffs = [[0f32; 3]; 64];
-        let count = (outer + inner + 1) as usize;
-        if count > diffs.len() {
+        let mut line = Line {
+            origin,
+            direction,
+            diffs: [[0f32; 3]; 64],
+            count: (outer + inner + 1) as usize,
+            outer,
+            range: ([f32::MAX; 3], [f32::MIN; 3]),
+            strongest: 0,
+        };
+        if line.count > line.diffs.len() {
             return None;
         }
-        // diffs[k] is at t = (outer − k)·STEP: from outside inward.
-        let at = |k: usize| origin + direction * ((outer - k as i32) as f64 * STEP);
-        let mut range: BackdropRange = ([f32::MAX; 3], [f32::MIN; 3]);
-        for (k, d) in diffs[..count].iter_mut().enumerate() {
-            *d = self.difference_within(at(k), &mut range)?;
+        for k in 0..line.count {
+            line.diffs[k] = self.difference_within(line.at(k), &mut line.range)?;
         }
         // The surface colour: first the strongest difference at or inside the predicted
         // outline; then the colour just inside the boundary found with it (a band's edge or
         // shading can change the tube's colour along the line).
-        let strongest = (outer as usize..count)
-            .max_by(|&a, &b| norm2(&diffs[a]).total_cmp(&norm2(&diffs[b])))?;
-        // Only lines reaching into the silhouette's shadow-coloured pixels are asked for a
-        // shadow beside the boundary (the rest read as they always have).
-        let lit = if any_shade || self.meets_shade(outer as usize, &at) {
-            let mut lit = [1f32; 64];
-            self.shadow_beside(&mut diffs[..count], &mut lit, strongest, &at, min_contrast)
-                .then_some(lit)
-        } else {
-            None
-        };
+        line.strongest = (outer as usize..line.count)
+            .max_by(|&a, &b| norm2(&line.diffs[a]).total_cmp(&norm2(&line.diffs[b])))?;
+        Some(line)
+    }
+
+    /// [`EdgeImage::crossing_along`]'s boundary on `line` from its samples `diffs` (`I − E`;
+    /// where a shadow lies beside the boundary, against the shadowed backdrop, `lit` giving
+    /// the share of the backdrop's light at each).
+    fn read_line(
+        &self,
+        line: &Line,
+        diffs: &[[f32; 3]; 64],
+        lit: Option<&[f32; 64]>,
+        min_contrast: f64,
+    ) -> Option<(Edge, bool)> {
+        let (count, outer, strongest, range) =
+            (line.count, line.outer, line.strongest, &line.range);
+        let at = |k: usize| line.at(k);
         let diffs = &diffs[..count];
         // The share of the backdrop's light at sample `k`, less in the shadow where one lies
         // beside the tube, and the backdrop's colour there.
-        let shadow = |k: usize| lit.as_ref().map_or(1.0, |lit| lit[k]);
+        let shadow = |k: usize| lit.map_or(1.0, |lit| lit[k]);
         let bg = |k: usize| self.background_at(at(k)).map(|v| v * shadow(k));
         let (k, _) = crossing(count, projection(diffs, &diffs[strongest], min_contrast)?)?;
         let local = (k + INSIDE).min(count - 1);
@@ -382,7 +408,7 @@ impl<'a> EdgeImage<'a> {
         let raw = std::array::from_fn(|c| diffs[surface][c] + inside_colour[c]);
         let contrast = (norm2(&diffs[surface]) as f64).sqrt();
         // Read pixel by pixel where the backdrop changes along the line.
-        let varies = backdrop_varies(&range, contrast as f32);
+        let varies = backdrop_varies(range, contrast as f32);
         let ((k, frac), ramp, evidence) = match unmixing(raw, &bg(0), min_contrast) {
             Some(unmix) => {
                 // The unmixed crossing lies near the projected one (shading moves it by a
@@ -438,7 +464,7 @@ impl<'a> EdgeImage<'a> {
         let reach = (k + INSIDE).min(count - 1);
         // Most lines' backdrop is far from the surface's colour all along: said by the range
         // of the pixels read, without reading them again.
-        let far = lit.is_none() && f64::from(distance_to_range(&raw, &range)) >= min_contrast;
+        let far = lit.is_none() && f64::from(distance_to_range(&raw, range)) >= min_contrast;
         let seen = far
             || (0..=reach).all(|j| {
                 self.corners(at(j)).is_some_and(|corners| {
@@ -462,6 +488,27 @@ impl<'a> EdgeImage<'a> {
 /// The least and the most background colour (per channel) over the pixels a search line
 /// reads.
 type BackdropRange = ([f32; 3], [f32; 3]);
+
+/// A search line's samples, read once: `diffs[k]` (`I − E`) at `t = (outer − k)·STEP` along
+/// `origin + t·direction`, from outside inward, over `count` samples; the least and the most
+/// background colour of the pixels they read; and the strongest difference at or inside the
+/// predicted outline (`t ≤ 0`).
+struct Line {
+    origin: Vector2<f64>,
+    direction: Vector2<f64>,
+    diffs: [[f32; 3]; 64],
+    count: usize,
+    outer: i32,
+    range: BackdropRange,
+    strongest: usize,
+}
+
+impl Line {
+    /// Where sample `k` is.
+    fn at(&self, k: usize) -> Vector2<f64> {
+        self.origin + self.direction * ((self.outer - k as i32) as f64 * STEP)
+    }
+}
 
 /// Whether the backdrop changes along a line, over the pixels its samples read (`range`), by
 /// more than [`MAX_BACKDROP_CHANGE`] of the tube's `contrast` against it: then
