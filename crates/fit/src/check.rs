@@ -215,11 +215,10 @@ pub(crate) fn residual_stats(
         }
         ((sum / acc.max(1e-12)).sqrt(), p90, outlying)
     };
-    let (rms, p90, outlying) = spread(&|m| residual(m).abs());
+    let (rms, p90, outlying) = spread(&|m| m.size());
     let (rms_beyond, p90_beyond, outlying_beyond) =
-        spread(&|m| (residual(m).abs() - blur_allowance(m.ramp)).max(0.0));
-    let (rms_with, p90_with, outlying_with) =
-        spread(&|m| residual(m).abs() + blur_allowance(m.ramp));
+        spread(&|m| (m.size() - blur_allowance(m.ramp)).max(0.0));
+    let (rms_with, p90_with, outlying_with) = spread(&|m| m.size() + blur_allowance(m.ramp));
     // Over the boundaries whose rise was measured (one that never reaches ¾ has none).
     sizes.clear();
     sizes.extend(found().filter_map(|m| Some((m.ramp?, m.point.weight))));
@@ -450,7 +449,9 @@ pub(crate) fn end_stats(
                 (tube.capped[0] && m.point.u < reach) || (tube.capped[1] && m.point.u > 1.0 - reach)
             }
         })
-        .copied()
+        // Held to what they read, as the caps are: a short tip's last stretch of side reads
+        // outward of its prediction as an unresolved rim does.
+        .map(|m| Measured { rim: 0.0, ..*m })
         .collect();
     residual_stats(&near_end, scatter, max_p90, END_KEPT)
 }
@@ -561,7 +562,7 @@ pub(crate) fn outlined(
     let found: Vec<_> = measured
         .iter()
         .filter(|m| matches!(m.point.part, crate::outline::Part::Side(_)))
-        .filter(|m| m.residual.is_some_and(|r| r.abs() <= max_px))
+        .filter(|m| m.residual.is_some() && m.size() <= max_px)
         .map(|m| (m.point.pixel, m.point.normal))
         .collect();
     let mut mask = BitMask::new(w, h);
@@ -1018,6 +1019,36 @@ mod tests {
         m[9].residual = Some(3.0);
         let kept = residual_stats(&m, &Scatter::default(), 0.25, END_KEPT);
         assert!(kept.rms > 1.0, "{}", kept.rms);
+    }
+
+    #[test]
+    fn an_unresolved_rim_excuses_an_outline_read_outward_but_not_a_shifted_one() {
+        use crate::solve::made_up::side;
+        // Both sides of a thin grey tube read 0.3 px outward (residual −0.3), each with
+        // 0.35 px of slack: within it, the outline is explained.
+        let station = |k: usize, left: f64, right: f64| {
+            let u = k as f64 / 40.0;
+            let mut m = [side(u, -1.0, Some(left)), side(u, 1.0, Some(right))];
+            for m in &mut m {
+                m.rim = 0.35;
+            }
+            m
+        };
+        let wide: Vec<Measured> = (0..40).flat_map(|k| station(k, -0.3, -0.3)).collect();
+        let held = residual_stats(&wide, &Scatter::default(), 0.25, 1.0);
+        assert_eq!(held.outlying, 0.0);
+        assert_eq!(held.rms, 0.0);
+        // The same tube predicted 0.5 px to one side: the side it moved away from reads
+        // +0.2 px (the slack goes outward only), the other −0.8 px: beyond the limit on both.
+        let shifted: Vec<Measured> = (0..40).flat_map(|k| station(k, -0.8, 0.2)).collect();
+        let held = residual_stats(&shifted, &Scatter::default(), 0.15, 1.0);
+        assert!(held.outlying > 0.99, "{}", held.outlying);
+        // Without the slack, the outline read outward is beyond it everywhere.
+        let bare: Vec<Measured> = wide.iter().map(|m| Measured { rim: 0.0, ..*m }).collect();
+        assert_eq!(
+            residual_stats(&bare, &Scatter::default(), 0.25, 1.0).outlying,
+            1.0
+        );
     }
 
     #[test]

@@ -43,6 +43,23 @@ pub(crate) struct Measured {
     /// No boundary because the backdrop there has the tube's colour ([`Miss::Unseen`]): the
     /// image holds no evidence here either way, and the found share leaves it out.
     pub unseen: bool,
+    /// How far inside the boundary found the tube's outline may lie because its rim is finer
+    /// than the pixels ([`crate::edges::Edge::rim`]), pixels: the residual may be up to this
+    /// much larger. 0 on the caps, which alone place the tip along the tube: a short tip's
+    /// cap reads outward of its prediction, as an unresolved rim does.
+    pub rim: f64,
+}
+
+impl Measured {
+    /// The residual's size: the distance from 0 to the residuals the image allows, from
+    /// `residual` to `residual + rim` (0 where no boundary was found).
+    pub(crate) fn size(&self) -> f64 {
+        match self.residual {
+            Some(r) if r < 0.0 => (-r - self.rim).max(0.0),
+            Some(r) => r,
+            None => 0.0,
+        }
+    }
 }
 
 /// The tube as each camera saw it: the same for all (cameras triggered together), or each
@@ -128,6 +145,11 @@ pub(crate) fn measure(
                     contrast: edge.map_or(0.0, |e| e.contrast),
                     narrowing: 0.0,
                     unseen,
+                    // The caps alone place the tip along the tube: held to what they read.
+                    rim: match p.part {
+                        Part::Side(_) => edge.map_or(0.0, |e| e.rim),
+                        Part::Cap(_) => 0.0,
+                    },
                 }
             })
             .collect::<Vec<_>>()
@@ -211,6 +233,7 @@ pub(crate) fn against(
                         contrast: m.contrast,
                         narrowing: 0.0,
                         unseen: false,
+                        rim: m.rim,
                     })
                 })
                 .collect()
@@ -597,6 +620,7 @@ pub(crate) mod made_up {
             contrast: 0.0,
             narrowing: 0.0,
             unseen: false,
+            rim: 0.0,
         }
     }
 

@@ -85,6 +85,9 @@ pub(crate) fn middles(measured: &mut [Measured]) -> WidthProfile {
         let middle = (right - left) / 2.0;
         measured[i].residual = Some(-middle);
         measured[i + 1].residual = Some(middle);
+        // The width is taken out, and with it what an unresolved rim adds to it.
+        measured[i].rim = 0.0;
+        measured[i + 1].rim = 0.0;
         measured[i].narrowing = narrower;
         measured[i + 1].narrowing = narrower;
         paired[i] = true;

@@ -685,7 +685,8 @@ impl Prepared {
             let apart = shady.and_not(&beside);
             // The backdrop: neither foreground nor shadow-like.
             let backdrop = |x: usize, y: usize| !shady.get(x, y) && !strong.get(x, y);
-            let sharp = crate::shade::sharp_regions(&apart, backdrop, alpha, *edge);
+            let object = |x: usize, y: usize| out.get(x, y);
+            let sharp = crate::shade::sharp_regions(&apart, backdrop, object, alpha, *edge);
             out = out.or(&sharp);
             return (out, sharp);
         }

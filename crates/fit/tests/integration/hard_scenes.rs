@@ -436,6 +436,7 @@ fn noise_widens_the_outline_limits_by_the_scatter_it_gives() {
 
     let chain = Chain::with_camera_turned(scene(1), 1, 0.2);
     let sim = &chain.sim;
+    let mut fitted = 0;
     for (n, pose) in sim.sweep(4).iter().enumerate() {
         let b = chain.run(sim.render(n as u64, pose).unwrap());
         let (rms, tip) = b.fitted_errors(sim);
@@ -451,12 +452,17 @@ fn noise_widens_the_outline_limits_by_the_scatter_it_gives() {
         );
         assert_ne!(b.fitted.status, Status::Ok, "frame {n}");
         // However wide the noise made the residual limits, the outline's shift alone refuses
-        // it: noise scatters boundaries, it does not move a whole outline.
-        assert!(
-            shift > chain.fitter.settings().max_shift_px,
-            "frame {n}: {shift}"
-        );
+        // a fit: noise scatters boundaries, it does not move a whole outline. (A frame whose
+        // hull the turned camera cuts in two is refused before a fit.)
+        if b.fit.is_some() {
+            fitted += 1;
+            assert!(
+                shift > chain.fitter.settings().max_shift_px,
+                "frame {n}: {shift}"
+            );
+        }
     }
+    assert!(fitted >= 2, "{fitted} of 4 fitted");
 }
 
 /// The same cloth, where the silhouettes lost the tube's proximal 60 mm in every camera (as
