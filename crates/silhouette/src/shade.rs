@@ -156,7 +156,11 @@ fn sharp_parts<'a>(
     }
     let mut nearest: HashMap<usize, bool> = HashMap::with_capacity(4 * votes.len());
     let mut queue = VecDeque::with_capacity(votes.len());
-    for &pixel in votes.keys() {
+    // In the image's order, not the map's (which varies from run to run): a pixel as near a
+    // sharp outline pixel as a soft one takes the first's label to reach it.
+    let mut outline: Vec<usize> = votes.keys().copied().collect();
+    outline.sort_unstable();
+    for pixel in outline {
         let (x, y) = ((pixel % w) as isize, (pixel / w) as isize);
         let mut sum = 0;
         for dy in -VOTE_REACH..=VOTE_REACH {
