@@ -3,7 +3,7 @@
 //! A shadow cast from a lamp across the room fades in over its penumbra; an object in focus
 //! reaches its full darkness within a pixel or two of its outline.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 
 use crate::bitmask::BitMask;
 use crate::components::{label, runs};
@@ -123,12 +123,25 @@ pub(crate) fn sharp_regions(
         return out;
     }
     samples.retain(|s| sharp[s.region].is_some());
-    let kept = sharp_parts(shady, &samples, &mean_dark, edge);
+    // The sharp regions' bounds.
+    let mut bounds = [w, h, 0, 0];
+    for (r, &l) in runs.iter().zip(&labels) {
+        if sharp[l].is_some() {
+            let y = r.y as usize;
+            bounds = [
+                bounds[0].min(r.x0 as usize),
+                bounds[1].min(y),
+                bounds[2].max(r.x1 as usize),
+                bounds[3].max(y + 1),
+            ];
+        }
+    }
+    let kept = sharp_parts(shady, &samples, &mean_dark, edge, bounds);
     for (r, &l) in runs.iter().zip(&labels) {
         if let Some(limit) = sharp[l] {
             let y = r.y as usize;
             for x in r.x0 as usize..r.x1 as usize {
-                if alpha(x, y) <= limit && kept(y * w + x) {
+                if alpha(x, y) <= limit && kept(x, y) {
                     out.set(x, y, true);
                 }
             }
@@ -140,58 +153,62 @@ pub(crate) fn sharp_regions(
 /// Which pixels of the regions of `shady` holding `samples` lie nearer a sharp stretch of
 /// their outline than a soft one (by 8-connected steps through the region): an outline pixel
 /// is sharp when most of the samples of the outline pixels within [`VOTE_REACH`] of it, its
-/// own among them, step by at least `edge` of their region's darkness (`mean_dark`).
+/// own among them, step by at least `edge` of their region's darkness (`mean_dark`). The
+/// regions lie within `bounds` (`[x0, y0, x1, y1)`, pixels); the labels are kept for them
+/// alone.
 fn sharp_parts<'a>(
     shady: &'a BitMask,
     samples: &[Sample],
     mean_dark: &[f32],
     edge: f32,
-) -> impl Fn(usize) -> bool + 'a {
-    let w = shady.width();
+    [x0, y0, x1, y1]: [usize; 4],
+) -> impl Fn(usize, usize) -> bool + 'a {
+    let (w, bw, bh) = (shady.width(), x1 - x0, y1 - y0);
+    let local = |pixel: usize| (pixel / w - y0) * bw + pixel % w - x0;
     // Per outline pixel: its samples' votes, sharp less soft.
-    let mut votes: HashMap<usize, i32> = HashMap::with_capacity(samples.len());
+    let mut votes = vec![0i32; bw * bh];
+    let mut outline = Vec::with_capacity(samples.len());
     for s in samples {
         let sharp = s.step / mean_dark[s.region].max(1e-6) >= edge;
-        *votes.entry(s.pixel).or_default() += if sharp { 1 } else { -1 };
+        let k = local(s.pixel);
+        if votes[k] == 0 {
+            outline.push(k);
+        }
+        votes[k] += if sharp { 1 } else { -1 };
     }
-    let mut nearest: HashMap<usize, bool> = HashMap::with_capacity(4 * votes.len());
-    let mut queue = VecDeque::with_capacity(votes.len());
-    // In the image's order, not the map's (which varies from run to run): a pixel as near a
-    // sharp outline pixel as a soft one takes the first's label to reach it.
-    let mut outline: Vec<usize> = votes.keys().copied().collect();
+    // Labels, in the image's order: a pixel as near a sharp outline pixel as a soft one takes
+    // the first's to reach it. −1: not reached.
     outline.sort_unstable();
-    for pixel in outline {
-        let (x, y) = ((pixel % w) as isize, (pixel / w) as isize);
+    outline.dedup();
+    let mut nearest = vec![-1i8; bw * bh];
+    let mut queue = VecDeque::with_capacity(outline.len());
+    for &k in &outline {
+        let (x, y) = ((k % bw) as isize, (k / bw) as isize);
         let mut sum = 0;
-        for dy in -VOTE_REACH..=VOTE_REACH {
-            for dx in -VOTE_REACH..=VOTE_REACH {
-                let (xx, yy) = (x + dx, y + dy);
-                if xx >= 0 && yy >= 0 && (xx as usize) < w {
-                    sum += votes
-                        .get(&(yy as usize * w + xx as usize))
-                        .copied()
-                        .unwrap_or(0);
-                }
+        for yy in (y - VOTE_REACH).max(0)..(y + VOTE_REACH + 1).min(bh as isize) {
+            for xx in (x - VOTE_REACH).max(0)..(x + VOTE_REACH + 1).min(bw as isize) {
+                sum += votes[yy as usize * bw + xx as usize];
             }
         }
-        nearest.insert(pixel, sum >= 0);
-        queue.push_back(pixel);
+        nearest[k] = i8::from(sum >= 0);
+        queue.push_back(k);
     }
-    let h = shady.height();
-    while let Some(pixel) = queue.pop_front() {
-        let sharp = nearest[&pixel];
-        let (x, y) = (pixel % w, pixel / w);
-        for yy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
-            for xx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
-                let next = yy * w + xx;
-                if shady.get(xx, yy) && !nearest.contains_key(&next) {
-                    nearest.insert(next, sharp);
+    while let Some(k) = queue.pop_front() {
+        let label = nearest[k];
+        let (x, y) = (k % bw, k / bw);
+        for yy in y.saturating_sub(1)..=(y + 1).min(bh - 1) {
+            for xx in x.saturating_sub(1)..=(x + 1).min(bw - 1) {
+                let next = yy * bw + xx;
+                if nearest[next] < 0 && shady.get(x0 + xx, y0 + yy) {
+                    nearest[next] = label;
                     queue.push_back(next);
                 }
             }
         }
     }
-    move |pixel| nearest.get(&pixel).copied().unwrap_or(false)
+    move |x, y| {
+        (x0..x1).contains(&x) && (y0..y1).contains(&y) && nearest[(y - y0) * bw + x - x0] == 1
+    }
 }
 
 #[cfg(test)]
