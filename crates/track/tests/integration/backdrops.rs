@@ -118,29 +118,19 @@ fn a_silvery_tubes_highlight_does_not_hollow_it_out() {
 /// end, a real gap) is refused on every frame.
 #[test]
 fn a_thin_tube_in_pieces_is_chained_across_the_gaps_its_images_show() {
-    let (mut ok, mut frames) = (0, 0);
-    for seed in [1, 2, 3] {
-        let (sim, pipeline) = common::chain_of(thin_silvery_on_white(seed));
-        for (i, pose) in sim.sweep(4).iter().enumerate() {
-            let frame = sim.render(i as u64, pose).unwrap();
-            let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
-            let t = pipeline.process(&images).unwrap();
-            frames += 1;
-            println!("seed {seed} frame {i}: {:?}", t.shape.status);
-            if t.shape.status == Status::Ok {
-                ok += 1;
-                let e = common::errors(&frame.truth, &sim, &t.shape).unwrap();
-                assert!(
-                    e.within(Default::default()),
-                    "seed {seed} frame {i}: ok, {:.3} mm RMS, tip {:.2} mm",
-                    e.centerline_rms,
-                    e.tip
-                );
-            }
-        }
-    }
-    println!("{ok} of {frames} ok");
-    assert!(ok >= 7, "{ok} of {frames}");
+    let ok: usize = [1, 2, 3]
+        .map(|seed| {
+            oks(
+                thin_silvery_on_white(seed),
+                4,
+                &format!("seed {seed}"),
+                true,
+            )
+        })
+        .iter()
+        .sum();
+    println!("{ok} of 12 ok");
+    assert!(ok >= 7, "{ok} of 12");
 
     // A real gap: 8 mm of a tube taken out of every camera's image, two tubes end to end. The
     // hull's two pieces chain, and the tube fitted through them explains every image (it was
@@ -189,38 +179,41 @@ fn a_thin_tube_over_a_dotted_plate_is_right_or_says_so() {
         config.rig.miscalibrated = vec![0];
         config
     };
-    let (mut ok, mut frames, mut ok_off) = (0, 0, 0);
+    let (mut ok, mut ok_off) = (0, 0);
     for seed in [1, 2, 3] {
-        for error_px in [0.0, 1.5] {
-            let (sim, pipeline) = common::chain_of(over_dots(seed, error_px));
-            for (i, pose) in sim.sweep(4).iter().enumerate() {
-                let frame = sim.render(i as u64, pose).unwrap();
-                let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
-                let t = pipeline.process(&images).unwrap();
-                println!(
-                    "seed {seed}, calibration {error_px} px off, frame {i}: {:?}",
-                    t.shape.status
-                );
-                if error_px > 0.0 {
-                    ok_off += usize::from(t.shape.status == Status::Ok);
-                    continue;
-                }
-                frames += 1;
-                if t.shape.status == Status::Ok {
-                    ok += 1;
-                    let e = common::errors(&frame.truth, &sim, &t.shape).unwrap();
-                    assert!(
-                        e.within(Default::default()),
-                        "seed {seed} frame {i}: ok, {:.3} mm RMS, tip {:.2} mm",
-                        e.centerline_rms,
-                        e.tip
-                    );
-                }
-            }
+        ok += oks(over_dots(seed, 0.0), 4, &format!("seed {seed}"), true);
+        let off = format!("seed {seed}, a camera 1.5 px off");
+        ok_off += oks(over_dots(seed, 1.5), 4, &off, false);
+    }
+    println!("{ok} of 12 ok; {ok_off} ok with a camera 1.5 px off");
+    assert!(ok >= 6 && ok_off == 0, "{ok} of 12; {ok_off}");
+}
+
+/// How many of `frames` poses of `config`'s sweep the whole chain calls `ok` (`what` names
+/// them in the log); with `right`, each `ok` must be right by the truth.
+fn oks(config: SimConfig, frames: usize, what: &str, right: bool) -> usize {
+    let (sim, pipeline) = common::chain_of(config);
+    let mut ok = 0;
+    for (i, pose) in sim.sweep(frames).iter().enumerate() {
+        let frame = sim.render(i as u64, pose).unwrap();
+        let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+        let t = pipeline.process(&images).unwrap();
+        println!("{what}, frame {i}: {:?}", t.shape.status);
+        if t.shape.status != Status::Ok {
+            continue;
+        }
+        ok += 1;
+        if right {
+            let e = common::errors(&frame.truth, &sim, &t.shape).unwrap();
+            assert!(
+                e.within(Default::default()),
+                "{what}, frame {i}: ok, {:.3} mm RMS, tip {:.2} mm",
+                e.centerline_rms,
+                e.tip
+            );
         }
     }
-    println!("{ok} of {frames} ok; {ok_off} ok with a camera 1.5 px off");
-    assert!(ok >= 6 && ok_off == 0, "{ok} of {frames}; {ok_off}");
+    ok
 }
 
 /// The thin silvery tube on white paper of seed `seed`, no lamp.
