@@ -111,13 +111,11 @@ fn shadows_are_rejected_by_colour_but_not_by_green_matting() {
 fn a_silvery_tube_on_green_cloth_is_whole() {
     let mut worst: f64 = 1.0;
     for seed in 1..=3 {
-        let mut config = SimConfig::default();
-        config.catheter.albedo = [0.35, 0.35, 0.35];
-        config.catheter.gloss = flexshape_sim::Gloss {
-            strength: 0.9,
-            shininess: 20.0,
+        let mut config = SimConfig {
+            catheter: flexshape_sim::Catheter::silvery(),
+            seed,
+            ..SimConfig::default()
         };
-        config.seed = seed;
         config.render.seed = seed;
         let s = score_scene(config, Classifier::colour_shadow(), 10);
         worst = worst.min(report(&format!("silvery, seed {seed}"), &s).0);
@@ -133,15 +131,15 @@ fn a_silvery_tube_on_green_cloth_is_whole() {
 #[test]
 fn a_thin_silvery_tube_is_followed_along_its_loose_pixels() {
     let silvery = |seed: u64, radius: f64, shadows: bool| {
-        let mut config = SimConfig::default();
-        config.catheter.radius = radius;
-        config.catheter.albedo = [0.35, 0.35, 0.35];
-        config.catheter.gloss = flexshape_sim::Gloss {
-            strength: 0.9,
-            shininess: 20.0,
+        let mut config = SimConfig {
+            catheter: flexshape_sim::Catheter {
+                radius,
+                ..flexshape_sim::Catheter::silvery()
+            },
+            seed,
+            ..SimConfig::default()
         };
         config.render.shadows = shadows;
-        config.seed = seed;
         config.render.seed = seed;
         score_scene(config, Classifier::colour_shadow(), 6)
     };

@@ -177,6 +177,20 @@ pub struct CatheterState {
 }
 
 impl Catheter {
+    /// The default catheter with a silvery (metal) coating: grey, reflectance 0.35, with a
+    /// strong sharp highlight (strength 0.9, shininess 20) as light as a white backdrop where
+    /// it reflects the lamp (`simulate --body-albedo 0.35,0.35,0.35 --gloss 0.9,20`).
+    pub fn silvery() -> Self {
+        Catheter {
+            albedo: [0.35; 3],
+            gloss: Gloss {
+                strength: 0.9,
+                shininess: 20.0,
+            },
+            ..Catheter::default()
+        }
+    }
+
     fn validate(&self, pose: &CatheterPose) -> Result<(), SimError> {
         let positive = |field: &str, v: f64| {
             if v.is_finite() && v > 0.0 {

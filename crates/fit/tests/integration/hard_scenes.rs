@@ -310,12 +310,7 @@ fn a_thin_silvery_tube_is_followed_whole_and_read_through_its_highlight() {
     let scene = |seed: u64| SimConfig {
         catheter: flexshape_sim::Catheter {
             radius: 1.2,
-            albedo: [0.35, 0.35, 0.35],
-            gloss: flexshape_sim::Gloss {
-                strength: 0.9,
-                shininess: 20.0,
-            },
-            ..Default::default()
+            ..flexshape_sim::Catheter::silvery()
         },
         seed,
         ..SimConfig::default()
@@ -364,11 +359,6 @@ fn a_concentric_tube_robot_over_a_dot_plate_is_found_by_two_cameras() {
                 from_tip_mm: 70.0,
                 radius_mm: 3.0,
             }],
-            albedo: [0.35, 0.35, 0.35],
-            gloss: flexshape_sim::Gloss {
-                strength: 0.9,
-                shininess: 20.0,
-            },
             outer: Some(flexshape_sim::Material {
                 albedo: [0.08, 0.08, 0.09],
                 gloss: flexshape_sim::Gloss {
@@ -376,7 +366,7 @@ fn a_concentric_tube_robot_over_a_dot_plate_is_found_by_two_cameras() {
                     shininess: 30.0,
                 },
             }),
-            ..Default::default()
+            ..flexshape_sim::Catheter::silvery()
         },
         seed,
         ..SimConfig::default()

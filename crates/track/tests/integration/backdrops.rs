@@ -86,14 +86,7 @@ fn a_silvery_tubes_highlight_does_not_hollow_it_out() {
             seed: 1,
             ..defaults.render
         },
-        catheter: Catheter {
-            albedo: [0.35, 0.35, 0.35],
-            gloss: flexshape_sim::Gloss {
-                strength: 0.9,
-                shininess: 20.0,
-            },
-            ..defaults.catheter
-        },
+        catheter: Catheter::silvery(),
         seed: 1,
         ..defaults
     });
@@ -227,12 +220,7 @@ fn thin_silvery_on_white(seed: u64) -> SimConfig {
         },
         catheter: Catheter {
             radius: 1.2,
-            albedo: [0.35, 0.35, 0.35],
-            gloss: flexshape_sim::Gloss {
-                strength: 0.9,
-                shininess: 20.0,
-            },
-            ..defaults.catheter
+            ..Catheter::silvery()
         },
         seed,
         ..defaults
