@@ -228,6 +228,21 @@ impl<'a> EdgeImage<'a> {
             .sum()
     }
 
+    /// The brightness of each of a line's samples `diffs` (`I − E`, from outside inward, the
+    /// `k`-th at `at(k)`) as a share of the backdrop's, up to the first that is not of the
+    /// backdrop's hue ([`backdrop_brightness`]): the backdrop, lit or in shadow, beside the
+    /// tube.
+    fn backdrop_light<'s>(
+        &'s self,
+        diffs: &'s [[f32; 3]],
+        at: &'s impl Fn(usize) -> Vector2<f64>,
+    ) -> impl Iterator<Item = f32> + 's {
+        diffs
+            .iter()
+            .enumerate()
+            .map_while(|(k, d)| backdrop_brightness(d, &self.background_at(at(k))))
+    }
+
     /// Where some of the line's outer samples (`diffs`, `I − E`, from outside inward, up to the
     /// first that is not the backdrop's hue) are the backdrop in shadow — its hue, at most
     /// [`MAX_SHADOW`] of its light, as a tube's shadow beside it falls — those outer samples
@@ -250,15 +265,10 @@ impl<'a> EdgeImage<'a> {
         if unmixing(raw, &self.background_at(at(0)), min_contrast).is_none() {
             return false;
         }
-        let mut stop = diffs.len();
-        for (k, d) in diffs.iter().enumerate() {
-            match backdrop_brightness(d, &self.background_at(at(k))) {
-                Some(b) => lit[k] = b,
-                None => {
-                    stop = k;
-                    break;
-                }
-            }
+        let mut stop = 0;
+        for (k, b) in self.backdrop_light(diffs, at).enumerate() {
+            lit[k] = b;
+            stop = k + 1;
         }
         let any = lit[..stop].iter().any(|&b| b <= MAX_SHADOW);
         if !any {
@@ -339,9 +349,8 @@ impl<'a> EdgeImage<'a> {
         }
         self.read_line(&line, &line.diffs, None, min_contrast)
             .or_else(|| {
-                let shadowed = (0..=line.outer as usize)
-                    .map_while(|k| backdrop_brightness(&line.diffs[k], &self.background_at(at(k))))
-                    .any(|b| b <= MAX_SHADOW);
+                let outer = &line.diffs[..=line.outer as usize];
+                let shadowed = self.backdrop_light(outer, &at).any(|b| b <= MAX_SHADOW);
                 let (diffs, lit) = shadowed.then(in_shadow).flatten()?;
                 self.read_line(&line, &diffs, Some(&lit), min_contrast)
             })
