@@ -560,37 +560,41 @@ impl TubeFitter {
         )
     }
 
-    /// Per camera, of `tube`'s outline samples along its sides between the centerline points
-    /// nearest `a` and `b` (world mm), how many found a boundary in the camera's image and how
-    /// many there were; samples whose backdrop has the tube's colour, which the image shows
-    /// neither way, are left out of both. Whether the images show the tube along a stretch
-    /// nothing else holds it to: a gap between pieces of its carved hull.
+    /// For each stretch `[a, b]` (world mm) of `stretches`, per camera: of `tube`'s outline
+    /// samples along its sides between the centerline points nearest `a` and `b`, how many
+    /// found a boundary in the camera's image and how many there were; samples whose backdrop
+    /// has the tube's colour, which the image shows neither way, are left out of both. The
+    /// outline is measured once for all. Whether the images show the tube along stretches
+    /// nothing else holds it to: gaps between pieces of its carved hull.
     pub fn found_between(
         &self,
         views: &[View<'_>],
         tube: &Tube,
-        a: nalgebra::Point3<f64>,
-        b: nalgebra::Point3<f64>,
-    ) -> Result<Vec<(usize, usize)>, FitError> {
+        stretches: &[[nalgebra::Point3<f64>; 2]],
+    ) -> Result<Vec<Vec<(usize, usize)>>, FitError> {
         let images = self.edge_images(views)?;
-        let (ua, ub) = (tube.nearest_u(&a), tube.nearest_u(&b));
-        let stretch = ua.min(ub)..=ua.max(ub);
-        Ok(
-            measure(&self.cameras, &images, Seen::All(tube), &self.settings)
-                .iter()
-                .map(|cam| {
-                    cam.iter()
-                        .filter(|m| {
-                            matches!(m.point.part, outline::Part::Side(_))
-                                && !m.unseen
-                                && stretch.contains(&m.point.u)
-                        })
-                        .fold((0, 0), |(found, all), m| {
-                            (found + usize::from(m.residual.is_some()), all + 1)
-                        })
-                })
-                .collect(),
-        )
+        let measured = measure(&self.cameras, &images, Seen::All(tube), &self.settings);
+        Ok(stretches
+            .iter()
+            .map(|[a, b]| {
+                let (ua, ub) = (tube.nearest_u(a), tube.nearest_u(b));
+                let stretch = ua.min(ub)..=ua.max(ub);
+                measured
+                    .iter()
+                    .map(|cam| {
+                        cam.iter()
+                            .filter(|m| {
+                                matches!(m.point.part, outline::Part::Side(_))
+                                    && !m.unseen
+                                    && stretch.contains(&m.point.u)
+                            })
+                            .fold((0, 0), |(found, all), m| {
+                                (found + usize::from(m.residual.is_some()), all + 1)
+                            })
+                    })
+                    .collect()
+            })
+            .collect())
     }
 
     /// The frame's shape from the images: `hull` (the hull's record of the same frame) gives

@@ -51,9 +51,6 @@ pub(crate) fn chain(
         .iter()
         .map(|nodes| piece(graph, nodes, cell_mm))
         .collect::<Option<_>>()?;
-    if pieces[0].out.iter().any(Option::is_none) {
-        return None;
-    }
     // The chain's two free ends: (node, outward direction).
     let [Some(first), Some(second)] = pieces[0].out else {
         return None;

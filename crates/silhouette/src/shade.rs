@@ -17,7 +17,8 @@ const MIN_SAMPLES: usize = 8;
 /// px (chessboard): one noisy sample does not cut a notch into a tube.
 const VOTE_REACH: isize = 2;
 
-/// One outline sample: the outline pixel (row-major index), its region, and the step.
+/// One outline sample: the outline pixel (row-major index), its region, and the step (over
+/// the region's darkness, once that is known).
 struct Sample {
     pixel: usize,
     region: usize,
@@ -49,7 +50,6 @@ pub(crate) fn sharp_regions(
     let (labels, areas) = label(&runs);
     let mut darkness = vec![0f32; areas.len()];
     let mut samples: Vec<Sample> = Vec::new();
-    let mut counts = vec![0usize; areas.len()];
     let is_backdrop = backdrop;
     let backdrop = |x: isize, y: isize| -> bool {
         x >= 0
@@ -92,7 +92,6 @@ pub(crate) fn sharp_regions(
                         region: l,
                         step: alpha(ox as usize, oy as usize) - dark,
                     });
-                    counts[l] += 1;
                 }
             }
         }
@@ -103,9 +102,10 @@ pub(crate) fn sharp_regions(
         .map(|(&d, &a)| d / a as f32)
         .collect();
     // Each sample's step over its region's darkness.
-    let mut by_region: Vec<Vec<f32>> = counts.iter().map(|&n| Vec::with_capacity(n)).collect();
-    for s in &samples {
-        by_region[s.region].push(s.step / mean_dark[s.region].max(1e-6));
+    let mut by_region: Vec<Vec<f32>> = vec![Vec::new(); areas.len()];
+    for s in &mut samples {
+        s.step /= mean_dark[s.region].max(1e-6);
+        by_region[s.region].push(s.step);
     }
     let sharp: Vec<Option<f32>> = by_region
         .iter_mut()
@@ -136,7 +136,7 @@ pub(crate) fn sharp_regions(
             ];
         }
     }
-    let kept = sharp_parts(shady, &samples, &mean_dark, edge, bounds);
+    let kept = sharp_parts(shady, &samples, edge, bounds);
     for (r, &l) in runs.iter().zip(&labels) {
         if let Some(limit) = sharp[l] {
             let y = r.y as usize;
@@ -153,13 +153,12 @@ pub(crate) fn sharp_regions(
 /// Which pixels of the regions of `shady` holding `samples` lie nearer a sharp stretch of
 /// their outline than a soft one (by 8-connected steps through the region): an outline pixel
 /// is sharp when most of the samples of the outline pixels within [`VOTE_REACH`] of it, its
-/// own among them, step by at least `edge` of their region's darkness (`mean_dark`). The
+/// own among them, step by at least `edge` of their region's darkness (`Sample::step`). The
 /// regions lie within `bounds` (`[x0, y0, x1, y1)`, pixels); the labels are kept for them
 /// alone.
 fn sharp_parts<'a>(
     shady: &'a BitMask,
     samples: &[Sample],
-    mean_dark: &[f32],
     edge: f32,
     [x0, y0, x1, y1]: [usize; 4],
 ) -> impl Fn(usize, usize) -> bool + 'a {
@@ -169,7 +168,7 @@ fn sharp_parts<'a>(
     let mut votes = vec![0i32; bw * bh];
     let mut outline = Vec::with_capacity(samples.len());
     for s in samples {
-        let sharp = s.step / mean_dark[s.region].max(1e-6) >= edge;
+        let sharp = s.step >= edge;
         let k = local(s.pixel);
         if votes[k] == 0 {
             outline.push(k);

@@ -1377,11 +1377,10 @@ impl Pipeline {
             return Ok(None);
         };
         let min_found = self.fitter.settings().min_found;
-        for [a, b] in &gaps {
-            let found = self
-                .fitter
-                .found_between(views, tube, (*a).into(), (*b).into())?;
-            if !shown_across(&found, min_found) {
+        let stretches: Vec<_> = gaps.iter().map(|g| g.map(Into::into)).collect();
+        let found_in = self.fitter.found_between(views, tube, &stretches)?;
+        for ([a, b], found) in gaps.iter().zip(&found_in) {
+            if !shown_across(found, min_found) {
                 let middle: [f64; 3] = std::array::from_fn(|k| (a[k] + b[k]) / 2.0);
                 let gap = ((0..3).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>()).sqrt();
                 let seen: Vec<String> = found
