@@ -237,9 +237,7 @@ impl RecordingReader {
 
     /// Reads `truth/<frame>.json`, if present (simulated recordings).
     pub fn read_truth(&self, frame: u64) -> Result<Option<Truth>, RecordingError> {
-        read_json(self.layout.truth(frame), |path, message| {
-            RecordingError::Truth { path, message }
-        })
+        Truth::read(&self.layout, frame)
     }
 
     /// Reads `commands/<frame>.json`, if present (model experiments).
@@ -285,7 +283,7 @@ fn frame_number(path: &Path) -> Option<u64> {
 }
 
 /// The JSON file at `path`, or `None` when there is none; `invalid` names a parse failure.
-fn read_json<T: serde::de::DeserializeOwned>(
+pub(crate) fn read_json<T: serde::de::DeserializeOwned>(
     path: PathBuf,
     invalid: impl FnOnce(PathBuf, String) -> RecordingError,
 ) -> Result<Option<T>, RecordingError> {

@@ -4,6 +4,8 @@ use flexshape_curve::Polyline;
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
+use crate::{Layout, RecordingError};
+
 /// A marker band: the centerline point at the band's centre.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TruthBand {
@@ -124,6 +126,15 @@ impl TruthErrors {
 }
 
 impl Truth {
+    /// Reads frame `frame`'s truth from the recording `layout` describes
+    /// (`truth/NNNNNN.json`): `None` when there is none (a recording not simulated).
+    pub fn read(layout: &Layout, frame: u64) -> Result<Option<Truth>, RecordingError> {
+        crate::reader::read_json(layout.truth(frame), |path, message| RecordingError::Truth {
+            path,
+            message,
+        })
+    }
+
     /// [`TruthErrors::between`] this frame's true centerline and a sensed one.
     pub fn errors(
         &self,

@@ -22,6 +22,7 @@
 //! # Ok::<(), flexshape_track::TrackError>(())
 //! ```
 
+mod against_truth;
 mod backdrop;
 mod camera_clocks;
 mod hull_record;
@@ -50,6 +51,7 @@ use flexshape_shape::ShapeError;
 use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
+pub use against_truth::{TruthCheck, TruthTally};
 pub use backdrop::BackgroundUpdate;
 pub use camera_clocks::CameraClock;
 pub use hull_record::{HullRecord, carve_frame};

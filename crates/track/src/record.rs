@@ -584,6 +584,7 @@ impl Tally {
             file_time_frames: self.file_times,
             camera_clocks: self.clocks.clocks(),
             between_captures: self.clocks.between(),
+            truth: None,
         }
     }
 }
@@ -651,6 +652,10 @@ pub struct TrackSummary {
     /// summary line suggests triggering the cameras together.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub between_captures: usize,
+    /// A simulated recording's records held against its truth (additive; absent for any
+    /// other input): frames vouched for and right, vouched for but off, refused though right.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<crate::TruthCheck>,
 }
 
 fn is_zero<N: Default + PartialEq>(n: &N) -> bool {

@@ -50,6 +50,16 @@ impl RecordStatus {
     pub fn is_ok(&self) -> bool {
         *self == RecordStatus::Ok
     }
+
+    /// Whether the status vouches for the record's shape: `ok`, `bands_missing` (a band is
+    /// not seen) or `leaves_volume` (right up to the volume's boundary), as
+    /// [`Status::is_right`] says; every other status says it must not be trusted.
+    pub fn vouches_for_shape(&self) -> bool {
+        matches!(
+            self,
+            RecordStatus::Ok | RecordStatus::BandsMissing | RecordStatus::LeavesVolume
+        )
+    }
 }
 
 /// The statuses this version writes, in the order [`RecordStatus`] lists them.

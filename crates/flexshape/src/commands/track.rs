@@ -16,7 +16,7 @@ use flexshape_mcap::{McapOptions, McapSink};
 use flexshape_track::output::{SinkSpec, Sinks};
 use flexshape_track::{
     Input, ModelFrame, Pipeline, Processed, RecordStatus, SummaryLine, Tally, TrackRecord,
-    TrackSummary,
+    TrackSummary, TruthTally,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -54,6 +54,11 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         viewer,
         bar: progress(input.source.as_ref()),
         tally: Tally::new(),
+        truth: args
+            .frames
+            .recording
+            .as_deref()
+            .and_then(|dir| TruthTally::open(dir, pipeline.volume())),
         warned: HashSet::new(),
         failure: None,
     };
@@ -70,6 +75,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let summary = TrackSummary {
         startup_s: Some(startup_s),
         refined_rig: input.rig.refined.clone(),
+        truth: frames.truth.as_ref().map(TruthTally::check),
         ..frames.tally.summary(&end)
     };
     frames.sinks.finish(&SummaryLine {
@@ -83,6 +89,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         return Err(e);
     }
     eprintln!("{}", summary.line(input.source.is_live(), end.stopped));
+    if let Some(truth) = &summary.truth {
+        eprintln!("{}", truth.line());
+    }
     let interrupted = stop.requested();
     super::viewer::linger(frames.viewer.as_ref(), &args.viewer, &stop);
     if let Some(e) = end.input_error {
@@ -144,6 +153,9 @@ struct Frames {
     viewer: Option<super::viewer::Live>,
     bar: ProgressBar,
     tally: Tally,
+    /// A simulated recording's records against its truth (`None` for any other input, or
+    /// once a truth file could not be read, which is said).
+    truth: Option<TruthTally>,
     /// Warnings said so far (each is said once).
     warned: HashSet<String>,
     /// Why writing failed, which stops the run.
@@ -174,6 +186,15 @@ impl Frames {
                 .suspend(|| eprintln!("frame {:06}: {reason}", p.frame));
         }
         self.tally.add(&record);
+        if let Some(Err(e)) = self.truth.as_mut().map(|t| t.add(&record)) {
+            self.bar.suspend(|| {
+                eprintln!(
+                    "frame {:06}: {e}; the records are not held against the truth",
+                    p.frame
+                )
+            });
+            self.truth = None;
+        }
         self.bar.inc(1);
         if let Err(e) = self.sinks.write(&record, &p) {
             self.failure = Some(anyhow::Error::new(e));

@@ -79,6 +79,94 @@ fn tracks_a_simulated_recording_within_the_shape_targets_and_survives_a_corrupt_
     assert_eq!(summary["stages"].as_array().unwrap().len(), 5);
 }
 
+/// The summary's `truth` and its line on standard error, as a user planning a rig reads them.
+fn truth_check(out: &Path, stderr: &str) -> Value {
+    let text = std::fs::read_to_string(out).unwrap();
+    let last: Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
+    assert!(stderr.contains("against the recording's truth"), "{stderr}");
+    last["summary"]["truth"].clone()
+}
+
+#[test]
+fn a_simulated_recording_is_held_against_its_truth_and_says_which_frames_are_off_or_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let rec_s = rec.to_str().unwrap();
+    let o = flexshape(&["simulate", "--out", rec_s, "--frames", "4"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Frame 1's truth moved 2 mm sideways: its right shape is now off it. Frame 3 has none.
+    let path = rec.join("truth/000001.json");
+    let mut truth: Truth = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    for p in truth.centerline.iter_mut() {
+        p[0] += 2.0;
+    }
+    truth.tip[0] += 2.0;
+    std::fs::write(&path, serde_json::to_vec(&truth).unwrap()).unwrap();
+    std::fs::remove_file(rec.join("truth/000003.json")).unwrap();
+    let out = dir.path().join("shapes.jsonl");
+    let o = flexshape(&["track", rec_s, "--out", out.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let check = truth_check(&out, &stderr);
+    assert_eq!(check["frames"], 3, "{check}");
+    assert_eq!(check["vouched_right"], 2, "{check}");
+    assert_eq!(check["vouched_but_off"], serde_json::json!([1]), "{check}");
+    assert_eq!(check["refused_but_right"], serde_json::json!([]), "{check}");
+    assert!(
+        check["centerline_rms_median_mm"].as_f64().unwrap() < 0.08,
+        "{check}"
+    );
+    assert!(
+        stderr.contains("1 VOUCHED FOR BUT OFF IT (frames 1)"),
+        "{stderr}"
+    );
+
+    // A rig that asks more of the cameras than they give refuses right shapes: listed so.
+    let rig = rec.join("rig.toml");
+    let text = std::fs::read_to_string(&rig).unwrap();
+    std::fs::write(&rig, text + "\n[processing.fit]\nmax_sigma_mm = 0.0001\n").unwrap();
+    let out = dir.path().join("refused.jsonl");
+    let o = flexshape(&["track", rec_s, "--out", out.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let check = truth_check(&out, &stderr);
+    assert_eq!(check["vouched_right"], 0, "{check}");
+    assert_eq!(check["vouched_but_off"], serde_json::json!([]), "{check}");
+    assert_eq!(
+        check["refused_but_right"],
+        serde_json::json!([0, 2]),
+        "{check}"
+    );
+    assert!(check.get("centerline_rms_median_mm").is_none(), "{check}");
+
+    // Frames from image folders have no truth beside them: no check.
+    let out = dir.path().join("plain.jsonl");
+    let mut args = vec![
+        "track".to_string(),
+        "--rig".into(),
+        rig.to_str().unwrap().into(),
+    ];
+    args.extend([
+        "--backgrounds".into(),
+        rec.join("background").to_str().unwrap().into(),
+    ]);
+    for cam in ["cam0", "cam1", "cam2"] {
+        args.push("--images".into());
+        args.push(format!("{cam}={}", rec.join("frames").join(cam).display()));
+    }
+    args.extend(["--out".into(), out.to_str().unwrap().into()]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = flexshape(&args);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(!text.contains("\"truth\""), "{text}");
+    assert!(
+        !stderr.contains("against the recording's truth"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn track_reports_missing_input_clearly() {
     let dir = tempfile::tempdir().unwrap();
