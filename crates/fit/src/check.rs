@@ -1052,6 +1052,51 @@ mod tests {
     }
 
     #[test]
+    fn a_backdrop_edge_under_a_boundary_excuses_that_boundary_either_way_and_no_other() {
+        use crate::solve::made_up::side;
+        // An outline read right everywhere but over a printed dot, where 6 of 40 stations
+        // read 0.8 px off (either way) with 0.9 px of doubt: explained.
+        let station = |k: usize, off: f64, doubt: f64| {
+            let u = k as f64 / 40.0;
+            let mut m = [side(u, -1.0, Some(off)), side(u, 1.0, Some(-off))];
+            for m in &mut m {
+                m.backdrop = doubt;
+            }
+            m
+        };
+        let over_dot = |k: usize| (12..18).contains(&k);
+        let read: Vec<Measured> = (0..40)
+            .flat_map(|k| {
+                if over_dot(k) {
+                    station(k, 0.8, 0.9)
+                } else {
+                    station(k, 0.02, 0.0)
+                }
+            })
+            .collect();
+        let held = residual_stats(&read, &Scatter::default(), 0.25, 1.0);
+        assert_eq!(held.outlying, 0.0);
+        assert!(held.p90 < 0.05, "{}", held.p90);
+        // Without the doubt, those stations are beyond the limit (15 % of the outline).
+        let bare: Vec<Measured> = read
+            .iter()
+            .map(|m| Measured {
+                backdrop: 0.0,
+                ..*m
+            })
+            .collect();
+        let held = residual_stats(&bare, &Scatter::default(), 0.25, 1.0);
+        assert!((held.outlying - 0.15).abs() < 1e-9, "{}", held.outlying);
+        // An outline 0.6 px off everywhere (a tube predicted too narrow): the doubt over the
+        // dot leaves every other station beyond the limit.
+        let shifted: Vec<Measured> = (0..40)
+            .flat_map(|k| station(k, 0.6, if over_dot(k) { 0.9 } else { 0.0 }))
+            .collect();
+        let held = residual_stats(&shifted, &Scatter::default(), 0.25, 1.0);
+        assert!((held.outlying - 0.85).abs() < 1e-9, "{}", held.outlying);
+    }
+
+    #[test]
     fn a_noisy_limit_adds_the_noise_in_quadrature() {
         assert_eq!(noisy_limit(0.25, 0.0, 1.645), 0.25);
         assert!((noisy_limit(0.3, 0.4 / 1.645, 1.645) - 0.5).abs() < 1e-12);

@@ -48,15 +48,19 @@ pub(crate) struct Measured {
     /// much larger. 0 on the caps, which alone place the tip along the tube: a short tip's
     /// cap reads outward of its prediction, as an unresolved rim does.
     pub rim: f64,
+    /// How far either way the boundary found may lie from the tube's outline because the
+    /// backdrop changes within the pixels it was read from
+    /// ([`crate::edges::Edge::backdrop`]), pixels.
+    pub backdrop: f64,
 }
 
 impl Measured {
     /// The residual's size: the distance from 0 to the residuals the image allows, from
-    /// `residual` to `residual + rim` (0 where no boundary was found).
+    /// `residual − backdrop` to `residual + rim + backdrop` (0 where no boundary was found).
     pub(crate) fn size(&self) -> f64 {
         match self.residual {
-            Some(r) if r < 0.0 => (-r - self.rim).max(0.0),
-            Some(r) => r,
+            Some(r) if r < 0.0 => (-r - self.rim - self.backdrop).max(0.0),
+            Some(r) => (r - self.backdrop).max(0.0),
             None => 0.0,
         }
     }
@@ -150,6 +154,7 @@ pub(crate) fn measure(
                         Part::Side(_) => edge.map_or(0.0, |e| e.rim),
                         Part::Cap(_) => 0.0,
                     },
+                    backdrop: edge.map_or(0.0, |e| e.backdrop),
                 }
             })
             .collect::<Vec<_>>()
@@ -234,6 +239,7 @@ pub(crate) fn against(
                         narrowing: 0.0,
                         unseen: false,
                         rim: m.rim,
+                        backdrop: m.backdrop,
                     })
                 })
                 .collect()
@@ -621,6 +627,7 @@ pub(crate) mod made_up {
             narrowing: 0.0,
             unseen: false,
             rim: 0.0,
+            backdrop: 0.0,
         }
     }
 

@@ -552,6 +552,38 @@ impl Prepared {
         t > 0 && max_deviation(frame, bg) <= t
     }
 
+    /// The pixels of `frame` that show the backdrop in shadow: darker than the background by
+    /// more than twice its noise but not beyond any shadow (`dark`), with its chromaticity
+    /// (within the loose test's limit). Only the colour-shadow classifier knows shadows
+    /// (`None` for the others), and it never takes a soft one for foreground.
+    pub fn shadowed(&self, frame: &RgbImage) -> Option<BitMask> {
+        let Kind::Colour {
+            bg,
+            inv_e2,
+            cd2,
+            noise_cd2,
+            dark,
+            ..
+        } = &self.kind
+        else {
+            return None;
+        };
+        let (w, h) = (frame.width() as usize, frame.height() as usize);
+        let mut out = BitMask::new(w, h);
+        for (k, p) in frame.as_raw().chunks_exact(3).enumerate() {
+            let i = [p[0] as f32, p[1] as f32, p[2] as f32];
+            let e = [bg[0][k], bg[1][k], bg[2][k]];
+            let alpha = (i[0] * e[0] + i[1] * e[1] + i[2] * e[2]) * inv_e2[k];
+            let chroma = (i[0] * i[0] + i[1] * i[1] + i[2] * i[2]) * inv_e2[k] - alpha * alpha;
+            // `noise_cd2` is (2σ)² / ‖E‖²: α moves by σ / ‖E‖ with noise σ per channel.
+            if alpha >= *dark && alpha < 1.0 - noise_cd2[k].sqrt() && chroma <= cd2[1][k] {
+                out.set(k % w, k / w, true);
+            }
+        }
+        debug_assert_eq!(out.height(), h);
+        Some(out)
+    }
+
     /// Classifies a frame into the foreground mask (before clean-up): the pixels of `region`
     /// (rounded out to whole 64-pixel words across), the rest background; and the part of it
     /// that is shadow-coloured: the sharp-edged shadow-like regions taken in (a grey object, or
@@ -915,6 +947,69 @@ fn prefetch(bytes: &[u8]) {
 mod tests {
     use super::*;
     use flexshape_sim::{SimConfig, Simulator};
+
+    #[test]
+    fn shadowed_pixels_are_the_backdrop_in_shadow_not_the_tube_nor_the_lit_backdrop() {
+        // The simulator's lamp shadows on green cloth, the blue tube among them: the colour
+        // classifier names the pixels in shadow; the others know no shadow.
+        let mut config = SimConfig::default();
+        config.render.shadows = true;
+        let sim = Simulator::new(config).unwrap();
+        let backgrounds = sim.backgrounds();
+        let pose = &sim.sweep(2)[1];
+        let frame = sim.render(1, pose).unwrap();
+        let (mut darker_px, mut tube_px, mut tube_shadowed) = (0, 0, 0);
+        for (view, bg) in frame.views.iter().zip(&backgrounds) {
+            let model = BackgroundModel::from_frames(std::slice::from_ref(bg)).unwrap();
+            let colour = Prepared::new(&model, &Classifier::colour_shadow());
+            let shadowed = colour.shadowed(&view.image).unwrap();
+            let (w, h) = view.image.dimensions();
+            for (x, y) in (0..w).flat_map(|x| (0..h).map(move |y| (x, y))) {
+                let sum = |p: &image::Rgb<u8>| p.0.iter().map(|&v| v as f32).sum::<f32>();
+                let (i, e) = (sum(view.image.get_pixel(x, y)), sum(bg.get_pixel(x, y)));
+                let on_tube = view.mask.get_pixel(x, y).0[0] == 255;
+                let is = shadowed.get(x as usize, y as usize);
+                // Lit backdrop is never in shadow; backdrop darkened beyond the noise (σ 2 a
+                // channel) by a tenth, its channels alike, and not as dark as the tube, always
+                // is.
+                assert!(!is || i < e, "({x}, {y}): {i} over {e} is not darker");
+                let ratios: Vec<f32> = (0..3)
+                    .map(|c| {
+                        view.image.get_pixel(x, y).0[c] as f32
+                            / bg.get_pixel(x, y).0[c].max(1) as f32
+                    })
+                    .collect();
+                let spread = ratios.iter().fold(0f32, |a, &r| a.max(r))
+                    - ratios.iter().fold(f32::INFINITY, |a, &r| a.min(r));
+                let dark = view.mask.get_pixel(x, y).0[0] == 0
+                    && spread < 0.04
+                    && i < 0.9 * e
+                    && i > 0.45 * e;
+                darker_px += usize::from(dark);
+                assert!(
+                    !dark || is,
+                    "({x}, {y}): {:?} over {:?} is in shadow",
+                    view.image.get_pixel(x, y),
+                    bg.get_pixel(x, y)
+                );
+                tube_px += usize::from(on_tube);
+                tube_shadowed += usize::from(on_tube && is);
+            }
+            for other in [
+                Classifier::green_matte(),
+                Classifier::Difference(Difference::default()),
+            ] {
+                assert!(
+                    Prepared::new(&model, &other)
+                        .shadowed(&view.image)
+                        .is_none()
+                );
+            }
+        }
+        assert!(darker_px > 200, "{darker_px}");
+        // The blue tube's hue is not the cloth's: at most its darkest limb passes for shade.
+        assert!(tube_shadowed * 20 < tube_px, "{tube_shadowed} of {tube_px}");
+    }
 
     #[test]
     fn skipping_plain_backdrop_changes_no_pixel() {

@@ -245,6 +245,32 @@ impl Silhouetter {
         &self.settings
     }
 
+    /// The pixels of `frame` that show the backdrop in shadow (darker than the background
+    /// beyond its noise, with its chromaticity), for the colour-shadow classifier, which never
+    /// takes a soft shadow for foreground; `None` for the others. A frame of another size is
+    /// refused.
+    pub fn shadowed(&self, frame: &RgbImage) -> Result<Option<BitMask>, SilhouetteError> {
+        self.check_size(frame)?;
+        Ok(self.prepared.shadowed(frame))
+    }
+
+    /// A frame of no pixels, or of another size than the background, is refused.
+    fn check_size(&self, frame: &RgbImage) -> Result<(), SilhouetteError> {
+        let (w, h) = frame.dimensions();
+        if w == 0 || h == 0 {
+            return Err(SilhouetteError::EmptyFrame);
+        }
+        if (w, h) != (self.width, self.height) {
+            return Err(SilhouetteError::SizeMismatch {
+                width: w,
+                height: h,
+                expected_width: self.width,
+                expected_height: self.height,
+            });
+        }
+        Ok(())
+    }
+
     /// Silhouette of an 8-bit RGB frame.
     pub fn process(&self, frame: &RgbImage) -> Result<Silhouette, SilhouetteError> {
         self.process_within(frame, &Region::ALL)
@@ -258,18 +284,8 @@ impl Silhouetter {
         frame: &RgbImage,
         region: &impl Area,
     ) -> Result<Silhouette, SilhouetteError> {
+        self.check_size(frame)?;
         let (w, h) = frame.dimensions();
-        if w == 0 || h == 0 {
-            return Err(SilhouetteError::EmptyFrame);
-        }
-        if (w, h) != (self.width, self.height) {
-            return Err(SilhouetteError::SizeMismatch {
-                width: w,
-                height: h,
-                expected_width: self.width,
-                expected_height: self.height,
-            });
-        }
         let (foreground, shade) = self.prepared.foreground_and_shade(frame, region);
         let closed = foreground.close(self.settings.close_radius);
         let (mut object, mut components) = keep_components(&closed, self.settings.keep);

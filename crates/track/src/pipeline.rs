@@ -30,11 +30,11 @@ use image::RgbImage;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::TrackError;
 use crate::backdrop::{Backdrop, BackgroundUpdate, hull_pixels, models};
 use crate::instants::{CameraTimes, Instants, MotionEstimate, judge_instant, largest_sigma};
 use crate::state::{RunState, Shared, Turn};
 use crate::usual::share;
+use crate::{RecordStatus, TrackError};
 
 /// Milliseconds per stage of one frame.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -1168,6 +1168,14 @@ impl Pipeline {
                 camera: name.clone(),
                 source,
             };
+            // A shadow is light, not backdrop: the tube's own moves with it, and a background
+            // that took it in would hold it where the tube has left (a classifier that knows
+            // shadows takes a soft one for backdrop as it is; a sharp one is dropped from each
+            // frame's hull on its own, `without_shadows`).
+            let keep = match b.silhouetter.shadowed(images[i]).map_err(err)? {
+                Some(shadow) => keep.or(&shadow),
+                None => keep,
+            };
             let mut model = (*b.model).clone();
             let changed_px = model.absorb(images[i], &keep).map_err(err)?;
             if changed_px == 0 {
@@ -1374,7 +1382,24 @@ impl Pipeline {
             .filter(|_| shape.status.is_right())
             .map(|f| &f.tube)
         else {
-            return Ok(None);
+            // Why the tube fitted through the gaps is not right, to add to the hull's refusal.
+            let why = match &shape.status {
+                Status::Ambiguous { reason }
+                | Status::Inconsistent { reason }
+                | Status::BadSilhouette { reason } => reason,
+                _ => return Ok(None),
+            };
+            let length = |[a, b]: &[[f64; 3]; 2]| {
+                ((0..3).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>()).sqrt()
+            };
+            let gaps: Vec<String> = gaps.iter().map(|g| format!("{:.0}", length(g))).collect();
+            return Ok(Some(Chained::Unshown(format!(
+                "; end to end, they would be one tube across {} of {} mm, but the tube fitted through {} is {}: {why}",
+                if gaps.len() == 1 { "a gap" } else { "gaps" },
+                gaps.join(", "),
+                if gaps.len() == 1 { "it" } else { "them" },
+                RecordStatus::from(&shape.status).as_str()
+            ))));
         };
         let min_found = self.fitter.settings().min_found;
         let stretches: Vec<_> = gaps.iter().map(|g| g.map(Into::into)).collect();

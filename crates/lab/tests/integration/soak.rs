@@ -9,8 +9,8 @@ use flexshape_sim::{RenderSettings, SimConfig, SimRigConfig};
 
 /// Cloth whose folds slid 20 mm after the backgrounds were taken, filmed at 320×240, the sweep
 /// played four times as fast as the demo's (a pose cycle every 132 frames): the backgrounds
-/// follow the backdrop and take the captured one back again and again, and the `ok` share of
-/// each 100-frame window stays within 6 frames of the first's, none `ok` and off the truth
+/// follow the backdrop, and the `ok` share of each 100-frame window stays within 6 frames of
+/// the first's, none `ok` and off the truth
 /// (at this size a pixel spans about 1.2 mm at the volume's centre: right is 0.3 mm RMS and
 /// the tip within 1 mm).
 #[test]
@@ -52,8 +52,9 @@ fn a_long_run_on_a_changed_backdrop_keeps_its_ok_share() {
     }
     let learned =
         |f: fn(&flexshape_lab::soak::SoakWindow) -> u64| report.windows.iter().map(f).sum::<u64>();
-    assert!(
-        learned(|w| w.background_updated) > 0 && learned(|w| w.background_restored) > 0,
-        "{report}"
-    );
+    // The folds' new valleys are the cloth in shade, which a followed background no longer
+    // takes in (the tube's own shadow moves with it): it then held nothing the frames could
+    // contradict, and took the captured background back on no frame (it did on some while
+    // it took the valleys in).
+    assert!(learned(|w| w.background_updated) > 0, "{report}");
 }
