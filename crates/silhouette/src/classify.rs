@@ -568,8 +568,8 @@ impl Prepared {
         else {
             return None;
         };
-        let (w, h) = (frame.width() as usize, frame.height() as usize);
-        let mut out = BitMask::new(w, h);
+        let w = frame.width() as usize;
+        let mut out = BitMask::new(w, frame.height() as usize);
         for (k, p) in frame.as_raw().chunks_exact(3).enumerate() {
             let i = [p[0] as f32, p[1] as f32, p[2] as f32];
             let e = [bg[0][k], bg[1][k], bg[2][k]];
@@ -580,7 +580,6 @@ impl Prepared {
                 out.set(k % w, k / w, true);
             }
         }
-        debug_assert_eq!(out.height(), h);
         Some(out)
     }
 

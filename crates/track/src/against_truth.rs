@@ -39,15 +39,21 @@ pub struct TruthCheck {
 impl TruthCheck {
     /// The check in one line.
     pub fn line(&self) -> String {
-        let frames = |list: &[u64]| {
+        // `what` with the frames listed (the first dozen), or `none` when there are none.
+        let listed = |list: &[u64], none: &str, what: &str, after: &str| {
+            if list.is_empty() {
+                return none.to_string();
+            }
             let shown: Vec<String> = list.iter().take(12).map(|f| f.to_string()).collect();
-            let more = list.len().saturating_sub(shown.len());
-            let more = if more > 0 {
-                format!(" and {more} more")
-            } else {
-                String::new()
+            let more = match list.len() - shown.len() {
+                0 => String::new(),
+                n => format!(" and {n} more"),
             };
-            format!("{}{more}", shown.join(", "))
+            format!(
+                "{} {what} (frames {}{more}{after})",
+                list.len(),
+                shown.join(", ")
+            )
         };
         let medians = match (self.centerline_rms_median_mm, self.tip_median_mm) {
             (Some(rms), Some(tip)) => {
@@ -55,24 +61,18 @@ impl TruthCheck {
             }
             _ => String::new(),
         };
-        let off = if self.vouched_but_off.is_empty() {
-            "none vouched for but off it".to_string()
-        } else {
-            format!(
-                "{} VOUCHED FOR BUT OFF IT (frames {})",
-                self.vouched_but_off.len(),
-                frames(&self.vouched_but_off)
-            )
-        };
-        let refused = if self.refused_but_right.is_empty() {
-            "none refused though right".to_string()
-        } else {
-            format!(
-                "{} refused though right (frames {}; their records say why)",
-                self.refused_but_right.len(),
-                frames(&self.refused_but_right)
-            )
-        };
+        let off = listed(
+            &self.vouched_but_off,
+            "none vouched for but off it",
+            "VOUCHED FOR BUT OFF IT",
+            "",
+        );
+        let refused = listed(
+            &self.refused_but_right,
+            "none refused though right",
+            "refused though right",
+            "; their records say why",
+        );
         format!(
             "against the recording's truth (right: centerline within {:.2} mm RMS, tip within {:.2} mm): {} of {} frames vouched for and right{medians}; {off}; {refused}",
             self.rms_bound_mm, self.tip_bound_mm, self.vouched_right, self.frames
