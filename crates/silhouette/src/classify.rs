@@ -29,7 +29,9 @@
 //!   the room fades in over its penumbra, an object in focus is whole within a pixel or two. So
 //!   a connected region of shadow-like pixels (`α < shade`) whose outline reaches its own
 //!   darkness within two pixels (the median of `Δα` over its boundary, relative to `1 − ᾱ`, at
-//!   least `edge`) is foreground too, down to its pixels at least half as dark as its mean.
+//!   least `edge`; or at least eight such steps away from the foreground: a grey tube across a
+//!   lamp's long soft shadow) is foreground too, down to its pixels at least half as dark as its
+//!   mean, where they lie nearer a sharp stretch of its outline than a soft one.
 
 use image::RgbImage;
 use serde::{Deserialize, Serialize};

@@ -41,14 +41,16 @@ fn a_grey_tube_on_white_paper_is_not_a_shadow() {
     let (ok, _) = run(&sim, &pipeline, &poses);
     let (ok_without, _) = run(&sim, &without, &poses);
     println!("{ok} of 10 ok ({ok_without} without the outline test)");
-    // Measured: 8 and 6 (all right: the shadow carved no second object there). A frame
+    // Measured: 10 and 8 (8 and 6 before a tube across a lamp's long soft shadow was told
+    // from it by the stretch of its own sharp outline; all right: the shadow carved no
+    // second object there). A frame
     // whose silhouettes lost the paper-grey tube's proximal part, fitted with a cap 2.2 mm
     // RMS off the truth, was `ok` without the outline test until the check looked beyond the
     // cap (`goes_on`); since the fit is lengthened along what the images show there, it is
     // `ok` and right. Without the outline test 3 were `ok` until the silhouettes followed the
     // tube along its loose pixels tinted beyond the noise (the lamp's shadow keeps the
     // paper's chromaticity; the shaded tube does not, by a little).
-    assert!(ok >= 7 && ok_without < ok, "{ok} / {ok_without}");
+    assert!(ok >= 9 && ok_without < ok, "{ok} / {ok_without}");
 }
 
 #[test]
@@ -58,7 +60,9 @@ fn a_background_that_follows_the_backdrop_never_takes_the_tubes_shadow() {
     // background follows; the tube's shadow on the paper is light, not backdrop: taken into
     // the background it stayed where the tube had left, and later frames lost the tube over
     // it. Measured: 4 of 10 ok when the shadows were taken in, 7 as captured, 7 followed
-    // without them.
+    // without them. Since a tube across its long soft shadow is told from it by its own
+    // sharp outline (`shade`), all 10 are right and none follows: this guards the sequence;
+    // what a followed background leaves out is `Silhouetter::shadowed`'s own test.
     let config = SimConfig {
         catheter: Catheter {
             albedo: [0.6, 0.6, 0.6],
@@ -76,7 +80,7 @@ fn a_background_that_follows_the_backdrop_never_takes_the_tubes_shadow() {
     let (ok, updated) = run(&sim, &pipeline, &poses);
     let (ok_fixed, _) = run(&sim, &without_adapting(&sim), &poses);
     println!("{ok} of 10 ok, updated at {updated:?} ({ok_fixed} as captured)");
-    assert!(ok >= ok_fixed && ok >= 6, "{ok} / {ok_fixed}");
+    assert!(ok >= ok_fixed && ok >= 9, "{ok} / {ok_fixed}");
 }
 
 /// A silvery tube (grey, with a strong sharp highlight where it reflects the lamp) over the
