@@ -65,6 +65,49 @@ impl Occupancy {
         }
     }
 
+    /// The connected parts of these voxels (26-neighbours) that hold a voxel of `seen` (of
+    /// the same volume): a hull carved with a camera's hidden pixels taken as the object's
+    /// keeps the parts that reach the hull every camera carved; a part the hidden pixels alone
+    /// let stand, apart from it, is a ghost of the cameras that do see there.
+    pub fn reaching(&self, seen: &Occupancy) -> Occupancy {
+        let [nx, ny, nz] = self.volume.dims.map(i64::from);
+        let mut kept = vec![false; self.voxels.len()];
+        let mut stack: Vec<usize> = (0..self.voxels.len())
+            .filter(|&k| seen.voxels.binary_search(&self.voxels[k]).is_ok())
+            .collect();
+        for &k in &stack {
+            kept[k] = true;
+        }
+        while let Some(k) = stack.pop() {
+            let [i, j, l] = self.ijk(self.voxels[k]).map(i64::from);
+            for (di, dj, dl) in
+                (-1..=1).flat_map(|a| (-1..=1).flat_map(move |b| (-1..=1).map(move |c| (a, b, c))))
+            {
+                let (a, b, c) = (i + di, j + dj, l + dl);
+                if a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz {
+                    continue;
+                }
+                let index = (a + nx * (b + ny * c)) as u32;
+                if let Ok(n) = self.voxels.binary_search(&index)
+                    && !kept[n]
+                {
+                    kept[n] = true;
+                    stack.push(n);
+                }
+            }
+        }
+        Occupancy {
+            volume: self.volume,
+            voxels: self
+                .voxels
+                .iter()
+                .zip(&kept)
+                .filter(|&(_, &k)| k)
+                .map(|(&v, _)| v)
+                .collect(),
+        }
+    }
+
     /// Occupied volume, mm³.
     pub fn volume_mm3(&self) -> f64 {
         self.len() as f64 * self.volume.voxel_size.iter().product::<f64>()
@@ -190,4 +233,36 @@ pub(crate) fn write_whole(path: &Path, bytes: &[u8]) -> Result<(), CarveError> {
     let part = path.with_extension("ply.part");
     std::fs::write(&part, bytes).map_err(err)?;
     std::fs::rename(&part, path).map_err(err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn occupancy(cells: &[[u32; 3]]) -> Occupancy {
+        let volume = Volume::new([0.0; 3], [1.0; 3], [8, 8, 8]).unwrap();
+        let mut voxels: Vec<u32> = cells.iter().map(|[i, j, k]| i + 8 * (j + 8 * k)).collect();
+        voxels.sort_unstable();
+        Occupancy { volume, voxels }
+    }
+
+    #[test]
+    fn the_parts_reaching_what_every_camera_carved_are_kept_and_no_other() {
+        // A rod along x (its middle a diagonal step, still 26-connected) and a blob apart.
+        let hull = occupancy(&[
+            [0, 0, 0],
+            [1, 0, 0],
+            [2, 1, 1],
+            [3, 1, 1],
+            [6, 6, 6],
+            [6, 7, 6],
+        ]);
+        let seen = occupancy(&[[0, 0, 0]]);
+        assert_eq!(
+            hull.reaching(&seen),
+            occupancy(&[[0, 0, 0], [1, 0, 0], [2, 1, 1], [3, 1, 1]])
+        );
+        assert!(hull.reaching(&occupancy(&[[5, 5, 5]])).is_empty());
+        assert_eq!(hull.reaching(&hull), hull);
+    }
 }

@@ -138,6 +138,7 @@ fn views<'a>(
             silhouette: &s.object,
             markers: &s.markers,
             shadow_like: Some(&s.shadow_like),
+            hidden: None,
         })
         .collect()
 }

@@ -596,7 +596,7 @@ pub(crate) struct Overlap {
 }
 
 /// IoU of the rendered tube with `view`'s silhouette (leaving out the pixels only the open
-/// ends' continuations cover), and the silhouette pixels farther than `explain_px` from both;
+/// ends' continuations cover, and those `view` says are hidden), and the silhouette pixels farther than `explain_px` from both;
 /// shadow-coloured silhouette pixels that far are counted apart, in neither — unless
 /// `continuations` takes them for the tube's continuing beyond a capped end: a grey distal
 /// part the fit missed looks so. Below `limit`, the IoU again with the silhouette completed
@@ -608,6 +608,15 @@ pub(crate) fn overlap(
     continuations: impl FnOnce(&BitMask) -> BitMask,
     (limit, outlined): (f64, impl FnOnce() -> BitMask),
 ) -> Overlap {
+    // Where the camera cannot see into the volume, the tube is neither shown nor missed.
+    let seen;
+    let (tube, beyond) = match view.hidden {
+        Some(hidden) => {
+            seen = (tube.and_not(hidden), beyond.and_not(hidden));
+            (&seen.0, &seen.1)
+        }
+        None => (tube, beyond),
+    };
     let near = tube.or(beyond).dilate(explain_px);
     let shadow = view
         .shadow_like
@@ -1140,6 +1149,7 @@ mod tests {
                 silhouette,
                 markers: &markers,
                 shadow_like: shadow,
+                hidden: None,
             })
         };
         for seed in 0..20 {

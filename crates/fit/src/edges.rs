@@ -43,6 +43,9 @@ pub(crate) struct EdgeImage<'a> {
     /// Whether the image is a camera's, of a shaded tube (a mask's flat colours are not):
     /// only then is a boundary read against the tube's rim.
     shaded: bool,
+    /// Where something in front of the volume hides it from the camera (the rig's occlusion
+    /// mask): a line that reads any of it says nothing of the tube.
+    hidden: Option<&'a BitMask>,
 }
 
 /// A boundary found along a search line.
@@ -109,7 +112,40 @@ impl<'a> EdgeImage<'a> {
             height: h as usize,
             shade: None,
             shaded: true,
+            hidden: None,
         }
+    }
+
+    /// The same, with the pixels `hidden` (same size as the image) where something in front
+    /// of the volume hides it from the camera.
+    pub fn with_hidden(self, hidden: Option<&'a BitMask>) -> Self {
+        EdgeImage {
+            hidden: hidden.filter(|h| h.width() == self.width && h.height() == self.height),
+            ..self
+        }
+    }
+
+    /// Whether the search line `origin + t·direction`, `t ∈ [−inside, search]`, reads a
+    /// hidden pixel (see [`EdgeImage::with_hidden`]): a boundary there, or none, would be the
+    /// occluder's.
+    pub fn hides(
+        &self,
+        origin: Vector2<f64>,
+        direction: Vector2<f64>,
+        inside: f64,
+        search: f64,
+    ) -> bool {
+        let Some(hidden) = self.hidden else {
+            return false;
+        };
+        let steps = (inside + search).ceil().max(1.0) as usize;
+        (0..=steps).any(|k| {
+            let t = -inside + (inside + search) * k as f64 / steps as f64;
+            self.corners(origin + direction * t).is_some_and(|c| {
+                c.iter()
+                    .any(|&(i, _)| hidden.get(i % self.width, i / self.width))
+            })
+        })
     }
 
     /// Whether the image is a camera's, of a shaded tube, rather than a mask.

@@ -43,6 +43,7 @@
 //!         silhouette: &masks[k],
 //!         markers: &markers[k],
 //!         shadow_like: None,
+//!         hidden: None,
 //!     })
 //!     .collect();
 //! let names = sim.rig().cameras.iter().map(|c| c.name.clone()).collect();
@@ -140,6 +141,10 @@ pub struct View<'a> {
     /// fitted tube the self-check takes it for a shadow on the backdrop, not for something the
     /// fit left unexplained.
     pub shadow_like: Option<&'a BitMask>,
+    /// Where something in front of the volume hides it from the camera (the rig's occlusion
+    /// mask, same size), if known: the outline there is left out of the fit and the
+    /// self-check, and the tube's pixels there out of its overlap with the silhouette.
+    pub hidden: Option<&'a BitMask>,
 }
 
 /// One predicted outline point and its measured boundary.
@@ -899,7 +904,9 @@ impl TubeFitter {
                         ),
                     });
                 }
-                let edges = EdgeImage::new(v.image, v.background).with_shade(v.shadow_like);
+                let edges = EdgeImage::new(v.image, v.background)
+                    .with_shade(v.shadow_like)
+                    .with_hidden(v.hidden);
                 Ok(if self.settings.masks {
                     edges.of_mask()
                 } else {

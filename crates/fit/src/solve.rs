@@ -129,8 +129,13 @@ pub(crate) fn measure(
                 settings.search_px.min(2.0) + 0.5,
             )
             .into_iter()
-            .map(|p| {
+            .filter_map(|p| {
                 let inside = p.half_width.min(settings.search_px + 1.0).max(1.0);
+                // Hidden by something in front of the volume: left out, as a point outside
+                // the image is.
+                if img.hides(p.pixel, p.normal, inside, settings.search_px) {
+                    return None;
+                }
                 let edge = img.find(
                     p.pixel,
                     p.normal,
@@ -140,7 +145,7 @@ pub(crate) fn measure(
                 );
                 let unseen = edge == Err(Miss::Unseen);
                 let edge = edge.ok();
-                Measured {
+                Some(Measured {
                     point: p,
                     residual: edge.map(|e| -e.offset),
                     edge: edge.map(|e| (p.pixel + p.normal * e.offset, p.normal)),
@@ -155,7 +160,7 @@ pub(crate) fn measure(
                         Part::Cap(_) => 0.0,
                     },
                     backdrop: edge.map_or(0.0, |e| e.backdrop),
-                }
+                })
             })
             .collect::<Vec<_>>()
         })

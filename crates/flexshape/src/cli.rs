@@ -794,7 +794,9 @@ pub struct SimArgs {
         default_value_t = 2.0
     )]
     pub noise: f64,
-    /// Number of spherical occluders between cameras and volume.
+    /// Number of spherical occluders between cameras and volume (one before each camera in
+    /// turn); each camera's occlusion mask is written beside its calibration and named in the
+    /// rig (`occluded`), as a lab masks its fixtures: remove the line to see the rig without.
     #[arg(long, default_value_t = 0)]
     pub occluders: usize,
     /// Catheter radius in mm (the tip section's with --radius-steps).

@@ -35,6 +35,12 @@ impl Layout {
         Path::new("calibration").join(format!("{cam}.yml"))
     }
 
+    /// `calibration/<cam>_occluded.png`, relative to the recording: the camera's occlusion
+    /// mask (the rig's `occluded`), when it has one.
+    pub fn occlusion_file_relative(cam: &str) -> PathBuf {
+        Path::new("calibration").join(format!("{cam}_occluded.png"))
+    }
+
     /// `DIR/background/<cam>.png`.
     pub fn background(&self, cam: &str) -> PathBuf {
         self.root.join("background").join(format!("{cam}.png"))

@@ -4,7 +4,7 @@
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
-use flexshape_rig::{Rig, RigCamera};
+use flexshape_rig::{Occluded, Rig, RigCamera};
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::{ExtendedColorType, GrayImage, ImageEncoder, RgbImage};
 
@@ -98,6 +98,10 @@ impl RecordingWriter {
                 .iter()
                 .map(|c| RigCamera {
                     file: Layout::calibration_file_relative(&c.name),
+                    occluded: c.occluded.as_ref().map(|o| Occluded {
+                        file: Layout::occlusion_file_relative(&c.name),
+                        mask: o.mask.clone(),
+                    }),
                     ..c.clone()
                 })
                 .collect(),

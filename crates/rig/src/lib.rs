@@ -43,7 +43,7 @@ mod volume;
 
 pub use check::{CameraView, RigCheck, short};
 pub use error::RigError;
-pub use rig::{Refined, Rig, RigCamera, SkippedFile, valid_name};
+pub use rig::{Occluded, Refined, Rig, RigCamera, SkippedFile, valid_name};
 pub use volume::{MAX_VOXELS, VOXEL_MM, Volume, VolumeError};
 
 /// Per-stage processing settings (`[processing.<stage>]` tables of the rig file).

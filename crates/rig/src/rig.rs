@@ -10,6 +10,7 @@
 //! name = "cam0"
 //! file = "calibration/cam0.yml"      # relative to the rig file
 //! image_size = [640, 480]            # optional; must match the camera file
+//! occluded = "calibration/cam0_occluded.png"  # optional; where a fixture hides the volume
 //!
 //! [processing.silhouette]            # each stage reads its own table
 //! ```
@@ -77,6 +78,52 @@ pub struct RigCamera {
     pub file: PathBuf,
     /// The calibrated camera (world frame, mm).
     pub camera: Camera,
+    /// Where something in front of the working volume hides it from this camera, if the rig
+    /// says (`occluded`).
+    pub occluded: Option<Occluded>,
+}
+
+/// The pixels of a camera's image where something between the camera and the working volume
+/// (a fixture, a clamp, the robot's base, a lamp's housing) hides the volume: the camera can
+/// say nothing of what lies behind them, so they neither carve the hull away nor count for or
+/// against a fitted tube. A mask the size of the camera's image (PNG or JPEG, any colour
+/// type), hidden where its brightest channel is at least [`Occluded::LEVEL`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Occluded {
+    /// The mask file, relative to the rig file (as written in it).
+    pub file: PathBuf,
+    /// The mask: 255 where hidden, 0 where seen (pixel (x, y) at row y, column x).
+    pub mask: image::GrayImage,
+}
+
+impl Occluded {
+    /// Level of a mask's brightest channel from which its pixel is hidden.
+    pub const LEVEL: u8 = 128;
+
+    /// Reads the mask `file` (relative to the rig file's folder `dir`), which must be
+    /// `width`×`height`.
+    fn read(
+        dir: &Path,
+        file: PathBuf,
+        (width, height): (u32, u32),
+    ) -> Result<Self, crate::files::FileError> {
+        let image = crate::files::read_image(&dir.join(&file), Some((width, height)))?;
+        let rgb = image.to_rgb8();
+        let mask = image::GrayImage::from_fn(width, height, |x, y| {
+            let p = rgb.get_pixel(x, y).0;
+            image::Luma([if p.into_iter().max().unwrap_or(0) >= Self::LEVEL {
+                255
+            } else {
+                0
+            }])
+        });
+        Ok(Occluded { file, mask })
+    }
+
+    /// Whether pixel (x, y) is hidden (false outside the mask).
+    pub fn hides(&self, x: u32, y: u32) -> bool {
+        x < self.mask.width() && y < self.mask.height() && self.mask.get_pixel(x, y).0[0] > 0
+    }
 }
 
 /// Cameras, working volume and processing settings.
@@ -139,6 +186,8 @@ struct RawRigCamera {
     file: PathBuf,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     image_size: Option<[u32; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    occluded: Option<PathBuf>,
 }
 
 #[derive(Serialize)]
@@ -249,10 +298,25 @@ impl Rig {
                     ),
                 ));
             }
+            let occluded = c
+                .occluded
+                .map(|file| Occluded::read(dir, file, (k.width, k.height)))
+                .transpose()
+                .map_err(|e| {
+                    RigError::field(
+                        path,
+                        format!("cameras[{i}].occluded"),
+                        format!(
+                            "{e}; the mask must be the camera's image size, white where \
+                             something hides the volume"
+                        ),
+                    )
+                })?;
             cameras.push(RigCamera {
                 name: c.name,
                 file: c.file,
                 camera: Camera::new(cam_file.intrinsics, pose),
+                occluded,
             });
         }
         Ok(Rig {
@@ -360,6 +424,7 @@ impl Rig {
                     name: c.name.clone(),
                     file: c.file.clone(),
                     image_size: Some([c.camera.intrinsics.width, c.camera.intrinsics.height]),
+                    occluded: c.occluded.as_ref().map(|o| o.file.clone()),
                 })
                 .collect(),
             processing: &self.processing,
@@ -385,6 +450,19 @@ impl Rig {
                 })?;
             }
             camera_file::write_camera(&file, &c.camera)?;
+            if let Some(o) = &c.occluded {
+                let file = dir.join(&o.file);
+                if let Some(parent) = file.parent() {
+                    std::fs::create_dir_all(parent).map_err(|source| RigError::Write {
+                        file: parent.to_path_buf(),
+                        source,
+                    })?;
+                }
+                o.mask.save(&file).map_err(|e| RigError::Write {
+                    file: file.clone(),
+                    source: std::io::Error::other(e.to_string()),
+                })?;
+            }
         }
         std::fs::write(path, self.to_toml()).map_err(|source| RigError::Write {
             file: path.to_path_buf(),

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use flexshape_camera::nalgebra::{Matrix3, Rotation3, Vector3};
 use flexshape_camera::{Camera, Distortion, Intrinsics, Pose};
 use flexshape_rig::camera_file::{self, CameraFile};
-use flexshape_rig::{Rig, RigCamera, RigError, Volume};
+use flexshape_rig::{Occluded, Rig, RigCamera, RigError, Volume};
 use serde::Deserialize;
 
 fn fixture(name: &str) -> PathBuf {
@@ -267,6 +267,7 @@ fn write_rig(dir: &Path) -> PathBuf {
                     if i == 2 { "json" } else { "yml" }
                 )),
                 camera,
+                occluded: None,
             }
         })
         .collect();
@@ -298,6 +299,74 @@ fn rig_round_trips_with_its_camera_files() {
         Rig::from_calibration_dir(&dir.path().join("calibration"), Volume::default()).unwrap();
     let names: Vec<_> = from_dir.cameras.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(names, ["cam0", "cam1", "cam2"]);
+}
+
+/// A camera's occlusion mask (`occluded`): saved beside the rig and read back as hidden where
+/// its brightest channel reaches 128 (any colour type); a mask of another size, or a missing
+/// one, names the camera's field and the file.
+#[test]
+fn an_occlusion_mask_round_trips_and_a_wrong_one_names_its_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_rig(dir.path());
+    let mut rig = Rig::load(&path).unwrap();
+    let mask = image::GrayImage::from_fn(640, 480, |x, y| {
+        image::Luma([if (100..140).contains(&x) && y < 50 {
+            255
+        } else {
+            0
+        }])
+    });
+    rig.cameras[1].occluded = Some(Occluded {
+        file: PathBuf::from("calibration/cam1_occluded.png"),
+        mask: mask.clone(),
+    });
+    rig.save(&path).unwrap();
+    let back = Rig::load(&path).unwrap();
+    assert_eq!(back, rig);
+    let o = back.cameras[1].occluded.as_ref().unwrap();
+    assert!(o.hides(120, 10) && !o.hides(99, 10) && !o.hides(120, 50) && !o.hides(700, 10));
+    // A colour mask drawn in an editor, grey-ish where hidden: read by its brightest channel.
+    let drawn = image::RgbImage::from_fn(640, 480, |x, y| {
+        image::Rgb(if (100..140).contains(&x) && y < 50 {
+            [200, 20, 20]
+        } else {
+            [90, 90, 90]
+        })
+    });
+    drawn
+        .save(dir.path().join("calibration/cam1_occluded.png"))
+        .unwrap();
+    assert_eq!(
+        Rig::load(&path).unwrap().cameras[1]
+            .occluded
+            .as_ref()
+            .unwrap()
+            .mask,
+        mask
+    );
+    // Another size.
+    image::GrayImage::new(320, 240)
+        .save(dir.path().join("calibration/cam1_occluded.png"))
+        .unwrap();
+    match Rig::load(&path) {
+        Err(RigError::Field { field, problem, .. }) => {
+            assert_eq!(field, "cameras[1].occluded");
+            assert!(
+                problem.contains("cam1_occluded.png") && problem.contains("320×240"),
+                "{problem}"
+            );
+        }
+        other => panic!("expected a field error, got {other:?}"),
+    }
+    // Missing.
+    std::fs::remove_file(dir.path().join("calibration/cam1_occluded.png")).unwrap();
+    match Rig::load(&path) {
+        Err(RigError::Field { field, problem, .. }) => {
+            assert_eq!(field, "cameras[1].occluded");
+            assert!(problem.contains("cam1_occluded.png"), "{problem}");
+        }
+        other => panic!("expected a field error, got {other:?}"),
+    }
 }
 
 /// A calibration folder holding another tool's files beside the camera files: the cameras

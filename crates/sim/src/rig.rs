@@ -213,6 +213,7 @@ impl SimRigConfig {
                 file: Layout::calibration_file_relative(&name),
                 name,
                 camera,
+                occluded: None,
             })
             .collect();
         Ok(Rig {

@@ -7,7 +7,7 @@ use std::path::Path;
 use flexshape_camera::Camera;
 use flexshape_camera::nalgebra::Point3;
 use flexshape_recording::{Command, PoseRole, RecordingWriter, Truth};
-use flexshape_rig::Rig;
+use flexshape_rig::{Occluded, Rig};
 use image::RgbImage;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
@@ -63,6 +63,15 @@ impl Simulator {
         let cameras: Vec<Camera> = config.rig.cameras()?.into_iter().map(|(_, c)| c).collect();
         let renderer = Renderer::new(&cameras, config.render.clone())?;
         let occluders = place_occluders(&cameras, config.occluders, config.seed);
+        // Declared as a lab masks its fixtures: where each camera sees an occluder.
+        if !occluders.is_empty() {
+            for (c, camera) in rig.cameras.iter_mut().zip(&cameras) {
+                c.occluded = Some(Occluded {
+                    file: flexshape_recording::Layout::occlusion_file_relative(&c.name),
+                    mask: occluded_by(camera, &occluders),
+                });
+            }
+        }
         Ok(Simulator {
             config,
             rig,
@@ -437,6 +446,24 @@ impl Simulator {
         }
         Ok(count as u64)
     }
+}
+
+/// The pixels of `camera`'s image whose rays meet one of `occluders` (255; 0 elsewhere).
+fn occluded_by(camera: &Camera, occluders: &[Occluder]) -> image::GrayImage {
+    let (w, h) = (camera.intrinsics.width, camera.intrinsics.height);
+    image::GrayImage::from_fn(w, h, |x, y| {
+        let hit = camera
+            .ray(flexshape_camera::nalgebra::Point2::new(x as f64, y as f64))
+            .is_ok_and(|ray| {
+                occluders.iter().any(|o| {
+                    // The ray's nearest approach to the sphere's centre, ahead of the camera.
+                    let to = o.centre - ray.origin;
+                    let along = to.dot(&ray.direction);
+                    along > 0.0 && (to - ray.direction * along).norm() <= o.radius
+                })
+            });
+        image::Luma([if hit { 255 } else { 0 }])
+    })
 }
 
 /// Occluder `k` sits on the line from camera `k mod n` to the origin, 250 mm from the camera,

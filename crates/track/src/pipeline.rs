@@ -23,8 +23,8 @@ use flexshape_input::FrameImage;
 use flexshape_rig::{Rig, Volume};
 use flexshape_shape::{ShapeEstimator, ShapeRecord, ShapeSettings, Status};
 use flexshape_silhouette::{
-    BackgroundModel, GROWTH_FLOOR, Region, Silhouette, SilhouetteSettings, SilhouetteStatus,
-    Silhouetter,
+    BackgroundModel, BitMask, GROWTH_FLOOR, Region, Silhouette, SilhouetteSettings,
+    SilhouetteStatus, Silhouetter,
 };
 use image::RgbImage;
 use rayon::prelude::*;
@@ -313,6 +313,10 @@ pub struct Pipeline {
     band_rule: BandRule,
     shape: ShapeEstimator,
     fitter: TubeFitter,
+    /// Per camera, where something in front of the volume hides it (the rig's `occluded`
+    /// masks, a pixel wider for the occluder's blurred edge): carved as if the tube were
+    /// there, and left out of the fit and its check.
+    hidden: Vec<Option<Arc<BitMask>>>,
     /// The backdrops, the silhouette shares of recent right frames and the bootstrap
     /// budget, as the frames processed so far left them.
     state: Shared,
@@ -422,6 +426,15 @@ impl Pipeline {
             names.clone(),
             FitSettings::from_processing(&rig.processing)?,
         )?;
+        let hidden = rig
+            .cameras
+            .iter()
+            .map(|c| {
+                c.occluded
+                    .as_ref()
+                    .map(|o| Arc::new(BitMask::from_gray(&o.mask).dilate(1)))
+            })
+            .collect();
         Ok(Pipeline {
             names,
             cameras,
@@ -429,6 +442,7 @@ impl Pipeline {
             band_rule: BandRule::default(),
             shape,
             fitter,
+            hidden,
             state: Shared::new(RunState::new(backdrops)),
         })
     }
@@ -456,6 +470,7 @@ impl Pipeline {
             band_rule: self.band_rule.clone(),
             shape: self.shape.clone(),
             fitter,
+            hidden: self.hidden.clone(),
             state: self.state.clone(),
         })
     }
@@ -533,7 +548,7 @@ impl Pipeline {
     /// How the image fit sees a frame: each camera's image (rig order), background (e.g. from
     /// [`Pipeline::backgrounds`]) and silhouette.
     pub fn views<'a>(
-        &self,
+        &'a self,
         images: &[&'a RgbImage],
         silhouettes: &'a [Silhouette],
         backgrounds: &'a [Arc<BackgroundModel>],
@@ -542,12 +557,14 @@ impl Pipeline {
             .iter()
             .zip(backgrounds)
             .zip(silhouettes)
-            .map(|((image, bg), s)| View {
+            .zip(&self.hidden)
+            .map(|(((image, bg), s), hidden)| View {
                 image,
                 background: bg.means(),
                 silhouette: &s.object,
                 markers: &s.markers,
                 shadow_like: Some(&s.shadow_like),
+                hidden: hidden.as_deref(),
             })
             .collect()
     }
@@ -986,8 +1003,17 @@ impl Pipeline {
             });
         }
         let t = Instant::now();
-        let objects: Vec<_> = silhouettes.iter().map(|s| &s.object).collect();
-        let occupancy = self.carver.carve(&objects, OutsideImage::Carve)?;
+        let carved = self.carved(&silhouettes);
+        let objects: Vec<_> = carved.iter().map(|c| c.as_ref()).collect();
+        let mut occupancy = self.carver.carve(&objects, OutsideImage::Carve)?;
+        if self.hidden.iter().any(Option::is_some) {
+            // Where a camera cannot see, the others' ghosts stand too: only the parts that
+            // reach what every camera carved are the tube's (behind the occluder it joins
+            // them; a ghost apart from them is its other views' rays crossing).
+            let seen: Vec<_> = silhouettes.iter().map(|s| &s.object).collect();
+            let plain = self.carver.carve(&seen, OutsideImage::Carve)?;
+            occupancy = occupancy.reaching(&plain);
+        }
         Ok(Hull {
             silhouettes,
             occupancy,
@@ -999,6 +1025,19 @@ impl Pipeline {
                 ..StageTimings::default()
             },
         })
+    }
+
+    /// What each camera carves with: its silhouette's object, and where the camera cannot
+    /// see into the volume (`hidden`), that too — it cannot say the tube is not there.
+    fn carved<'a>(&self, silhouettes: &'a [Silhouette]) -> Vec<std::borrow::Cow<'a, BitMask>> {
+        silhouettes
+            .iter()
+            .zip(&self.hidden)
+            .map(|(s, hidden)| match hidden {
+                Some(h) => std::borrow::Cow::Owned(s.object.or(h)),
+                None => std::borrow::Cow::Borrowed(&s.object),
+            })
+            .collect()
     }
 
     /// One frame: one image per camera, in the rig's order, through the whole chain (the fit
@@ -1439,7 +1478,8 @@ impl Pipeline {
         silhouettes: &[Silhouette],
         occupancy: &Occupancy,
     ) -> Result<Option<(Occupancy, usize, Shaped)>, TrackError> {
-        let objects: Vec<_> = silhouettes.iter().map(|s| &s.object).collect();
+        let carved = self.carved(silhouettes);
+        let objects: Vec<_> = carved.iter().map(|c| c.as_ref()).collect();
         let shadow_like: Vec<_> = silhouettes.iter().map(|s| &s.shadow_like).collect();
         let dropped = shadow_carved(
             &self.carver,

@@ -98,14 +98,16 @@ pub struct Refinement {
 pub const MIN_GAIN: f64 = 0.1;
 
 impl Refinement {
-    /// The refined rig: every camera at its refined pose, its file
-    /// `calibration/NAME.yml` beside the rig file, with `volume` and `processing` kept, and
-    /// `[refined]` saying which cameras moved and how far the world frame may have.
+    /// The refined rig of `original`: every camera at its refined pose, its file
+    /// `calibration/NAME.yml` beside the rig file, with `volume`, `original`'s processing and
+    /// its cameras' occlusion masks kept, and `[refined]` saying which cameras moved and how
+    /// far the world frame may have.
     pub fn rig(
         &self,
+        original: &flexshape_rig::Rig,
         volume: flexshape_rig::Volume,
-        processing: toml::Table,
     ) -> flexshape_rig::Rig {
+        let processing = original.processing.clone();
         flexshape_rig::Rig {
             cameras: self
                 .cameras
@@ -114,6 +116,7 @@ impl Refinement {
                     name: c.name.clone(),
                     file: refined_camera_file(&c.name),
                     camera: c.camera.clone(),
+                    occluded: original.camera(&c.name).and_then(|o| o.occluded.clone()),
                 })
                 .collect(),
             volume,

@@ -255,6 +255,7 @@ pub fn calibrate_rig(
                     translation: p.rotation * world.translation + p.translation,
                 },
             ),
+            occluded: None,
         })
         .collect();
     let mut rig = Rig {

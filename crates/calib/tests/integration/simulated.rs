@@ -218,6 +218,7 @@ fn simulated_rig_is_recovered() {
                         translation: adjusted.poses[k].translation,
                     },
                 ),
+                occluded: None,
             })
             .collect(),
         volume: flexshape_rig::Volume::default(),

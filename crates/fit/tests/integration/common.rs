@@ -102,6 +102,7 @@ impl Chain {
                 silhouette: &s.object,
                 markers: &s.markers,
                 shadow_like: Some(&s.shadow_like),
+                hidden: None,
             })
             .collect()
     }

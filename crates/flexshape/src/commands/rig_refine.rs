@@ -59,7 +59,7 @@ pub fn run(args: &RigRefineArgs) -> anyhow::Result<()> {
     }
     let (before, after) = refinement.overall_rms();
     let gain = refinement.gain_percent();
-    let rig = refinement.rig(volume, input.rig.processing.clone());
+    let rig = refinement.rig(&input.rig, volume);
     rig.save(&rig_path)
         .with_context(|| format!("cannot write the refined rig to {}", args.out.display()))?;
     let source = args

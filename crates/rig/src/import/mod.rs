@@ -123,6 +123,7 @@ pub fn rig_of(cameras: Vec<Imported>, volume: Volume, source: &Path) -> Result<R
                 file: PathBuf::from(format!("{}.yml", c.name)),
                 name: c.name,
                 camera: c.camera,
+                occluded: None,
             })
             .collect(),
         volume,

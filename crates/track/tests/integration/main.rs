@@ -6,6 +6,7 @@ mod common;
 mod backdrops;
 mod examples;
 mod fuzz;
+mod occluders;
 mod open;
 mod pipeline;
 mod refine;

@@ -279,7 +279,7 @@ fn a_knocked_camera_moves_alone_and_the_world_stays_where_it_was() {
         assert_eq!(r.alternatives.len(), 1, "{:?}", r.alternatives);
         assert!(r.world_open_mm > 0.0);
         // The refined rig says so, and reads back as it was written.
-        let rig = r.rig(flexshape_rig::Volume::default(), Default::default());
+        let rig = r.rig(sim.rig(), flexshape_rig::Volume::default());
         let refined = rig.refined.clone().expect("a refined rig says what moved");
         assert_eq!(refined.moved, vec![format!("cam{which}")]);
         assert!((refined.world_open_mm - r.world_open_mm).abs() < 1e-3);
