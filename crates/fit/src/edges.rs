@@ -125,6 +125,11 @@ impl<'a> EdgeImage<'a> {
         }
     }
 
+    /// Whether any pixel is hidden (see [`EdgeImage::with_hidden`]).
+    pub fn hides_any(&self) -> bool {
+        self.hidden.is_some()
+    }
+
     /// Whether the search line `origin + t·direction`, `t ∈ [−inside, search]`, reads a
     /// hidden pixel (see [`EdgeImage::with_hidden`]): a boundary there, or none, would be the
     /// occluder's.

@@ -121,48 +121,52 @@ pub(crate) fn measure(
                     &own
                 }
             };
-            outline(
+            let mut points = outline(
                 cam,
                 tube,
                 sampled,
                 settings.spacing_mm,
                 settings.search_px.min(2.0) + 0.5,
-            )
-            .into_iter()
-            .filter_map(|p| {
-                let inside = p.half_width.min(settings.search_px + 1.0).max(1.0);
-                // Hidden by something in front of the volume: left out, as a point outside
-                // the image is.
-                if img.hides(p.pixel, p.normal, inside, settings.search_px) {
-                    return None;
-                }
-                let edge = img.find(
-                    p.pixel,
-                    p.normal,
-                    inside,
-                    settings.search_px,
-                    settings.min_contrast,
-                );
-                let unseen = edge == Err(Miss::Unseen);
-                let edge = edge.ok();
-                Some(Measured {
-                    point: p,
-                    residual: edge.map(|e| -e.offset),
-                    edge: edge.map(|e| (p.pixel + p.normal * e.offset, p.normal)),
-                    lighter: edge.is_some_and(|e| e.lighter),
-                    ramp: edge.and_then(|e| e.ramp),
-                    contrast: edge.map_or(0.0, |e| e.contrast),
-                    narrowing: 0.0,
-                    unseen,
-                    // The caps alone place the tip along the tube: held to what they read.
-                    rim: match p.part {
-                        Part::Side(_) => edge.map_or(0.0, |e| e.rim),
-                        Part::Cap(_) => 0.0,
-                    },
-                    backdrop: edge.map_or(0.0, |e| e.backdrop),
+            );
+            let inside = |p: &crate::outline::OutlinePoint| {
+                p.half_width.min(settings.search_px + 1.0).max(1.0)
+            };
+            // Hidden by something in front of the volume: left out, as points outside the
+            // image are.
+            if img.hides_any() {
+                points.retain(|p| !img.hides(p.pixel, p.normal, inside(p), settings.search_px));
+            }
+            points
+                .into_iter()
+                .map(|p| {
+                    let inside = inside(&p);
+                    let edge = img.find(
+                        p.pixel,
+                        p.normal,
+                        inside,
+                        settings.search_px,
+                        settings.min_contrast,
+                    );
+                    let unseen = edge == Err(Miss::Unseen);
+                    let edge = edge.ok();
+                    Measured {
+                        point: p,
+                        residual: edge.map(|e| -e.offset),
+                        edge: edge.map(|e| (p.pixel + p.normal * e.offset, p.normal)),
+                        lighter: edge.is_some_and(|e| e.lighter),
+                        ramp: edge.and_then(|e| e.ramp),
+                        contrast: edge.map_or(0.0, |e| e.contrast),
+                        narrowing: 0.0,
+                        unseen,
+                        // The caps alone place the tip along the tube: held to what they read.
+                        rim: match p.part {
+                            Part::Side(_) => edge.map_or(0.0, |e| e.rim),
+                            Part::Cap(_) => 0.0,
+                        },
+                        backdrop: edge.map_or(0.0, |e| e.backdrop),
+                    }
                 })
-            })
-            .collect::<Vec<_>>()
+                .collect::<Vec<_>>()
         })
         .collect();
     for (m, img) in measured.iter_mut().zip(images) {
