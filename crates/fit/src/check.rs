@@ -596,7 +596,7 @@ pub(crate) struct Overlap {
 }
 
 /// IoU of the rendered tube with `view`'s silhouette (leaving out the pixels only the open
-/// ends' continuations cover, and those `view` says are hidden), and the silhouette pixels farther than `explain_px` from both;
+/// ends' continuations cover, and, of both, those `view` says are hidden), and the silhouette pixels farther than `explain_px` from both;
 /// shadow-coloured silhouette pixels that far are counted apart, in neither — unless
 /// `continuations` takes them for the tube's continuing beyond a capped end: a grey distal
 /// part the fit missed looks so. Below `limit`, the IoU again with the silhouette completed
@@ -610,12 +610,16 @@ pub(crate) fn overlap(
 ) -> Overlap {
     // Where the camera cannot see into the volume, the tube is neither shown nor missed.
     let seen;
-    let (tube, beyond) = match view.hidden {
+    let (tube, beyond, view_silhouette) = match view.hidden {
         Some(hidden) => {
-            seen = (tube.and_not(hidden), beyond.and_not(hidden));
-            (&seen.0, &seen.1)
+            seen = (
+                tube.and_not(hidden),
+                beyond.and_not(hidden),
+                view.silhouette.and_not(hidden),
+            );
+            (&seen.0, &seen.1, &seen.2)
         }
-        None => (tube, beyond),
+        None => (tube, beyond, view.silhouette),
     };
     let near = tube.or(beyond).dilate(explain_px);
     let shadow = view
@@ -629,10 +633,10 @@ pub(crate) fn overlap(
     let kept;
     let silhouette = match &shadow {
         Some(shadow) if shadow.count() > 0 => {
-            kept = view.silhouette.and_not(shadow);
+            kept = view_silhouette.and_not(shadow);
             &kept
         }
-        _ => view.silhouette,
+        _ => view_silhouette,
     };
     let iou = tube_iou(tube, beyond, silhouette);
     let iou_outlined = (iou < limit).then(|| {

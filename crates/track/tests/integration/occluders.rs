@@ -88,3 +88,29 @@ fn a_declared_occluder_does_not_excuse_a_camera_that_is_off() {
     // Measured: 0 (`inconsistent`, most for cam0 or cam2's outline as a whole).
     assert!(ok <= 1, "{ok}");
 }
+
+#[test]
+fn a_camera_masked_whole_says_nothing_and_the_others_are_judged_alone() {
+    // cam0's mask covers its whole image: it neither carves nor counts, and its silhouette
+    // (the tube, in plain view) is not held against the fit either (it was: IoU 0 with a
+    // tube whose every pixel is hidden). Two cameras are left; every `ok` must be right.
+    let (sim, _) = occluded_rig();
+    let mut rig = sim.rig().clone();
+    let o = rig.cameras[0].occluded.as_mut().unwrap();
+    o.mask.pixels_mut().for_each(|p| p.0 = [255]);
+    let backgrounds = flexshape_silhouette::BackgroundModel::each(&sim.backgrounds()).unwrap();
+    let pipeline = Pipeline::new(&rig, &backgrounds, &rig.volume).unwrap();
+    for (i, pose) in sim.sweep(6).iter().enumerate() {
+        let frame = sim.render(i as u64, pose).unwrap();
+        let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+        let t = pipeline.process(&images).unwrap();
+        let record = TrackRecord::from_tracked(i as u64, &t);
+        let reason = record.reason.clone().unwrap_or_default();
+        println!("frame {i}: {} {reason}", record.status);
+        assert!(!reason.contains("camera cam0"), "frame {i}: {reason}");
+        if record.status == "ok" {
+            let e = common::errors(&frame.truth, &sim, &t.shape).unwrap();
+            assert!(e.within(RightBounds::default()), "frame {i}: {e:?}");
+        }
+    }
+}
