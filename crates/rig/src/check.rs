@@ -103,7 +103,13 @@ impl RigCheck {
             cameras: rig
                 .cameras
                 .iter()
-                .map(|c| camera_view(&c.name, &c.camera, &corners, &centre))
+                .map(|c| {
+                    let mut view = camera_view(&c.name, &c.camera, &corners, &centre);
+                    if let Some(o) = &c.occluded {
+                        view.line.push_str(&occlusion_note(o, &c.camera, &centre));
+                    }
+                    view
+                })
                 .collect(),
             pairs: pair_lines(rig),
             common: coverage::suggest_volume(&cameras, v.voxel_size[0]),
@@ -186,6 +192,27 @@ fn camera_view(
         corners_seen,
         centre_seen: centre_px.is_some(),
     }
+}
+
+/// What a camera's occlusion mask hides: its share of the image and its file, and whether the
+/// volume's centre is behind it.
+fn occlusion_note(o: &crate::Occluded, cam: &Camera, centre: &Point3<f64>) -> String {
+    let hidden = o.mask.pixels().filter(|p| p.0[0] > 0).count();
+    let share = 100.0 * hidden as f64 / (o.mask.width() as f64 * o.mask.height() as f64).max(1.0);
+    let centre_hidden = cam
+        .project(centre)
+        .ok()
+        .filter(|p| p.pixel.x >= -0.5 && p.pixel.y >= -0.5)
+        .is_some_and(|p| o.hides((p.pixel.x + 0.5) as u32, (p.pixel.y + 0.5) as u32));
+    format!(
+        "  occluded {share:.1} % of the image ({}){}",
+        o.file.display(),
+        if centre_hidden {
+            ", the volume centre among it"
+        } else {
+            ""
+        }
+    )
 }
 
 fn pair_lines(rig: &Rig) -> Vec<String> {

@@ -325,6 +325,12 @@ fn an_occlusion_mask_round_trips_and_a_wrong_one_names_its_field() {
     assert_eq!(back, rig);
     let o = back.cameras[1].occluded.as_ref().unwrap();
     assert!(o.hides(120, 10) && !o.hides(99, 10) && !o.hides(120, 50) && !o.hides(700, 10));
+    // `rig check` says what each mask hides.
+    let report = flexshape_rig::RigCheck::of(&back).to_string();
+    assert!(
+        report.contains("occluded 0.7 % of the image (calibration/cam1_occluded.png)"),
+        "{report}"
+    );
     // A colour mask drawn in an editor, grey-ish where hidden: read by its brightest channel.
     let drawn = image::RgbImage::from_fn(640, 480, |x, y| {
         image::Rgb(if (100..140).contains(&x) && y < 50 {
