@@ -437,27 +437,26 @@ impl Rig {
         )
     }
 
-    /// Writes the rig TOML to `path` and every camera file (OpenCV YAML/JSON by extension) to
-    /// its `file`, relative to `path`'s folder, creating folders as needed.
+    /// Writes the rig TOML to `path`, every camera file (OpenCV YAML/JSON by extension) to its
+    /// `file` and every occlusion mask to its own, relative to `path`'s folder, creating
+    /// folders as needed.
     pub fn save(&self, path: &Path) -> Result<(), RigError> {
         let dir = path.parent().unwrap_or(Path::new("."));
-        for c in &self.cameras {
-            let file = dir.join(&c.file);
+        // `dir.join(relative)`, its folder created.
+        let placed = |relative: &Path| -> Result<PathBuf, RigError> {
+            let file = dir.join(relative);
             if let Some(parent) = file.parent() {
                 std::fs::create_dir_all(parent).map_err(|source| RigError::Write {
                     file: parent.to_path_buf(),
                     source,
                 })?;
             }
-            camera_file::write_camera(&file, &c.camera)?;
+            Ok(file)
+        };
+        for c in &self.cameras {
+            camera_file::write_camera(&placed(&c.file)?, &c.camera)?;
             if let Some(o) = &c.occluded {
-                let file = dir.join(&o.file);
-                if let Some(parent) = file.parent() {
-                    std::fs::create_dir_all(parent).map_err(|source| RigError::Write {
-                        file: parent.to_path_buf(),
-                        source,
-                    })?;
-                }
+                let file = placed(&o.file)?;
                 o.mask.save(&file).map_err(|e| RigError::Write {
                     file: file.clone(),
                     source: std::io::Error::other(e.to_string()),

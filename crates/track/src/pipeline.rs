@@ -546,7 +546,8 @@ impl Pipeline {
     }
 
     /// How the image fit sees a frame: each camera's image (rig order), background (e.g. from
-    /// [`Pipeline::backgrounds`]) and silhouette.
+    /// [`Pipeline::backgrounds`]), silhouette, and where the rig's occlusion mask hides the
+    /// volume from it.
     pub fn views<'a>(
         &'a self,
         images: &[&'a RgbImage],
