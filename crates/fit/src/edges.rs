@@ -146,10 +146,15 @@ impl<'a> EdgeImage<'a> {
         let steps = (inside + search).ceil().max(1.0) as usize;
         (0..=steps).any(|k| {
             let t = -inside + (inside + search) * k as f64 / steps as f64;
-            self.corners(origin + direction * t).is_some_and(|c| {
-                c.iter()
-                    .any(|&(i, _)| hidden.get(i % self.width, i / self.width))
-            })
+            self.reads(hidden, origin + direction * t)
+        })
+    }
+
+    /// Whether reading the image at `p` (bilinearly) reads a pixel of `mask` (same size).
+    fn reads(&self, mask: &BitMask, p: Vector2<f64>) -> bool {
+        self.corners(p).is_some_and(|c| {
+            c.iter()
+                .any(|&(i, _)| mask.get(i % self.width, i / self.width))
         })
     }
 
@@ -182,12 +187,7 @@ impl<'a> EdgeImage<'a> {
         let Some(shade) = self.shade.filter(|s| s.width() == self.width) else {
             return false;
         };
-        (0..outer).any(|k| {
-            self.corners(at(k)).is_some_and(|c| {
-                c.iter()
-                    .any(|&(i, _)| shade.get(i % self.width, i / self.width))
-            })
-        })
+        (0..outer).any(|k| self.reads(shade, at(k)))
     }
 
     /// The four pixels around a sub-pixel position and their bilinear weights, or `None`

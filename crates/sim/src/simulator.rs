@@ -448,7 +448,8 @@ impl Simulator {
     }
 }
 
-/// The pixels of `camera`'s image whose rays meet one of `occluders` (255; 0 elsewhere).
+/// The pixels of `camera`'s image whose rays (through the pixel's centre) meet one of
+/// `occluders`, as the renderer intersects them (255; 0 elsewhere).
 fn occluded_by(camera: &Camera, occluders: &[Occluder]) -> image::GrayImage {
     let (w, h) = (camera.intrinsics.width, camera.intrinsics.height);
     image::GrayImage::from_fn(w, h, |x, y| {
@@ -456,10 +457,13 @@ fn occluded_by(camera: &Camera, occluders: &[Occluder]) -> image::GrayImage {
             .ray(flexshape_camera::nalgebra::Point2::new(x as f64, y as f64))
             .is_ok_and(|ray| {
                 occluders.iter().any(|o| {
-                    // The ray's nearest approach to the sphere's centre, ahead of the camera.
-                    let to = o.centre - ray.origin;
-                    let along = to.dot(&ray.direction);
-                    along > 0.0 && (to - ray.direction * along).norm() <= o.radius
+                    crate::render::ray_sphere(
+                        &ray.origin.coords,
+                        &ray.direction,
+                        &o.centre.coords,
+                        o.radius,
+                    )
+                    .is_some()
                 })
             });
         image::Luma([if hit { 255 } else { 0 }])

@@ -25,7 +25,8 @@ use crate::scene::{Albedo, Gloss, Scene};
 use backdrop::lamp_visibility;
 pub use backdrop::{Plate, PlatePattern};
 use cull::{Rect, RectIndex, box_corners};
-use intersect::{Capsule, closest_on_segment, ray_capsule, ray_sphere, segment_distance};
+pub(crate) use intersect::ray_sphere;
+use intersect::{Capsule, closest_on_segment, ray_capsule, segment_distance};
 use view::{CameraView, TILE};
 
 /// How images are rendered.
