@@ -101,7 +101,11 @@ pub struct FitSettings {
     pub max_ghost_mm: f64,
     /// Largest 1-σ uncertainty across the tube anywhere along the reported centerline, mm,
     /// beyond which the shape is `ambiguous`: the cameras do not pin it down (too few of them,
-    /// or the tube lying in a plane two of them share).
+    /// or the tube lying in a plane two of them share). The default, 0.15 mm, is the
+    /// centerline accuracy an `ok` claims (the RMS bound `validate` and a simulated
+    /// recording's truth judge by): a frame whose worst point the cameras place only more
+    /// loosely than that cannot vouch for it. Measured on 714 simulated frames of 22 scenes:
+    /// frames at σ 0.10–0.15 mm lay 0.03–0.10 mm RMS from the truth, every one right.
     pub max_sigma_mm: f64,
     /// Tracking: start each frame from the previous frame's fit (when that one was right;
     /// carried on as it moved since the right frame before), classify silhouettes only around
@@ -156,7 +160,7 @@ impl Default for FitSettings {
             max_unexplained_px: 60,
             explain_px: 2,
             max_ghost_mm: 6.0,
-            max_sigma_mm: 0.1,
+            max_sigma_mm: 0.15,
             track: false,
             track_margin_px: 24.0,
             track_max_move_mm: 3.0,

@@ -380,9 +380,7 @@ impl Pipeline {
             max_p90_px: fit.max_p90_px.max(MASK_P90_PX),
             // The outline's noise doubles (measured: 0.2 px RMS against 0.1 from images), and
             // so does the uncertainty of a fit the cameras do pin down.
-            max_sigma_mm: fit
-                .max_sigma_mm
-                .max(2.0 * FitSettings::default().max_sigma_mm),
+            max_sigma_mm: fit.max_sigma_mm.max(MASK_SIGMA_MM),
             ..fit.clone()
         };
         pipeline.with_fit_settings(settings)
@@ -1558,6 +1556,12 @@ enum Pass {
 /// Pixels around a ghost that take the captured background back with it: a ghost's edge was
 /// taken in smoothed over a few pixels (see [`BackgroundModel::absorb`]).
 const GHOST_MARGIN_PX: usize = 2;
+
+/// The loosest 1-σ across the tube, mm, at which a shape fitted to binary masks is still
+/// pinned down (`max_sigma_mm` at least this): a mask's outline scatters twice as far as an
+/// image's (0.2 px RMS against 0.1), and so does the σ of a shape the cameras hold as firmly
+/// as images would hold it to 0.1 mm.
+const MASK_SIGMA_MM: f64 = 0.2;
 
 /// The self-check's 90th percentile of outline residuals for frames that are binary masks,
 /// pixels: their boundary lies on pixel edges, up to half a pixel from the true outline.

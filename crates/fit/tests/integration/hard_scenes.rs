@@ -331,15 +331,27 @@ fn a_thin_silvery_tube_is_followed_whole_and_read_through_its_highlight() {
 /// crossing a white plate printed with black dots on cloth whose folds slid 8 mm after the
 /// backgrounds were taken, two 1280×720 cameras 90° apart. Measured (3 seeds × 4 frames): 8
 /// of 12 `ok`, every one right (0.017–0.048 mm RMS); 2 right but refused (the cameras pin a
-/// stretch along their epipolar plane down only to 0.15 mm; the tip along a camera's line of
+/// stretch along their epipolar plane down only to 0.16 mm; the tip along a camera's line of
 /// sight), 2 refused and off (the tip hidden in a view; a stretch in the epipolar plane).
-/// Tracked by `flexshape track`, 3 seeds × 10 frames: 22 of 30 `ok`, 0 before outline samples
+/// Tracked by `flexshape track`, 3 seeds × 10 frames: 25 of 30 `ok`, 0 before outline samples
 /// against the dots could be unseen. (A camera turned by a fraction of a degree is not a test
 /// here: two cameras explain their images with the shape displaced, README "Positions are as
 /// good as the calibration"; the three-camera scenes refuse it.)
 #[test]
 fn a_concentric_tube_robot_over_a_dot_plate_is_found_by_two_cameras() {
-    let scene = |seed: u64| SimConfig {
+    let scene = concentric_tube_robot;
+    let tally = four_frames_of_three_seeds(scene, |chain, frame| chain.run_two_views(frame).0);
+    let Tally { ok, right_refused } = tally;
+    println!("{ok} of 12 ok, {right_refused} right but refused");
+    assert!(
+        ok >= 7 && right_refused <= 3,
+        "{ok} ok, {right_refused} right but refused"
+    );
+}
+
+/// The concentric-tube robot of [`a_concentric_tube_robot_over_a_dot_plate_is_found_by_two_cameras`].
+fn concentric_tube_robot(seed: u64) -> SimConfig {
+    SimConfig {
         rig: SimRigConfig {
             cameras: 2,
             width: 1280,
@@ -370,14 +382,48 @@ fn a_concentric_tube_robot_over_a_dot_plate_is_found_by_two_cameras() {
         },
         seed,
         ..SimConfig::default()
-    };
-    let tally = four_frames_of_three_seeds(scene, |chain, frame| chain.run_two_views(frame).0);
-    let Tally { ok, right_refused } = tally;
-    println!("{ok} of 12 ok, {right_refused} right but refused");
-    assert!(
-        ok >= 7 && right_refused <= 3,
-        "{ok} ok, {right_refused} right but refused"
-    );
+    }
+}
+
+/// Where two cameras pin a stretch of the tube down only loosely, the fit's own 1-σ across the
+/// tube says how loosely, and a frame is `ambiguous` only when that is looser than the
+/// 0.15 mm an `ok` claims. Measured on the concentric-tube robot, 3 seeds × 10 frames: the
+/// ok frames' σ 0.022–0.101 mm, their centerlines 0.016–0.048 mm RMS from the truth. Seed 1
+/// frame 9 (σ up to 0.101 mm, 0.039 mm RMS) is `ok` (a limit of 0.1 mm refused it though
+/// right); seed 1 frame 1 (0.159 mm at 154 mm along it) says the cameras do not pin it down
+/// (though it lies only 0.093 mm RMS off: a limit on σ also refuses some right shapes).
+#[test]
+fn two_cameras_vouch_for_a_shape_as_far_as_they_pin_it_down() {
+    let limit = flexshape_fit::FitSettings::default().max_sigma_mm;
+    for (seed, frame, pinned) in [(1, 9, true), (1, 1, false)] {
+        let chain = Chain::new(concentric_tube_robot(seed));
+        let sim = &chain.sim;
+        let pose = &sim.sweep(10)[frame];
+        let b = chain
+            .run_two_views(sim.render(frame as u64, pose).unwrap())
+            .0;
+        let (rms, tip) = b.fitted_errors(sim);
+        let sigma = b.fitted.sigma.iter().copied().fold(0.0, f64::max);
+        println!(
+            "seed {seed} frame {frame}: σ max {sigma:.3} mm, rms {rms:.3} mm, tip {tip:.2} mm: {:?}",
+            b.fitted.status
+        );
+        if pinned {
+            assert!(
+                sigma > 0.1 && sigma <= limit,
+                "seed {seed} frame {frame}: σ {sigma:.3}"
+            );
+            assert!(rms <= 0.15 && tip <= 0.3, "seed {seed} frame {frame}");
+            assert_eq!(b.fitted.status, Status::Ok, "seed {seed} frame {frame}");
+        } else {
+            assert!(sigma > limit, "seed {seed} frame {frame}: σ {sigma:.3}");
+            assert!(
+                matches!(&b.fitted.status, Status::Ambiguous { reason } if reason.contains("pin the centerline")),
+                "seed {seed} frame {frame}: {:?}",
+                b.fitted.status
+            );
+        }
+    }
 }
 
 /// The same cloth filmed with sensor noise of σ 6 grey levels (three times the default): each
