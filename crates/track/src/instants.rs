@@ -100,7 +100,8 @@ pub enum Instants {
     Together,
     /// Apart, each camera held to the tube carried by its recent motion to that camera's
     /// capture; the shape is the tube at the frame's instant (what its motion's doubt leaves
-    /// is within the fit's own 1-σ, so later frames take it as at one instant).
+    /// is within the fit's own 1-σ, or with it within `max_sigma_mm`, so later frames take it
+    /// as at one instant).
     Carried {
         /// The farthest the tube was carried for a camera, mm.
         shift_mm: f64,
@@ -208,17 +209,26 @@ impl MotionEstimate {
 /// A shape fitted across time (`across`) whose carried tubes may be up to `off_mm` from
 /// where the tube was at its cameras' captures (the motion's doubt times the farthest offset):
 /// the shape may be that far from the tube at its instant. Within the fit's own 1-σ across
-/// the tube, the images' uncertainty dominates and a right shape stays right
-/// ([`Instants::Carried`]); beyond it the frame is `ambiguous`, saying by how much
-/// ([`Instants::Unknown`], its lag the fastest point's time to move that far), and the next
-/// frame measures the motion again from it.
-pub(crate) fn judge_instant(tracked: &mut Tracked, across: &AcrossTime, off_mm: f64) {
+/// the tube, the images' uncertainty dominates and a right shape stays right; so it does
+/// while that 1-σ and the doubt together stay within `loosest_mm`, the loosest a shape may be
+/// pinned down and still be vouched for (`max_sigma_mm`, the accuracy an `ok` claims). Then
+/// the shape is the tube at the frame's instant for what follows ([`Instants::Carried`]);
+/// beyond it the frame is `ambiguous`, saying by how much ([`Instants::Unknown`], its lag the
+/// fastest point's time to move that far), and the next frame measures the motion again
+/// from it.
+pub(crate) fn judge_instant(
+    tracked: &mut Tracked,
+    across: &AcrossTime,
+    off_mm: f64,
+    loosest_mm: f64,
+) {
     let lag_s = off_mm / across.motion.fastest_across().max(1e-9);
     let sigma = largest_sigma(&tracked.shape);
-    if tracked.shape.status.is_right() && off_mm > sigma {
+    let pinned = off_mm <= sigma || sigma + off_mm <= loosest_mm;
+    if tracked.shape.status.is_right() && !pinned {
         tracked.shape.status = Status::Ambiguous {
             reason: format!(
-                "the cameras captured apart, and the motion that carries the tube between their captures was measured from a shape that lay between its own cameras' captures: this one may be {off_mm:.2} mm from the tube at the frame's instant, beyond the fit's own {sigma:.2} mm (the next frames measure the motion again from it); trigger the cameras together to fit every frame at once"
+                "the cameras captured apart, and the motion that carries the tube between their captures was measured from a shape that lay between its own cameras' captures: this one may be {off_mm:.2} mm from the tube at the frame's instant, beyond the fit's own {sigma:.2} mm and, with it, beyond {loosest_mm:.2} mm (the next frames measure the motion again from it); trigger the cameras together to fit every frame at once"
             ),
         };
         tracked.instants = Instants::Unknown {

@@ -733,7 +733,12 @@ impl Pipeline {
             instants: Instants::Together,
         };
         if let Some((across, doubt_mm)) = &across {
-            judge_instant(&mut followed, across, *doubt_mm);
+            judge_instant(
+                &mut followed,
+                across,
+                *doubt_mm,
+                self.fit_settings().max_sigma_mm,
+            );
         }
         // Apart, with no motion from the prior: measured from the prior to this fit.
         self.at_one_instant(images, followed, Some(prior), times, turn)
@@ -774,7 +779,12 @@ impl Pipeline {
             Some((shape, fit, across, off_mm)) => {
                 tracked.shape = shape;
                 tracked.fit = Some(fit);
-                judge_instant(&mut tracked, &across, off_mm);
+                judge_instant(
+                    &mut tracked,
+                    &across,
+                    off_mm,
+                    self.fit_settings().max_sigma_mm,
+                );
             }
             None if refused => {}
             None => {

@@ -1359,9 +1359,11 @@ fn free_running_cameras_are_each_held_to_the_tube_at_their_capture() {
         let carried = r["carried_mm"].as_f64().unwrap();
         assert!(carried > 0.0 && carried < 2.0, "frame {frame}: {carried}");
     }
-    // 34 of 60 measured: the first frames measure the motion, and a motion whose two
-    // estimates differ by more than the shapes' scatter is doubted.
-    assert!(ok >= 30, "{ok} of 60 ok");
+    // 46 of 60 measured: the first frames measure the motion, and a motion whose two
+    // estimates differ by more than the shapes' scatter is doubted. A shape is vouched for
+    // while that doubt and its own 1-σ stay within the 0.15 mm an ok claims; held within its
+    // own 1-σ alone, 36 were.
+    assert!(ok >= 41, "{ok} of 60 ok");
     assert_eq!(records[0]["status"], "ambiguous");
     let reason = records[0]["reason"].as_str().unwrap();
     assert!(
