@@ -1463,7 +1463,7 @@ impl Pipeline {
                     .map(|((found, all), name)| format!("{name} {found} of {all}"))
                     .collect();
                 return Ok(Some(Chained::Unshown(format!(
-                    "; end to end, they would be one tube across a gap of {gap:.0} mm at ({:.0}, {:.0}, {:.0}) mm, but the images do not show its outline there (found at {} samples; at least {:.0} % in two cameras or more)",
+                    "; end to end, they would be one tube across a gap of {gap:.0} mm at ({:.0}, {:.0}, {:.0}) mm, but the images do not show its outline there (found at {} samples; at least {:.0} % in every camera that sees it)",
                     middle[0],
                     middle[1],
                     middle[2],
@@ -1530,14 +1530,17 @@ const MIN_GAP_SAMPLES: usize = 4;
 /// Whether the images show the tube across a gap between pieces of its hull, from each
 /// camera's (found, samples) along it ([`TubeFitter::found_between`]): every camera that sees
 /// the gap ([`MIN_GAP_SAMPLES`]) finds the tube's boundary at `min_found` of its samples there,
-/// as the self-check asks of a whole outline, and two cameras or more see it (one alone
-/// leaves where the tube lies along its rays to the pieces' ends).
+/// as the self-check asks of a whole outline, and one camera at least sees it. Where the tube
+/// lies along that camera's rays the tube fitted through the gap holds by its pieces on either
+/// side, and the fit's own 1-σ across the tube there says how firmly (`max_sigma_mm`): the
+/// other cameras' samples over a backdrop of the tube's colour (why their silhouettes lost the
+/// stretch) show it neither way. A real gap shows the backdrop in every camera that sees it.
 fn shown_across(found: &[(usize, usize)], min_found: f64) -> bool {
     let seeing: Vec<_> = found
         .iter()
         .filter(|(_, all)| *all >= MIN_GAP_SAMPLES)
         .collect();
-    seeing.len() >= 2
+    !seeing.is_empty()
         && seeing
             .iter()
             .all(|&&(found, all)| found as f64 >= min_found * all as f64)
