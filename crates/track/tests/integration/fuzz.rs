@@ -1,7 +1,10 @@
 //! Mutation fuzzing of everything a user hands the tracker as a file: camera files (YAML and
 //! JSON), rig files with every stage's settings (parsed, then checked as `track` and `rig check`
-//! do), frames (PNG decoding with the size check), a recording's `timestamps.csv`, and the
-//! records and model frames `model fit` and `track --model-frame` read back. Valid
+//! do), frames (PNG decoding with the size check), a recording's `timestamps.csv`, the
+//! records and model frames `model fit` and `track --model-frame` read back, and every
+//! calibration format `rig import` reads (projection text, KITTI lines, `.npy`, Middlebury,
+//! CameraInfo, Kalibr, COLMAP, OpenCV stereo as FileStorage YAML/JSON and `.npz`), each read
+//! and, when it gives cameras, made into a rig as the import does. Valid
 //! seeds are mutated (bytes flipped, inserted, deleted, duplicated; tokens such as `1e308`,
 //! `.nan`, `-0`, `[[cameras]]` spliced in) by a seeded generator; every input must give a
 //! value or an error, never a panic.
@@ -14,7 +17,8 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 
 use flexshape_recording::RecordingReader;
-use flexshape_rig::{Rig, camera_file, files};
+use flexshape_rig::import::{self, Format, ImportOptions, Unit};
+use flexshape_rig::{Rig, Volume, camera_file, files};
 use flexshape_track::{ModelFrame, Pipeline, TrackRecord};
 
 /// Tokens spliced into inputs: special numbers, syntax, and keys the readers look for.
@@ -315,4 +319,134 @@ fn records_and_model_frames_never_panic() {
             }
         },
     );
+}
+
+/// What every import target is read with: millimetres, and an image size for the formats
+/// that do not hold one.
+const IMPORT_OPTIONS: ImportOptions = ImportOptions {
+    unit: Some(Unit::Millimetre),
+    size: Some((640, 480)),
+};
+
+/// A fixture of `rig import`'s tests, as bytes.
+fn import_fixture(path: &str) -> Vec<u8> {
+    std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../rig/tests/fixtures")
+            .join(path),
+    )
+    .unwrap()
+}
+
+/// Reads the mutant `b` written to `file` (in `dir`, beside the other files a format reads)
+/// as `format`, and makes a rig of what it gives, as `rig import` does.
+fn import_one(dir: &Path, file: &str, format: Format, input: &Path, b: &[u8]) {
+    std::fs::write(dir.join(file), b).unwrap();
+    if let Ok(read) = import::read(format, &[input.to_path_buf()], IMPORT_OPTIONS) {
+        let _ = import::rig_of(read.cameras, Volume::default(), input);
+    }
+}
+
+#[test]
+fn calibration_imports_never_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // One target per format, from the files `rig import`'s own tests read; a COLMAP model's
+    // two files are mutated in turn.
+    let targets: [(&str, &str, &str, Format); 10] = [
+        (
+            "projection text",
+            "import/cam0_P.txt",
+            "p.txt",
+            Format::Projection,
+        ),
+        (
+            "KITTI lines",
+            "import/kitti_calib.txt",
+            "calib.txt",
+            Format::Projection,
+        ),
+        (
+            "projection .npy",
+            "import/P_all.npy",
+            "p.npy",
+            Format::Projection,
+        ),
+        (
+            "CameraInfo",
+            "import/left.yaml",
+            "left.yaml",
+            Format::CameraInfo,
+        ),
+        (
+            "Kalibr camchain",
+            "import/camchain.yaml",
+            "camchain.yaml",
+            Format::Kalibr,
+        ),
+        (
+            "OpenCV stereo YAML",
+            "opencv_stereo/stereo.yml",
+            "stereo.yml",
+            Format::OpencvStereo,
+        ),
+        (
+            "OpenCV stereo JSON",
+            "opencv_stereo/stereo.json",
+            "stereo.json",
+            Format::OpencvStereo,
+        ),
+        (
+            "OpenCV stereo .npz",
+            "opencv_stereo/stereo.npz",
+            "stereo.npz",
+            Format::OpencvStereo,
+        ),
+        (
+            "COLMAP cameras.txt",
+            "import/colmap/cameras.txt",
+            "colmap/cameras.txt",
+            Format::Colmap,
+        ),
+        (
+            "COLMAP images.txt",
+            "import/colmap/images.txt",
+            "colmap/images.txt",
+            Format::Colmap,
+        ),
+    ];
+    std::fs::create_dir_all(d.join("colmap")).unwrap();
+    for name in ["cameras.txt", "images.txt"] {
+        let fixture = import_fixture(&format!("import/colmap/{name}"));
+        std::fs::write(d.join("colmap").join(name), fixture).unwrap();
+    }
+    for (i, (name, fixture, file, format)) in targets.into_iter().enumerate() {
+        let input = match format {
+            Format::Colmap => d.join("colmap"),
+            _ => d.join(file),
+        };
+        let seed = import_fixture(fixture);
+        // The seed itself imports: the mutants start from a readable file.
+        std::fs::write(d.join(file), &seed).unwrap();
+        let read = import::read(format, std::slice::from_ref(&input), IMPORT_OPTIONS);
+        assert!(read.is_ok_and(|r| !r.cameras.is_empty()), "{name}");
+        fuzz(name, &[seed.clone()], 10 + i as u64, |b| {
+            import_one(d, file, format, &input, b)
+        });
+        // Left as it was for the next target reading the same folder.
+        std::fs::write(d.join(file), seed).unwrap();
+    }
+    // Middlebury `*_par.txt` (two views, images 640×480 given).
+    let par = b"2\na.png 1000 0 320 0 1010 240 0 0 1 1 0 0 0 1 0 0 0 1 0.01 -0.02 0.5\nb.png 1000 0 320 0 1010 240 0 0 1 0 1 0 -1 0 0 0 0 1 0 0 0.6\n";
+    let input = d.join("x_par.txt");
+    std::fs::write(&input, par).unwrap();
+    let read = import::read(
+        Format::Middlebury,
+        std::slice::from_ref(&input),
+        IMPORT_OPTIONS,
+    );
+    assert!(read.is_ok_and(|r| r.cameras.len() == 2), "Middlebury");
+    fuzz("Middlebury", &[par.to_vec()], 20, |b| {
+        import_one(d, "x_par.txt", Format::Middlebury, &input, b)
+    });
 }
