@@ -227,7 +227,7 @@ impl FitSettings {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
                 return Err(FitError::Setting {
                     field,
-                    problem: format!("{v} is outside {lo}–{hi}"),
+                    problem: format!("{} is outside {lo}–{hi}", flexshape_rig::quoted(v)),
                 });
             }
         }

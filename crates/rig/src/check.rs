@@ -23,6 +23,21 @@ pub fn short(x: f64) -> String {
     if s == "-0" { "0".into() } else { s.into() }
 }
 
+/// A number as a message quotes a value someone wrote: as Rust writes it for magnitudes from
+/// 10⁻⁴ up to 10⁷ (and 0, NaN, ∞), in scientific notation beyond (`1e300`, not 301 digits;
+/// `1e-300`, not 300 zeros).
+pub fn quoted<T>(x: T) -> String
+where
+    T: Into<f64> + Copy + std::fmt::Display + std::fmt::LowerExp,
+{
+    let a = x.into().abs();
+    if a == 0.0 || !a.is_finite() || (1e-4..1e7).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
 impl Volume {
     /// `volume N×N×N voxels of S mm from (…) to (…) mm`.
     pub fn describe(&self) -> String {
@@ -290,7 +305,23 @@ impl Rig {
 
 #[cfg(test)]
 mod tests {
-    use super::short;
+    use super::{quoted, short};
+
+    #[test]
+    fn quoted_numbers_are_short_at_any_size() {
+        assert_eq!(quoted(0.5), "0.5");
+        assert_eq!(quoted(-128.0), "-128");
+        assert_eq!(quoted(157.5), "157.5");
+        assert_eq!(quoted(0.0), "0");
+        assert_eq!(quoted(1e300), "1e300");
+        assert_eq!(quoted(-1e-300), "-1e-300");
+        assert_eq!(quoted(12_345_678.0), "1.2345678e7");
+        assert_eq!(quoted(f64::NAN), "NaN");
+        assert_eq!(quoted(f64::INFINITY), "inf");
+        // A 32-bit setting as it was written, not widened.
+        assert_eq!(quoted(1e30f32), "1e30");
+        assert_eq!(quoted(40.5f32), "40.5");
+    }
 
     #[test]
     fn short_numbers_drop_trailing_zeros() {

@@ -41,7 +41,7 @@ mod opencv_matrix;
 mod rig;
 mod volume;
 
-pub use check::{CameraView, RigCheck, short};
+pub use check::{CameraView, RigCheck, quoted, short};
 pub use error::RigError;
 pub use rig::{Occluded, Refined, Rig, RigCamera, SkippedFile, valid_name};
 pub use volume::{MAX_VOXELS, VOXEL_MM, Volume, VolumeError};

@@ -69,7 +69,7 @@ impl Volume {
         if !(voxel.is_finite() && voxel > 0.0) {
             return Err(VolumeError {
                 field: "voxel_size",
-                problem: format!("{voxel} mm is not a positive voxel size"),
+                problem: format!("{} mm is not a positive voxel size", crate::quoted(voxel)),
             });
         }
         let mut dims = [0u32; 3];
@@ -130,8 +130,10 @@ impl Volume {
             return Err(VolumeError {
                 field: "voxel_size",
                 problem: format!(
-                    "{s:e} mm is outside {}–{} mm: give each voxel edge in millimetres",
-                    VOXEL_MM.0, VOXEL_MM.1
+                    "{} mm is outside {}–{} mm: give each voxel edge in millimetres",
+                    crate::quoted(*s),
+                    VOXEL_MM.0,
+                    VOXEL_MM.1
                 ),
             });
         }

@@ -1,6 +1,7 @@
 //! Settings of the shape stage (`[processing.shape]` in the rig file). Lengths in mm.
 
 use flexshape_curve::{RadiusStep, check_steps};
+use flexshape_rig::quoted;
 use serde::{Deserialize, Serialize};
 
 use crate::ShapeError;
@@ -209,7 +210,9 @@ impl ShapeSettings {
                 "slice_mm",
                 format!(
                     "{} must be 0 (the smallest voxel edge) or between {} and {} mm",
-                    self.slice_mm, SPACING_MM.0, SPACING_MM.1
+                    quoted(self.slice_mm),
+                    SPACING_MM.0,
+                    SPACING_MM.1
                 ),
             );
         }
@@ -218,7 +221,9 @@ impl ShapeSettings {
                 "sample_mm",
                 format!(
                     "{} must be between {} and {} mm",
-                    self.sample_mm, SPACING_MM.0, SPACING_MM.1
+                    quoted(self.sample_mm),
+                    SPACING_MM.0,
+                    SPACING_MM.1
                 ),
             );
         }
@@ -229,7 +234,12 @@ impl ShapeSettings {
         {
             return bad(
                 "radius_mm",
-                format!("{r} must be between {} and {} mm", RADIUS_MM.0, RADIUS_MM.1),
+                format!(
+                    "{} must be between {} and {} mm",
+                    quoted(r),
+                    RADIUS_MM.0,
+                    RADIUS_MM.1
+                ),
             );
         }
         if let Err(e) = check_steps(&self.radius_steps, RADIUS_MM) {
@@ -244,7 +254,10 @@ impl ShapeSettings {
             {
                 return bad(
                     "smoothing.bandwidth_mm",
-                    format!("{bandwidth_mm:e} must be between 0 and {BANDWIDTH_MAX_MM} mm"),
+                    format!(
+                        "{} must be between 0 and {BANDWIDTH_MAX_MM} mm",
+                        quoted(bandwidth_mm)
+                    ),
                 );
             }
             Smoothing::MovingAverage { window }
@@ -275,8 +288,11 @@ impl ShapeSettings {
                 return bad(
                     "sections.nominal_mm",
                     format!(
-                        "{}: {:e} must be between {} and {} mm",
-                        s.name, s.nominal_mm, SECTION_MM.0, SECTION_MM.1
+                        "{}: {} must be between {} and {} mm",
+                        s.name,
+                        quoted(s.nominal_mm),
+                        SECTION_MM.0,
+                        SECTION_MM.1
                     ),
                 );
             }
@@ -311,15 +327,16 @@ impl ShapeSettings {
             return bad(
                 "arc_fit.start_arc_mm",
                 format!(
-                    "{:e} must be between 0 and {} mm from the proximal end",
-                    a.start_arc_mm, SECTION_MM.1
+                    "{} must be between 0 and {} mm from the proximal end",
+                    quoted(a.start_arc_mm),
+                    SECTION_MM.1
                 ),
             );
         }
         if !(a.two_section_split > 0.05 && a.two_section_split < 0.95) {
             return bad(
                 "arc_fit.two_section_split",
-                format!("{} is outside (0.05, 0.95)", a.two_section_split),
+                format!("{} is outside (0.05, 0.95)", quoted(a.two_section_split)),
             );
         }
         if a.reference_axis.iter().map(|v| v * v).sum::<f64>() < 1e-12

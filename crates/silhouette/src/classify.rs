@@ -33,6 +33,7 @@
 //!   lamp's long soft shadow) is foreground too, down to its pixels at least half as dark as its
 //!   mean, where they lie nearer a sharp stretch of its outline than a soft one.
 
+use flexshape_rig::quoted;
 use image::RgbImage;
 use serde::{Deserialize, Serialize};
 
@@ -224,7 +225,7 @@ impl Classifier {
             } else {
                 Err(SilhouetteError::Setting {
                     field,
-                    problem: format!("{v} is outside [{lo}, {hi}]"),
+                    problem: format!("{} is outside [{lo}, {hi}]", quoted(v)),
                 })
             }
         };

@@ -5,6 +5,7 @@
 //! pixel) are tested by colour — the angle between their RGB vector and the tape's — and each
 //! edge pixel takes the majority label of the interior pixels around it.
 
+use flexshape_rig::quoted;
 use image::RgbImage;
 use serde::{Deserialize, Serialize};
 
@@ -52,7 +53,7 @@ impl MarkerSettings {
                 field: "markers.min_level",
                 problem: format!(
                     "{} must lie in [0, 765] (the sum of R, G and B), or be {MARKERS_OFF}: no band is read",
-                    self.min_level
+                    quoted(self.min_level)
                 ),
             });
         }

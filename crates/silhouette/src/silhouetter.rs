@@ -2,6 +2,7 @@
 //! shadow-coloured part apart from a coloured object dropped as its shadow), thin holes
 //! filled, markers.
 
+use flexshape_rig::quoted;
 use image::{DynamicImage, RgbImage};
 use serde::{Deserialize, Serialize};
 
@@ -161,7 +162,7 @@ impl SilhouetteSettings {
                 field: "max_foreground_growth",
                 problem: format!(
                     "{} must be 0 (no limit) or a factor from 1 to 10⁶",
-                    self.max_foreground_growth
+                    quoted(self.max_foreground_growth)
                 ),
             });
         }
@@ -170,7 +171,7 @@ impl SilhouetteSettings {
                 field: "max_foreground",
                 problem: format!(
                     "{} must be a share of the image above 0 and at most 1",
-                    self.max_foreground
+                    quoted(self.max_foreground)
                 ),
             });
         }

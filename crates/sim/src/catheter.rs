@@ -198,7 +198,10 @@ impl Catheter {
             } else {
                 Err(config_error(
                     field,
-                    format!("{v} must be a positive length in mm"),
+                    format!(
+                        "{} must be a positive length in mm",
+                        flexshape_rig::quoted(v)
+                    ),
                 ))
             }
         };
