@@ -4,8 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use flexshape_camera::Camera;
-use flexshape_camera::nalgebra::Point3;
+use flexshape_camera::nalgebra::{Matrix3, Matrix3x4, Point3, Vector3};
+use flexshape_camera::{Camera, Pose};
 use flexshape_rig::import::{self, Format, ImportOptions, Unit};
 use serde_json::Value;
 
@@ -309,4 +309,82 @@ fn an_opencv_stereo_calibration_projects_as_opencv_in_every_saved_form() {
         e.contains("not a NumPy .npz") && !e.contains('\u{fffd}'),
         "{e}"
     );
+}
+
+/// Three cameras 0.5 m from the origin looking at it, as projection-matrix text files in
+/// `dir` (`cam0.txt` …, made if need be), lengths in mm; `change` alters camera 1's matrix.
+fn three_projections(
+    dir: &Path,
+    change: impl Fn(Matrix3x4<f64>) -> Matrix3x4<f64>,
+) -> Vec<PathBuf> {
+    std::fs::create_dir_all(dir).unwrap();
+    let k = Matrix3::new(800.0, 0.0, 319.5, 0.0, 800.0, 239.5, 0.0, 0.0, 1.0);
+    let centres = [
+        Point3::new(500.0, 0.0, 100.0),
+        Point3::new(0.0, 500.0, 150.0),
+        Point3::new(-350.0, -350.0, 50.0),
+    ];
+    centres
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| {
+            let pose = Pose::look_at(c, Point3::origin(), Vector3::z());
+            let mut rt = Matrix3x4::zeros();
+            rt.fixed_view_mut::<3, 3>(0, 0)
+                .copy_from(pose.rotation.matrix());
+            rt.set_column(3, &pose.translation);
+            let p = if i == 1 { change(k * rt) } else { k * rt };
+            let text: Vec<String> = p
+                .row_iter()
+                .map(|r| format!("{} {} {} {}", r[0], r[1], r[2], r[3]))
+                .collect();
+            let path = dir.join(format!("cam{i}.txt"));
+            std::fs::write(&path, text.join("\n")).unwrap();
+            path
+        })
+        .collect()
+}
+
+/// A projection matrix holds no sign of its own (`P` and `−P` project alike), so a camera whose
+/// image is mirrored (a negative focal length) or whose rotation is a reflection reads as a
+/// camera turned to face backwards, away from what the others look at. `rig import` said
+/// nothing and wrote it; now it refuses, naming the camera. The same cameras as they are, and
+/// their matrices at another scale and sign, import.
+#[test]
+fn a_mirrored_or_reflected_projection_is_refused_naming_the_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let options = ImportOptions {
+        unit: Some(Unit::Millimetre),
+        size: Some((640, 480)),
+    };
+    let read = |inputs: &[PathBuf]| import::read(Format::Projection, inputs, options);
+    let as_they_are = three_projections(&dir.path().join("right"), |p| p);
+    assert_eq!(read(&as_they_are).unwrap().cameras.len(), 3);
+    let scaled = three_projections(&dir.path().join("scaled"), |p| p * -0.001);
+    let cameras = read(&scaled).unwrap().cameras;
+    let centre = cameras[1].camera.centre();
+    assert!(
+        (centre - Point3::new(0.0, 500.0, 150.0)).norm() < 1e-6,
+        "{centre}"
+    );
+    // The image flipped left to right: u' = 639 − u.
+    let flip = Matrix3::new(-1.0, 0.0, 639.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+    let mirrored = three_projections(&dir.path().join("mirrored"), |p| flip * p);
+    // x_cam' = diag(−1, 1, 1)·x_cam: [R | t] with R of determinant −1. (A reflection of z,
+    // diag(1, 1, −1), is −1 times a turn of 180° about the axis: that camera faces the scene
+    // and projects as the matrix says, and imports.)
+    let reflect = Matrix3::from_diagonal(&Vector3::new(-1.0, 1.0, 1.0));
+    let reflected = three_projections(&dir.path().join("reflected"), |p| {
+        let k = Matrix3::new(800.0, 0.0, 319.5, 0.0, 800.0, 239.5, 0.0, 0.0, 1.0);
+        k * reflect * k.try_inverse().unwrap() * p
+    });
+    for (what, inputs) in [("mirrored", mirrored), ("reflected", reflected)] {
+        let e = read(&inputs).unwrap_err().to_string();
+        println!("{what}: {e}");
+        assert!(e.contains("lies behind camera cam1 ("), "{what}: {e}");
+        assert!(
+            !e.contains("cam0 (") && !e.contains("cam2 ("),
+            "{what}: {e}"
+        );
+    }
 }

@@ -260,8 +260,63 @@ pub fn read(
         notes.push("the files give each camera's image size; the size given was not used".into());
     }
     notes.extend(one_pose(&cameras));
+    if let Some(why) = facing_away(&cameras) {
+        return Err(RigError::field(first, "cameras", why));
+    }
     Ok(Import { cameras, notes })
 }
+
+/// Why some of `cameras` face away from where the rig looks, if they do: the point nearest
+/// every camera's optical axis (least squares) lies behind them. A projection's sign is its
+/// own, so a mirrored camera (a negative focal length) or a reflected rotation reads as a
+/// camera turned to face backwards, and a file of such a camera says nothing else of it.
+/// `None` when the axes do not cross anywhere (fewer than two cameras, or all parallel, as a
+/// stereo pair's may be) or every camera faces the point.
+fn facing_away(cameras: &[Imported]) -> Option<String> {
+    use flexshape_camera::nalgebra::{Matrix3, Vector3};
+    if cameras.len() < 2 {
+        return None;
+    }
+    // Σ (I − a·aᵀ)·x = Σ (I − a·aᵀ)·c over the axes (centre c, unit direction a).
+    let (mut a, mut b) = (Matrix3::zeros(), Vector3::zeros());
+    for c in cameras {
+        let axis = c.camera.pose.optical_axis();
+        let across = Matrix3::identity() - axis * axis.transpose();
+        a += across;
+        b += across * c.camera.centre().coords;
+    }
+    // Axes within a few degrees of parallel meet nowhere in particular.
+    let eigen = a.symmetric_eigen();
+    if eigen.eigenvalues.min() < AXES_CROSS * cameras.len() as f64 {
+        return None;
+    }
+    let point = a.try_inverse()? * b;
+    let behind: Vec<String> = cameras
+        .iter()
+        .filter_map(|c| {
+            let depth = c
+                .camera
+                .pose
+                .optical_axis()
+                .dot(&(point - c.camera.centre().coords));
+            (depth < 0.0).then(|| format!("{} ({:.0} mm behind it)", c.name, -depth))
+        })
+        .collect();
+    (!behind.is_empty()).then(|| {
+        format!(
+            "the point the cameras' optical axes pass nearest, ({}, {}, {}) mm, lies behind camera {}: a camera facing away from what the others look at is how a mirrored camera (a negative focal length) or a reflected rotation (determinant −1) reads; give the matrices of the cameras as they are, unmirrored",
+            crate::short(point.x.round()),
+            crate::short(point.y.round()),
+            crate::short(point.z.round()),
+            behind.join(", ")
+        )
+    })
+}
+
+/// Least eigenvalue, per camera, of `Σ (I − a·aᵀ)` over the cameras' optical axes `a` for the
+/// axes to cross somewhere: 0 when all are parallel, 1 for three orthogonal axes (two axes θ
+/// apart give (1 − cos θ) / 2 a camera: this is 5.7°).
+const AXES_CROSS: f64 = 0.0025;
 
 /// CameraInfo files that `rig export` wrote: the poses its [`camera_info::EXTRINSICS_FILE`]
 /// beside `first` holds, set on the cameras it names. What to say of it.
