@@ -7,7 +7,7 @@ use flexshape_carve::PlyEncoding;
 use flexshape_input::FrameSet;
 use serde::Serialize;
 
-use crate::{Hull, Pipeline, TrackError};
+use crate::{Hull, Pipeline, RecordStatus, TrackError};
 
 /// One frame's line of `hull.jsonl` (`docs/formats.md`).
 #[derive(Debug, Serialize)]
@@ -17,8 +17,8 @@ pub struct HullRecord {
     #[serde(skip_serializing_if = "Option::is_none")]
     /// The frame's name, when its input has one.
     pub name: Option<String>,
-    /// `ok`, `no_object`, `bad_silhouette` or `error`.
-    pub status: &'static str,
+    /// `ok`, `no_object`, `bad_silhouette` or `error` (as `track`'s records write them).
+    pub status: RecordStatus,
     #[serde(skip_serializing_if = "Option::is_none")]
     /// Why, when not `ok`.
     pub reason: Option<String>,
@@ -72,7 +72,7 @@ pub fn carve_frame(
         Err(e) => return Ok(timed(HullRecord::error(frame, name, e.to_string()))),
     };
     let mut record = timed(HullRecord::of(frame, name, &hull));
-    if record.status == "ok" {
+    if record.status.is_ok() {
         let cloud = dir.join(format!("{frame:06}.ply"));
         hull.occupancy
             .to_cloud()
@@ -93,12 +93,12 @@ impl HullRecord {
     pub fn of(frame: u64, name: Option<String>, hull: &Hull) -> Self {
         let occ = &hull.occupancy;
         let (status, reason) = match (&hull.implausible, occ.is_empty()) {
-            (Some(r), _) => ("bad_silhouette", Some(r.clone())),
+            (Some(r), _) => (RecordStatus::BadSilhouette, Some(r.clone())),
             (None, true) => (
-                "no_object",
+                RecordStatus::NoObject,
                 Some("nothing is left after carving: the object is outside the volume or missing from a camera's silhouette".into()),
             ),
-            (None, false) => ("ok", None),
+            (None, false) => (RecordStatus::Ok, None),
         };
         let bounds = (!occ.is_empty()).then(|| {
             let v = &occ.volume;
@@ -134,7 +134,7 @@ impl HullRecord {
         HullRecord {
             frame,
             name,
-            status: "error",
+            status: RecordStatus::Error,
             reason: Some(reason),
             voxels: 0,
             volume_mm3: 0.0,

@@ -6,7 +6,7 @@ use std::io::Write;
 
 use anyhow::{Context, bail};
 use flexshape_track::output::{refuse_existing, refuse_inputs};
-use flexshape_track::{HullRecord, carve_frame};
+use flexshape_track::{HullRecord, RecordStatus, carve_frame};
 
 use super::frames;
 use crate::cli::CarveArgs;
@@ -42,15 +42,15 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
             Err(e) if e.ends_input() => bail!("the input broke after {frames_done} frames: {e}"),
             Err(e) => HullRecord::error(frames_done as u64, None, e.to_string()),
         };
-        if record.status == "error" {
+        if record.status == RecordStatus::Error {
             eprintln!(
                 "frame {:06}: {}",
                 record.frame,
                 record.reason.as_deref().unwrap_or("")
             );
         }
-        carved += usize::from(record.status == "ok");
-        failed += usize::from(record.status == "error");
+        carved += usize::from(record.status.is_ok());
+        failed += usize::from(record.status == RecordStatus::Error);
         let line = serde_json::to_string(&record).context("cannot encode a record")?;
         writeln!(out, "{line}")
             .and_then(|_| out.flush())
