@@ -129,6 +129,18 @@ impl Pose {
         }
     }
 
+    /// This pose moved by a small change applied after it: the turn by `rotation_vector`
+    /// (axis × angle, radians) then the shift `translation` (mm), both in the frame the pose
+    /// maps into, `x ↦ δR·(R·x + t) + τ`. The update of every pose fit (camera poses against
+    /// outlines, registrations).
+    pub fn moved_by(&self, rotation_vector: Vector3<f64>, translation: Vector3<f64>) -> Pose {
+        let turn = Rotation3::from_scaled_axis(rotation_vector);
+        Pose {
+            rotation: turn * self.rotation,
+            translation: turn * self.translation + translation,
+        }
+    }
+
     /// Camera centre in world coordinates, `−Rᵀ t` (mm).
     pub fn centre(&self) -> Point3<f64> {
         Point3::from(-(self.rotation.inverse() * self.translation))
@@ -143,6 +155,21 @@ impl Pose {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pose_moved_by_a_small_change_turns_then_shifts_what_it_maps() {
+        let pose =
+            Pose::from_rvec_tvec(Vector3::new(0.2, -0.1, 0.4), Vector3::new(5.0, -3.0, 400.0));
+        let (omega, tau) = (
+            Vector3::new(0.01, -0.02, 0.005),
+            Vector3::new(0.3, 0.1, -0.2),
+        );
+        let moved = pose.moved_by(omega, tau);
+        let x = Point3::new(12.0, -40.0, 7.0);
+        let expected = Rotation3::from_scaled_axis(omega) * pose.apply(&x) + tau;
+        assert!((moved.apply(&x) - expected).norm() < 1e-9);
+        assert_eq!(pose.moved_by(Vector3::zeros(), Vector3::zeros()), pose);
+    }
 
     #[test]
     fn inverse_and_then_compose_as_maps() {

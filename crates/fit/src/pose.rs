@@ -11,17 +11,12 @@
 //! the point is held fixed (as the tube's own Jacobian holds it).
 
 use flexshape_camera::{Camera, Pose};
-use nalgebra::{Point3, Rotation3, Vector2, Vector3, Vector6};
+use nalgebra::{Point3, Vector2, Vector3, Vector6};
 
 /// `pose` moved by `step` (rotation scaled by `depth` mm, then translation mm; camera frame).
 pub(crate) fn moved(pose: &Pose, step: &Vector6<f64>, depth: f64) -> Pose {
     let omega = Vector3::new(step[0], step[1], step[2]) / depth;
-    let tau = Vector3::new(step[3], step[4], step[5]);
-    let r = Rotation3::from_scaled_axis(omega);
-    Pose {
-        rotation: r * pose.rotation,
-        translation: r * pose.translation + tau,
-    }
+    pose.moved_by(omega, Vector3::new(step[3], step[4], step[5]))
 }
 
 /// The derivative of `normal · pixel(world)` by the pose change (scaled by `depth`), pixels

@@ -253,11 +253,10 @@ struct Problem<'a> {
 
 impl Problem<'_> {
     fn transform(&self, p: &DVector<f64>) -> RigidTransform {
-        let delta = Rotation3::from_scaled_axis(Vector3::new(p[0], p[1], p[2]));
-        RigidTransform {
-            rotation: delta * self.base.rotation,
-            translation: delta * self.base.translation + Vector3::new(p[3], p[4], p[5]),
-        }
+        self.base.moved_by(
+            Vector3::new(p[0], p[1], p[2]),
+            Vector3::new(p[3], p[4], p[5]),
+        )
     }
 
     fn residuals_of(&self, p: &DVector<f64>) -> DVector<f64> {
