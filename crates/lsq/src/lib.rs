@@ -105,6 +105,27 @@ pub fn central_differences(
     j.or_else(|| Some(DMatrix::zeros(residuals(x)?.len(), 0)))
 }
 
+/// The condition number of `j` with its columns scaled to unit length (largest singular value
+/// over the smallest), so that it does not depend on the parameters' units (mm against a
+/// log-stiffness): how nearly some combination of the parameters leaves the residuals
+/// unchanged. ∞ when one does exactly, NaN when `j` holds a NaN.
+pub fn scaled_condition(j: &DMatrix<f64>) -> f64 {
+    let mut unit = j.clone();
+    for mut c in unit.column_iter_mut() {
+        let norm = c.norm();
+        if norm > 0.0 {
+            c /= norm;
+        }
+    }
+    let (lo, hi) = unit
+        .singular_values()
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), &s| {
+            (lo.min(s), hi.max(s))
+        });
+    hi / lo
+}
+
 /// The `levenberg-marquardt` crate's view of a [`Residuals`] problem.
 struct Adapter<'a, R: ?Sized> {
     problem: &'a R,
@@ -147,6 +168,19 @@ mod tests {
                 x[0] * x[1] - 3.0,
             ]))
         }
+    }
+
+    #[test]
+    fn a_scaled_condition_ignores_units_and_sees_a_dependence() {
+        let j = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 1000.0, 1.0, 0.0]);
+        // Orthogonal columns, one a thousand times longer: as well conditioned as any.
+        assert!(
+            (scaled_condition(&j) - 1.0).abs() < 1e-9,
+            "{}",
+            scaled_condition(&j)
+        );
+        let dependent = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 4.0]);
+        assert!(scaled_condition(&dependent) > 1e12);
     }
 
     #[test]

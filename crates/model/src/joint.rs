@@ -131,17 +131,7 @@ pub fn identify_jointly(
     problem.x = minimize(&problem, problem.x.clone(), crate::tendons::stiff_solver()).x;
     let r = problem.residuals(&problem.x).ok_or(ModelError::NoTautSet)?;
     let j = problem.jacobian(&problem.x).ok_or(ModelError::NoTautSet)?;
-    let mut unit = j.clone();
-    for mut c in unit.column_iter_mut() {
-        let norm = c.norm();
-        if norm > 0.0 {
-            c /= norm;
-        }
-    }
-    let sv = unit.singular_values();
-    let (lo, hi) = sv.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &s| {
-        (lo.min(s), hi.max(s))
-    });
+    let condition = flexshape_lsq::scaled_condition(&j);
     let sigma2 = r.norm_squared() / (rows - unknowns) as f64;
     let cov = (j.transpose() * &j)
         .try_inverse()
@@ -218,7 +208,7 @@ pub fn identify_jointly(
         tip_error_percent: 100.0 * mean / l1,
         max_tip_error_percent: 100.0 * max / l1,
         rms_mm: (r.norm_squared() / rows as f64).sqrt(),
-        condition: hi / lo,
+        condition,
         held,
     })
 }

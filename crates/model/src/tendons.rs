@@ -80,20 +80,8 @@ pub fn estimate_tendons(
     problem.x = minimize(&problem, problem.x.clone(), stiff_solver()).x;
     let r = problem.residuals(&problem.x).ok_or(ModelError::NoTautSet)?;
     let j = problem.jacobian(&problem.x).ok_or(ModelError::NoTautSet)?;
-    // Columns scaled to unit length, so the condition does not depend on the parameters'
-    // units (mm against log-stiffness).
-    let mut unit = j.clone();
-    for mut c in unit.column_iter_mut() {
-        let norm = c.norm();
-        if norm > 0.0 {
-            c /= norm;
-        }
-    }
-    let sv = unit.singular_values();
-    let (lo, hi) = sv.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &s| {
-        (lo.min(s), hi.max(s))
-    });
-    if lo.is_nan() || lo <= MAX_CONDITION.recip() * hi {
+    let condition = flexshape_lsq::scaled_condition(&j);
+    if condition.is_nan() || condition >= MAX_CONDITION {
         return Err(ModelError::Unobservable {
             what: "the tendon positions (the poses do not load the tendons independently: \
                    vary the co-contraction, e.g. commands beyond the minimum-norm inverse)",
@@ -109,7 +97,7 @@ pub fn estimate_tendons(
     Ok(TendonEstimate {
         params: problem.params_at(&problem.x),
         rms_mm: (r.norm_squared() / r.len() as f64).sqrt(),
-        condition: hi / lo,
+        condition,
         standard_error: (0..n).map(|i| [se(2 * i), se(2 * i + 1)]).collect(),
     })
 }
