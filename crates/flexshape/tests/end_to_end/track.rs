@@ -482,7 +482,6 @@ fn centerline(record: &Value) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// A record's centerline and tip against the truth inside `volume`.
 /// Asserts that `record` (of the recording's frame `frame`), which says `ok`, is right
 /// against its truth.
 fn assert_ok_is_right(reader: &RecordingReader, record: &Value, frame: u64) {
@@ -518,6 +517,7 @@ fn simulate_and_follow(
     )
 }
 
+/// A record's centerline and tip against the truth inside `volume`.
 fn errors(record: &Value, truth: &Truth, volume: &Volume) -> TruthErrors {
     truth
         .errors(&centerline(record), point(&record["tip"]), |p| {
