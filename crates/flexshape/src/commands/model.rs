@@ -40,8 +40,8 @@ fn rows(args: &ModelArgs) -> anyhow::Result<Vec<(String, Vec<f64>)>> {
     match (&args.values, &args.csv) {
         (Some(v), None) => Ok(vec![parse("--values".into(), v)?]),
         (None, Some(path)) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
+            // Bounded, and regular files only (a FIFO or /dev/zero was read without end).
+            let text = flexshape_rig::files::read_text(path, "CSV file")?;
             text.lines()
                 .enumerate()
                 .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))

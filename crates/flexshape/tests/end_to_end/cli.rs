@@ -529,6 +529,13 @@ fn model_template_inverse_and_forward_agree() {
     assert!(out.lines().last().unwrap().ends_with(",0 2"), "{out}");
     let o = flexshape(&["model", "forward", "--params", p, "--values", "1,2,3"]);
     assert!(!o.status.success() && text(&o).contains("3 displacements for a model with 4 tendons"));
+    // A device is not a CSV file: refused at once, not read without end.
+    let o = flexshape(&["model", "forward", "--params", p, "--csv", "/dev/zero"]);
+    assert!(
+        !o.status.success() && text(&o).contains("not a regular file"),
+        "{}",
+        text(&o)
+    );
     std::fs::write(&params, "proximal_length = 1000.0\n").unwrap();
     let o = flexshape(&["model", "forward", "--params", p, "--values", "1,2,3,4"]);
     assert!(
