@@ -1572,8 +1572,10 @@ const GHOST_MARGIN_PX: usize = 2;
 
 /// The loosest 1-σ across the tube, mm, at which a shape fitted to binary masks is still
 /// pinned down (`max_sigma_mm` at least this): a mask's outline scatters twice as far as an
-/// image's (0.2 px RMS against 0.1), and so does the σ of a shape the cameras hold as firmly
-/// as images would hold it to 0.1 mm.
+/// image's (0.2 px RMS against 0.1), and so does the σ of a shape the cameras hold as firmly.
+/// Set at twice the 0.1 mm images were held to when drawn masks were measured (18 of 24
+/// frames `ok`, every one right); left there when images went to 0.15 mm, as no drawn-mask
+/// frame is refused for its σ.
 const MASK_SIGMA_MM: f64 = 0.2;
 
 /// The self-check's 90th percentile of outline residuals for frames that are binary masks,
