@@ -112,6 +112,11 @@ pub struct CameraCheck {
     /// folded over the shaft, or seen end-on) has none or few.
     #[serde(default)]
     pub cap_found: [usize; 2],
+    /// Samples of each capped end's rounded outline this camera measures at all (proximal
+    /// end, tip): none where the camera's occlusion mask hides the whole cap. Not written.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub cap_samples: [usize; 2],
     /// Per capped end (proximal end, tip): whether the image shows the tube going on straight
     /// beyond it, where the fit capped it — its silhouette lost there, the tube too close to
     /// the backdrop's colour ([`crate::TubeFitter`]'s `goes_on`). False for an open end.

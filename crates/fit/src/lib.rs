@@ -500,6 +500,7 @@ impl TubeFitter {
                     end_residual_px: ends.rms,
                     end_noise_px: ends.noise.0,
                     cap_found: caps.map(|(found, _)| found),
+                    cap_samples: caps.map(|(_, all)| all),
                     goes_on: self.goes_on(cam, img, tube, &rendered.0, caps),
                     // A mask's object is white on black: no colour to speak of.
                     lighter_share: if s.masks { 0.0 } else { res.lighter },

@@ -134,7 +134,7 @@ impl TubeFitter {
                 if angle < MIN_END_VIEW {
                     end_on = Some((name, angle));
                 } else if check.cap_found[end] < MIN_CAP_FOUND {
-                    hidden = Some((name, check.cap_found[end]));
+                    hidden = Some((name, check.cap_found[end], check.cap_samples[end]));
                 } else {
                     seen += 1;
                 }
@@ -149,7 +149,12 @@ impl TubeFitter {
                     angle.to_degrees(),
                     MIN_END_VIEW.to_degrees()
                 ),
-                (None, Some((name, found))) => format!(
+                // The end is in the image, yet none of its cap's samples was measured: every
+                // search line read the camera's occlusion mask, or left the image.
+                (None, Some((name, _, 0))) => format!(
+                    "camera {name} measures none of the {which}'s rounded outline (its occlusion mask hides it, or it lies at the image's edge)"
+                ),
+                (None, Some((name, found, _))) => format!(
                     "camera {name} finds {found} samples of the {which}'s rounded outline (at least {MIN_CAP_FOUND}): the tube hides it there"
                 ),
                 (None, None) => format!("the {which} is in the image of {seen} camera(s)"),

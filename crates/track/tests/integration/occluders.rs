@@ -114,3 +114,26 @@ fn a_camera_masked_whole_says_nothing_and_the_others_are_judged_alone() {
         }
     }
 }
+
+/// Frame 1 of the three occluders: camera 2's occluder hides the tip, and camera 1 sees its
+/// cap folded over the shaft, so only camera 0 sees where the tip is. The frame says so, and
+/// says why camera 2 does not see it: none of the cap is measured there (before, "finds 0
+/// samples … the tube hides it", which blamed the tube for the fixture).
+#[test]
+fn a_tip_an_occluder_hides_is_said_to_be_hidden_by_it() {
+    let (sim, pipeline) = occluded_rig();
+    let pose = &sim.sweep(10)[1];
+    let frame = sim.render(1, pose).unwrap();
+    let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
+    let t = pipeline.process(&images).unwrap();
+    let record = TrackRecord::from_tracked(1, &t);
+    let reason = record.reason.unwrap_or_default();
+    println!("{}: {reason}", record.status);
+    assert_eq!(record.status, "ambiguous");
+    assert!(
+        reason.contains(
+            "camera cam2 measures none of the tip's rounded outline (its occlusion mask hides it"
+        ),
+        "{reason}"
+    );
+}
