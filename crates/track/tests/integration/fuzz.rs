@@ -430,7 +430,7 @@ fn calibration_imports_never_panic() {
         std::fs::write(d.join(file), &seed).unwrap();
         let read = import::read(format, std::slice::from_ref(&input), IMPORT_OPTIONS);
         assert!(read.is_ok_and(|r| !r.cameras.is_empty()), "{name}");
-        fuzz(name, &[seed.clone()], 10 + i as u64, |b| {
+        fuzz(name, std::slice::from_ref(&seed), 10 + i as u64, |b| {
             import_one(d, file, format, &input, b)
         });
         // Left as it was for the next target reading the same folder.
