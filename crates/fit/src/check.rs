@@ -601,10 +601,10 @@ pub(crate) struct Overlap {
 }
 
 /// IoU of the rendered tube with `view`'s silhouette (leaving out the pixels only the open
-/// ends' continuations cover, and, of both, those `view` says are hidden), and the silhouette pixels farther than `explain_px` from both;
-/// shadow-coloured silhouette pixels that far are counted apart, in neither — unless
-/// `continuations` takes them for the tube's continuing beyond a capped end: a grey distal
-/// part the fit missed looks so. Below `limit`, the IoU again with the silhouette completed
+/// ends' continuations cover, and, of both, those `view` says are hidden), and the silhouette
+/// pixels farther than `explain_px` from both; shadow-coloured silhouette pixels that far are
+/// counted apart, in neither — unless `continuations` takes them for the tube's continuing
+/// beyond a capped end: a grey distal part the fit missed looks so. Below `limit`, the IoU again with the silhouette completed
 /// by the tube's pixels that `outlined` gives (see [`CameraCheck::iou_outlined`]).
 pub(crate) fn overlap(
     (tube, beyond): &(BitMask, BitMask),

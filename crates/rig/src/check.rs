@@ -212,8 +212,7 @@ fn camera_view(
 /// What a camera's occlusion mask hides: its share of the image and its file, and whether the
 /// volume's centre is behind it.
 fn occlusion_note(o: &crate::Occluded, cam: &Camera, centre: &Point3<f64>) -> String {
-    let hidden = o.mask.pixels().filter(|p| p.0[0] > 0).count();
-    let share = 100.0 * hidden as f64 / (o.mask.width() as f64 * o.mask.height() as f64).max(1.0);
+    let share = 100.0 * o.share();
     let centre_hidden = cam
         .project(centre)
         .ok()

@@ -124,6 +124,16 @@ impl Occluded {
     pub fn hides(&self, x: u32, y: u32) -> bool {
         x < self.mask.width() && y < self.mask.height() && self.mask.get_pixel(x, y).0[0] > 0
     }
+
+    /// The share of the image hidden, 0–1.
+    pub fn share(&self) -> f64 {
+        let (w, h) = self.mask.dimensions();
+        let hidden = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| self.hides(x, y))
+            .count();
+        hidden as f64 / (f64::from(w) * f64::from(h)).max(1.0)
+    }
 }
 
 /// Cameras, working volume and processing settings.
