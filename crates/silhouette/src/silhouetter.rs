@@ -179,8 +179,9 @@ impl SilhouetteSettings {
     }
 }
 
-/// The grey level from which a mask's pixel is object.
-pub const MASK_LEVEL: f32 = 128.0;
+/// The grey level from which a mask's pixel is object: the one level for every mask a lab
+/// draws, a rig's occlusion masks' too ([`flexshape_rig::Occluded::LEVEL`]).
+pub const MASK_LEVEL: f32 = flexshape_rig::Occluded::LEVEL as f32;
 
 /// What a frame's silhouette found.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
