@@ -32,8 +32,9 @@ use std::time::Duration;
 
 pub use flexshape_mcap::LiveOptions;
 use flexshape_mcap::{FrameTopics, ImageRate, TopicId, stamp_ns};
+use flexshape_record::TrackRecord;
 use flexshape_rig::Rig;
-use flexshape_track::{Processed, TrackRecord};
+use flexshape_track::Processed;
 use foxglove::{Context, PartialMetadata, RawChannel, Schema, WebSocketServer};
 use thiserror::Error;
 

@@ -16,7 +16,7 @@
 //! use flexshape_lab::identify::{Experiment, IdentifySettings, identify, load_model};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let model = load_model("catheter.toml".as_ref())?;
-//! let records = flexshape_track::read_records("experiment.jsonl".as_ref())?;
+//! let records = flexshape_record::read_records("experiment.jsonl".as_ref())?;
 //! let experiment = Experiment::from_records(records, &Default::default(), &model, "experiment.jsonl".as_ref())?;
 //! let found = identify(&model, &experiment, &IdentifySettings::default())?;
 //! print!("{}", found.report.table());
@@ -37,9 +37,12 @@ use thiserror::Error;
 /// Why a workflow failed; each names the file, frame or step.
 #[derive(Debug, Error)]
 pub enum LabError {
-    /// Opening, tracking or reading records failed.
+    /// Opening or tracking failed.
     #[error(transparent)]
     Track(#[from] flexshape_track::TrackError),
+    /// Reading records failed.
+    #[error(transparent)]
+    Records(#[from] flexshape_record::RecordError),
     /// A file could not be read.
     #[error(transparent)]
     File(#[from] flexshape_rig::files::FileError),

@@ -12,8 +12,9 @@ use std::ops::ControlFlow;
 use std::sync::atomic::AtomicBool;
 
 use flexshape_model::{ManipulatorParams, Model};
+use flexshape_record::TrackRecord;
 use flexshape_sim::SimConfig;
-use flexshape_track::{Processed, TrackRecord};
+use flexshape_track::Processed;
 use serde::Serialize;
 
 use crate::LabError;
@@ -219,7 +220,7 @@ pub fn soak(
         threads,
         stop,
         |p: Processed| {
-            let record = TrackRecord::from_processed(&p);
+            let record = p.record();
             let right = demo.errors(&p).map(|e| e.within(settings.right));
             current.add(&record, right);
             if current.frames == settings.window {

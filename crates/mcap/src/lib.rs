@@ -37,8 +37,9 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
+use flexshape_record::TrackRecord;
 use flexshape_rig::Rig;
-use flexshape_track::{Processed, TrackRecord};
+use flexshape_track::Processed;
 use mcap::records::MessageHeader;
 use thiserror::Error;
 

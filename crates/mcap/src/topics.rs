@@ -3,8 +3,9 @@
 //! viewer and a file show the same messages byte for byte.
 
 use flexshape_camera::Camera;
+use flexshape_record::TrackRecord;
 use flexshape_rig::Rig;
-use flexshape_track::{Processed, TrackRecord};
+use flexshape_track::Processed;
 use image::{ExtendedColorType, ImageEncoder, RgbImage};
 use nalgebra::UnitQuaternion;
 
@@ -225,7 +226,7 @@ impl FrameTopics {
             schema_encoding: "jsonschema",
             // The record's own JSON Schema (docs/record.schema.json's record), which Foxglove
             // reads to show and plot its fields.
-            schema: serde_json::to_string(&flexshape_track::record_schema()).unwrap_or_default(),
+            schema: serde_json::to_string(&flexshape_record::record_schema()).unwrap_or_default(),
             message_encoding: "json",
             qos: None,
         });

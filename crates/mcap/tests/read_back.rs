@@ -7,8 +7,8 @@ use std::collections::BTreeMap;
 use flexshape_lab::demo::Demo;
 use flexshape_mcap::{Compression, ImageFormat, McapOptions, McapSink};
 use flexshape_model::{ManipulatorParams, Model};
+use flexshape_record::TrackRecord;
 use flexshape_sim::SimConfig;
-use flexshape_track::TrackRecord;
 
 /// Reads CDR fields back in order (little-endian, aligned from the end of the header).
 struct Reader<'a> {
@@ -219,7 +219,7 @@ fn a_tracked_run_reads_back_with_standard_schemas() {
     );
     assert_eq!(
         schema,
-        serde_json::to_value(flexshape_track::record_schema()).unwrap()
+        serde_json::to_value(flexshape_record::record_schema()).unwrap()
     );
     assert!(schema["properties"]["centerline"].is_object(), "{schema}");
     // The record channel holds the JSON record itself.

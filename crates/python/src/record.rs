@@ -1,6 +1,6 @@
 //! One frame's record, as `flexshape track` writes it to JSON Lines.
 
-use flexshape_track::TrackRecord;
+use flexshape_record::TrackRecord;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 

@@ -5,8 +5,9 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
+use flexshape_record::TrackRecord;
 use flexshape_silhouette::BackgroundModel;
-use flexshape_track::{CameraTimes, Pipeline, Recent, Recording, TrackRecord};
+use flexshape_track::{CameraTimes, Pipeline, Recent, Recording};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyBool;
@@ -88,7 +89,7 @@ impl PyTracker {
             let times = CameraTimes::of(at_s, camera_times.as_deref());
             let tracked = pipeline.process_after_at(&refs, prior.as_deref(), times.as_ref())?;
             recent.update(n, tracked.prior_at(at_s));
-            let mut record = TrackRecord::from_tracked(n, &tracked);
+            let mut record = tracked.record(n);
             record.captured_s = at_s;
             record.captured_from = at_s.map(|_| "given".to_string());
             record.camera_captured_s = camera_times.unwrap_or_default();
@@ -168,7 +169,7 @@ pub(crate) fn track(
     let mut raised: Option<PyErr> = None;
     let end = py.detach(|| {
         flexshape_track::run(&mut opened.source, &pipeline, threads, &stop, |processed| {
-            let record = TrackRecord::from_processed(&processed);
+            let record = processed.record();
             let go_on = Python::attach(|py| -> PyResult<bool> {
                 py.check_signals()?;
                 let Some(cb) = &callback else {
@@ -223,7 +224,7 @@ pub(crate) fn iter_track(recording: PathBuf, threads: usize) -> PyResult<PyTrack
         .spawn(move || {
             let end =
                 flexshape_track::run(&mut opened.source, &pipeline, threads, &stopping, |p| {
-                    match sender.send(TrackRecord::from_processed(&p)) {
+                    match sender.send(p.record()) {
                         Ok(()) => ControlFlow::Continue(()),
                         // The iterator is gone: nobody reads on.
                         Err(_) => ControlFlow::Break(()),
@@ -325,6 +326,6 @@ fn input_broke(recording: &std::path::Path, end: flexshape_track::RunEnd) -> Opt
 /// order; a malformed line is an error naming it.
 #[pyfunction]
 pub(crate) fn read_records(path: PathBuf) -> PyResult<Vec<PyRecord>> {
-    let records = flexshape_track::read_records(&path).map_err(|e| fail(&e))?;
+    let records = flexshape_record::read_records(&path).map_err(|e| fail(&e))?;
     Ok(records.into_iter().map(|(_, r)| PyRecord::new(r)).collect())
 }

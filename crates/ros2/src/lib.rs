@@ -34,8 +34,9 @@ mod raw;
 
 use flexshape_mcap::msgs;
 use flexshape_mcap::{FrameTopics, ImageRate, Topic, TopicId, stamp_ns};
+use flexshape_record::TrackRecord;
 use flexshape_rig::Rig;
-use flexshape_track::{Processed, TrackRecord};
+use flexshape_track::Processed;
 use rustdds::no_key::DataWriter;
 use rustdds::policy::{Durability, History, Reliability};
 use rustdds::{DomainParticipant, QosPolicies, QosPolicyBuilder, Timestamp, TopicKind};

@@ -44,9 +44,10 @@ use flexshape_model::{
     ControlSettings, ManipulatorParams, Model, ModelError, SensedPose, SensorFrame, Stiffness,
     TipController, geometry, taut_command,
 };
+use flexshape_record::{RecordStatus, TrackRecord};
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{Catheter, CatheterPose, SimConfig, SimError, Simulator};
-use flexshape_track::{Pipeline, RecordStatus, TrackError, TrackRecord, Tracked};
+use flexshape_track::{Pipeline, TrackError, Tracked};
 use image::RgbImage;
 use serde::Serialize;
 use thiserror::Error;
@@ -262,7 +263,7 @@ pub fn steer_with_frames(
             let rendered = sim.render(frame, &pose)?;
             let images: Vec<RgbImage> = rendered.views.into_iter().map(|v| v.image).collect();
             let tracked = pipeline.process(&images.iter().collect::<Vec<_>>())?;
-            let record = TrackRecord::from_tracked(frame, &tracked);
+            let record = tracked.record(frame);
             let posed = sensed_pose(&record).ok();
             let base = posed
                 .as_ref()

@@ -8,7 +8,7 @@
 
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, Simulator};
-use flexshape_track::{Pipeline, Recent, TrackRecord};
+use flexshape_track::{Pipeline, Recent};
 use image::RgbImage;
 
 fn main() {
@@ -39,7 +39,7 @@ fn track() -> Result<(), Box<dyn std::error::Error>> {
         let prior = recent.for_frame(n as u64);
         let tracked = pipeline.process_after(&refs, prior.as_deref())?;
         recent.update(n as u64, tracked.prior());
-        let record = TrackRecord::from_tracked(n as u64, &tracked);
+        let record = tracked.record(n as u64);
         println!(
             "frame {n}: {} (from {:?}) tip {:?} mm, {:.2} ms",
             record.status,

@@ -8,7 +8,7 @@
 
 use std::io::BufRead;
 
-use flexshape_track::{TrackLine, parse_line};
+use flexshape_record::{TrackLine, parse_line};
 
 fn main() {
     if let Err(e) = track() {

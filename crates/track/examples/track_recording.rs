@@ -9,7 +9,7 @@
 use std::ops::ControlFlow;
 use std::sync::atomic::AtomicBool;
 
-use flexshape_track::{Recording, TrackRecord, run};
+use flexshape_track::{Recording, run};
 
 fn main() {
     if let Err(e) = track() {
@@ -26,7 +26,7 @@ fn track() -> Result<(), Box<dyn std::error::Error>> {
     let pipeline = recording.pipeline()?;
     let stop = AtomicBool::new(false); // set it (e.g. from a Ctrl-C handler) to stop early
     let end = run(&mut recording.source, &pipeline, 2, &stop, |processed| {
-        let record = TrackRecord::from_processed(&processed);
+        let record = processed.record();
         println!("{}", serde_json::to_string(&record).unwrap_or_default());
         ControlFlow::Continue(())
     });

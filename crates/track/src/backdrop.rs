@@ -10,7 +10,6 @@ use flexshape_carve::Occupancy;
 use flexshape_silhouette::{
     BackgroundModel, BitMask, Classifier, ColourShadow, SilhouetteSettings, Silhouetter,
 };
-use serde::{Deserialize, Serialize};
 
 /// One camera's background and its prepared silhouetter.
 #[derive(Debug)]
@@ -71,18 +70,6 @@ const MAX_BRIGHT: f32 = 100.0;
 /// they stop (until a frame comes out right or a background follows its backdrop): a frame
 /// that is wrong for another reason (no tube in view) would pay for a second chain each time.
 pub(crate) const BOOTSTRAP_ATTEMPTS: usize = 3;
-
-/// A camera whose background took a frame's colours: the backdrop had changed there since the
-/// background was captured.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct BackgroundUpdate {
-    /// The camera's name.
-    pub camera: String,
-    /// Pixels whose colour changed by more than the model's noise
-    /// ([`flexshape_silhouette::CHANGED_SPREADS`] spreads, at least
-    /// [`flexshape_silhouette::CHANGED_LEVELS`] grey levels).
-    pub changed_px: usize,
-}
 
 /// The pixels `camera` sees carved voxels of `occupancy` in: a disc per voxel (half its
 /// diagonal across, at its depth). What every camera sees at one place is in the volume, not

@@ -7,7 +7,9 @@ use flexshape_carve::PlyEncoding;
 use flexshape_input::FrameSet;
 use serde::Serialize;
 
-use crate::{Hull, Pipeline, RecordStatus, TrackError};
+use flexshape_record::RecordStatus;
+
+use crate::{Hull, Pipeline, TrackError};
 
 /// One frame's line of `hull.jsonl` (`docs/formats.md`).
 #[derive(Debug, Serialize)]

@@ -14,7 +14,9 @@ use flexshape_silhouette::{
 };
 use image::{GrayImage, RgbImage};
 
-use crate::{Pipeline, TrackError, TrackRecord, Tracked};
+use flexshape_record::TrackRecord;
+
+use crate::{Pipeline, TrackError, Tracked};
 
 /// A frame tracked and looked at; printing it gives the report.
 pub struct Inspection {
@@ -45,7 +47,7 @@ impl Inspection {
         let started = Instant::now();
         let tracked = pipeline.process(&refs)?;
         let chain_ms = started.elapsed().as_secs_f64() * 1e3;
-        let record = TrackRecord::from_tracked(frame, &tracked);
+        let record = tracked.record(frame);
         let mut report = String::new();
         for (i, (name, s)) in pipeline
             .camera_names()

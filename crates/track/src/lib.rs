@@ -1,5 +1,6 @@
-//! Tracking: the whole sensing chain for one frame ([`Pipeline`]) and the JSON Lines records
-//! `flexshape track` writes ([`TrackRecord`], then one [`SummaryLine`]). World frame, mm.
+//! Tracking: the whole sensing chain for one frame ([`Pipeline`]), run over a source of frames
+//! ([`run`]), each frame's result made into the record `flexshape track` writes
+//! ([`Processed::record`]; the record types are [`flexshape_record`]'s). World frame, mm.
 //!
 //! A recording folder tracked, following the tube from frame to frame, each frame's record
 //! printed (the crate's `examples/` also feed frames from your own cameras and read a record
@@ -9,37 +10,32 @@
 //! use std::ops::ControlFlow;
 //! use std::sync::atomic::AtomicBool;
 //!
-//! use flexshape_track::{Recording, TrackRecord, run};
+//! use flexshape_track::{Recording, run};
 //!
 //! let mut recording = Recording::open("recording".as_ref())?;
 //! let pipeline = recording.pipeline()?.following(true)?;
 //! let stop = AtomicBool::new(false); // set it to stop early: frames taken still arrive
 //! run(&mut recording.source, &pipeline, 2, &stop, |processed| {
-//!     let record = TrackRecord::from_processed(&processed);
+//!     let record = processed.record();
 //!     println!("frame {}: {} tip {:?} mm", record.frame, record.status, record.tip);
 //!     ControlFlow::Continue(())
 //! });
 //! # Ok::<(), flexshape_track::TrackError>(())
 //! ```
 
-mod against_truth;
 mod backdrop;
-mod camera_clocks;
 mod hull_record;
 mod inspect;
 mod instants;
 mod open;
 pub mod output;
 mod pipeline;
-mod precision;
-mod record;
+mod recorded;
 mod refine;
 mod refine_report;
 mod runner;
-mod schema;
 mod source;
 mod state;
-mod status;
 mod usual;
 
 use flexshape_carve::CarveError;
@@ -51,28 +47,18 @@ use flexshape_shape::ShapeError;
 use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
-pub use against_truth::{TruthCheck, TruthTally};
-pub use backdrop::BackgroundUpdate;
-pub use camera_clocks::CameraClock;
 pub use hull_record::{HullRecord, carve_frame};
 pub use inspect::Inspection;
 pub use instants::{CameraTimes, Instants};
-pub use open::{Recording, TrackLine, load_backgrounds, parse_line, read_records};
-pub use pipeline::{
-    Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, StageTimings, Start, Tracked,
-};
-pub use record::{
-    ModelFrame, StageSummary, SummaryLine, Tally, TrackArcFit, TrackBand, TrackCompression,
-    TrackRecord, TrackSummary, quantile, stage_summaries,
-};
+pub use open::{Recording, load_backgrounds};
+pub use pipeline::{Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, Start, Tracked};
+pub use recorded::Tally;
 pub use refine::{
     CameraRefinement, MIN_FRAMES, MIN_GAIN, OutlineResiduals, PRIOR_PX, Refinement, Verdict,
     refine_cameras, refined_camera_file, sample_frames,
 };
 pub use runner::{Processed, Recent, RunEnd, run};
-pub use schema::{json_lines_schema, record_schema};
 pub use source::{Input, SourceSpec};
-pub use status::{RecordStatus, STATUSES};
 
 /// Why a frame (or the pipeline's setup) failed.
 #[derive(Debug, Error)]
@@ -123,15 +109,8 @@ pub enum TrackError {
         source: SilhouetteError,
     },
     /// A JSON Lines file of tracking records.
-    #[error("{}{}: {problem}", path.display(), line.map(|l| format!(" line {l}")).unwrap_or_default())]
-    Records {
-        /// The file.
-        path: PathBuf,
-        /// The line (from 1), if the problem is on one.
-        line: Option<usize>,
-        /// What is wrong.
-        problem: String,
-    },
+    #[error(transparent)]
+    Records(#[from] flexshape_record::RecordError),
     /// Inputs that do not go together.
     #[error("{0}")]
     Input(String),

@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 use flexshape_carve::PlyEncoding;
 use serde::Serialize;
 
-use crate::{Processed, SummaryLine, TrackError, TrackRecord};
+use flexshape_record::{SummaryLine, TrackRecord};
+
+use crate::{Processed, TrackError};
 
 macro_rules! out_err {
     ($($t:tt)*) => { TrackError::Output(format!($($t)*)) };

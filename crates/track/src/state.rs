@@ -185,7 +185,7 @@ impl Shared {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Pipeline, TrackRecord};
+    use crate::Pipeline;
     use flexshape_silhouette::{BackgroundModel, BitMask, Silhouetter};
     use flexshape_sim::{SimConfig, Simulator};
 
@@ -205,7 +205,7 @@ mod tests {
         let track = |n: usize| {
             let frame = sim.render(n as u64, &poses[n]).unwrap();
             let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
-            TrackRecord::from_tracked(n as u64, &pipeline.process(&images).unwrap())
+            pipeline.process(&images).unwrap().record(n as u64)
         };
         for n in 0..6 {
             assert_eq!(track(n).status, "ok", "frame {n}");

@@ -1,6 +1,6 @@
 //! The sensed point of a frame for the accuracy experiment.
 
-use flexshape_track::TrackRecord;
+use flexshape_record::TrackRecord;
 use nalgebra::Vector3;
 
 /// Which point of a tracked frame is the sensed point.

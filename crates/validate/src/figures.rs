@@ -8,7 +8,7 @@ use flexshape_curve::Section;
 use flexshape_plot::{
     HistogramSeries, Mark, PALETTE, PlotError, Series3, histograms, orthographic_views,
 };
-use flexshape_track::{TrackArcFit, TrackRecord};
+use flexshape_record::{TrackArcFit, TrackRecord};
 
 use crate::{AccuracyReport, PoseComparison, ValidateError};
 

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use flexshape_curve::Polyline;
-use flexshape_track::{RecordStatus, TrackRecord};
+use flexshape_record::{RecordStatus, TrackRecord};
 use nalgebra::Point3;
 
 use crate::{KnownShape, PoseComparison, ValidateError, compare_shape};
@@ -45,7 +45,7 @@ impl ShapeRun {
 }
 
 /// Compares the records of `source` (pairs of line and record, as
-/// `flexshape_track::read_records` gives them) with `known`: records whose status is `ok` or
+/// `flexshape_record::read_records` gives them) with `known`: records whose status is `ok` or
 /// `bands_missing` and that have a centerline. None comparable is an error listing why.
 pub fn compare_records(
     known: &KnownShape,

@@ -13,13 +13,14 @@ use std::path::Path;
 use flexshape_camera::nalgebra::{Matrix3, Point3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use flexshape_curve::{Frame, Polyline};
 use flexshape_fit::{FitSettings, Method};
+use flexshape_record::{RecordStatus, TrackRecord};
 use flexshape_recording::{RightBounds, TruthErrors};
 use flexshape_register::RigidTransform;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{
     BAND_ALBEDO, BODY_ALBEDO, Catheter, CatheterPose, Gloss, Scene, SimConfig, Simulator, Tube,
 };
-use flexshape_track::{Pipeline, RecordStatus, TrackRecord, Tracked};
+use flexshape_track::{Pipeline, Tracked};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal, StandardNormal};
@@ -185,7 +186,7 @@ impl Bench {
             .pipeline
             .process(&images)
             .map_err(|e| ValidateError::Pipeline(format!("pose {frame}: {e}")))?;
-        Ok((TrackRecord::from_tracked(frame, &tracked), tracked))
+        Ok((tracked.record(frame), tracked))
     }
 }
 

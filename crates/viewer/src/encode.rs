@@ -6,8 +6,9 @@ use std::sync::Arc;
 
 use flexshape_camera::Camera;
 
+use flexshape_record::TrackRecord;
 use flexshape_silhouette::Silhouette;
-use flexshape_track::{Processed, TrackRecord, Tracked};
+use flexshape_track::{Processed, Tracked};
 use image::codecs::jpeg::JpegEncoder;
 use image::{ImageFormat, RgbImage};
 use serde::Serialize;

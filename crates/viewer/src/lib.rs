@@ -13,7 +13,7 @@
 //! ```no_run
 //! use std::ops::ControlFlow;
 //! use std::sync::atomic::AtomicBool;
-//! use flexshape_track::{Recording, TrackRecord, run};
+//! use flexshape_track::{Recording, run};
 //! use flexshape_viewer::Live;
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -22,7 +22,7 @@
 //! let mut viewer = Live::start("127.0.0.1:8080", false, &pipeline)?;
 //! println!("open {}", viewer.url());
 //! run(&mut recording.source, &pipeline, 2, &AtomicBool::new(false), |p| {
-//!     let record = TrackRecord::from_processed(&p);
+//!     let record = p.record();
 //!     viewer.publish(p, record, None);
 //!     ControlFlow::Continue(())
 //! });

@@ -7,7 +7,8 @@ use std::time::Instant;
 
 use flexshape_camera::Camera;
 
-use flexshape_track::{Pipeline, Processed, TrackRecord};
+use flexshape_record::TrackRecord;
+use flexshape_track::{Pipeline, Processed};
 
 use crate::{Frustum, Scene, Stats, Steering, Update, Viewer, ViewerError};
 

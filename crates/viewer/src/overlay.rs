@@ -5,7 +5,7 @@
 
 use flexshape_camera::Camera;
 use flexshape_fit::Tube;
-use flexshape_track::TrackRecord;
+use flexshape_record::TrackRecord;
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
 

@@ -11,7 +11,8 @@ use std::time::{Duration, Instant};
 
 use flexshape_camera::Camera;
 use flexshape_input::FrameSource;
-use flexshape_track::{Pipeline, Processed, Recording, TrackError, TrackRecord};
+use flexshape_record::TrackRecord;
+use flexshape_track::{Pipeline, Processed, Recording, TrackError};
 use serde::{Deserialize, Serialize};
 
 use crate::{Scene, Stats, Update, Viewer};
@@ -114,7 +115,7 @@ impl Replayed for RecordingReplay {
             Some(Err(e)) => Processed::unreadable(index as u64, e.to_string(), 0),
             None => Processed::unreadable(index as u64, "no such frame".into(), 0),
         };
-        let record = TrackRecord::from_processed(&processed);
+        let record = processed.record();
         let stats = stats(state, processed.latency_ms);
         Update::new(processed, record, stats)
             .with_cameras(self.cameras.clone())

@@ -16,7 +16,7 @@ use flexshape_input::FrameSource;
 use flexshape_lab::demo::{Demo, DemoFigures};
 use flexshape_mcap::{Compression, ImageFormat, McapOptions, McapSink};
 use flexshape_model::{ManipulatorParams, Model};
-use flexshape_track::{Processed, Tally, TrackRecord};
+use flexshape_track::{Processed, Tally};
 
 use super::live::LiveOutputs;
 use crate::cli::DemoArgs;
@@ -164,7 +164,7 @@ struct Frames<'a> {
 
 impl Frames<'_> {
     fn take(&mut self, p: Processed) -> ControlFlow<()> {
-        let record = TrackRecord::from_processed(&p).with_model_frame(&self.demo.model_frame);
+        let record = p.record().with_model_frame(&self.demo.model_frame);
         self.tally.add(&record);
         let errors = self.demo.errors(&p);
         if let Some(e) = &errors {

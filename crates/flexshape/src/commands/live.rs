@@ -2,8 +2,9 @@
 
 use anyhow::Context;
 use flexshape_foxglove::{FoxgloveServer, LiveOptions};
+use flexshape_record::TrackRecord;
 use flexshape_rig::Rig;
-use flexshape_track::{Processed, TrackRecord};
+use flexshape_track::Processed;
 
 use super::ros2;
 use crate::cli::LiveArgs;

@@ -23,7 +23,7 @@ pub fn load(path: &Path) -> anyhow::Result<Model> {
 }
 
 /// The model frame `flexshape model fit --save-frame` wrote.
-pub fn load_frame(path: &Path) -> anyhow::Result<flexshape_track::ModelFrame> {
+pub fn load_frame(path: &Path) -> anyhow::Result<flexshape_record::ModelFrame> {
     Ok(flexshape_lab::identify::load_model_frame(path)?)
 }
 

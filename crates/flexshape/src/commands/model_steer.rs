@@ -6,11 +6,12 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use anyhow::{Context, ensure};
+use flexshape_record::TrackRecord;
 use flexshape_sim::SimConfig;
 use flexshape_steer::{
     SteerFrame, SteerSettings, SteerStep, SteerSummary, reachable_targets, steer_with_frames,
 };
-use flexshape_track::{Processed, TrackRecord};
+use flexshape_track::Processed;
 use flexshape_viewer::{Steering, SteeringSample};
 
 use super::live::LiveOutputs;

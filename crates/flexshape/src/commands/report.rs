@@ -3,7 +3,7 @@
 use crate::cli::ReportArgs;
 
 pub fn run(args: &ReportArgs) -> anyhow::Result<()> {
-    let records: Vec<_> = flexshape_track::read_records(&args.data)?
+    let records: Vec<_> = flexshape_record::read_records(&args.data)?
         .into_iter()
         .map(|(_, r)| r)
         .collect();

@@ -1,8 +1,8 @@
 //! `--ros2`: the run published live as ROS 2 topics while it goes on.
 
-use flexshape_rig::Rig;
 #[cfg(not(feature = "ros2"))]
-use flexshape_track::{Processed, TrackRecord};
+use flexshape_record::TrackRecord;
+use flexshape_rig::Rig;
 
 /// The live ROS 2 publisher of this build.
 #[cfg(feature = "ros2")]

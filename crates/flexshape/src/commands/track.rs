@@ -13,11 +13,9 @@ use std::ops::ControlFlow;
 use anyhow::{Context, bail};
 use flexshape_input::FrameSource;
 use flexshape_mcap::{McapOptions, McapSink};
+use flexshape_record::{ModelFrame, RecordStatus, SummaryLine, TrackSummary, TruthTally};
 use flexshape_track::output::{SinkSpec, Sinks};
-use flexshape_track::{
-    Input, ModelFrame, Pipeline, Processed, RecordStatus, SummaryLine, Tally, TrackRecord,
-    TrackSummary, TruthTally,
-};
+use flexshape_track::{Input, Pipeline, Processed, Tally};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::frames;
@@ -165,7 +163,7 @@ struct Frames {
 impl Frames {
     /// Records the frame: warnings and errors said, the record written, the viewer fed.
     fn take(&mut self, p: Processed) -> ControlFlow<()> {
-        let mut record = TrackRecord::from_processed(&p);
+        let mut record = p.record();
         if let Some(f) = &self.model_frame {
             record = record.with_model_frame(f);
         }

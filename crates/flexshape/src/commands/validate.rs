@@ -34,7 +34,7 @@ pub fn points(args: &ValidatePointsArgs) -> anyhow::Result<()> {
                 .parse()
                 .map_err(|e: String| anyhow::anyhow!("--extract {e}"))?;
             let mut points = Vec::new();
-            for (line, r) in flexshape_track::read_records(jsonl)? {
+            for (line, r) in flexshape_record::read_records(jsonl)? {
                 let p = extract(&r, how)
                     .map_err(|e| anyhow::anyhow!("{} line {line}: {e}", jsonl.display()))?;
                 points.push(Point3::from(p));
@@ -85,7 +85,7 @@ pub fn shape(args: &ValidateShapeArgs) -> anyhow::Result<()> {
         None => Vec::new(),
     };
     let known = KnownShape { centerline, marks };
-    let records = flexshape_track::read_records(&args.records)?;
+    let records = flexshape_record::read_records(&args.records)?;
     let run = compare_records(&known, records, &args.records)?;
     let report = precision(&run.poses);
     if let Some(dir) = &args.plots {

@@ -21,7 +21,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
                 .with_context(|| format!("cannot replay {}", args.records.display()))?,
         )
     } else {
-        let records: Vec<_> = flexshape_track::read_records(&args.records)?
+        let records: Vec<_> = flexshape_record::read_records(&args.records)?
             .into_iter()
             .map(|(_, r)| r)
             .collect();

@@ -16,7 +16,7 @@ fn docs_schema() -> (std::path::PathBuf, serde_json::Value) {
 
 #[test]
 fn the_published_schema_is_the_one_the_records_derive() {
-    let derived = serde_json::to_value(flexshape_track::json_lines_schema()).unwrap();
+    let derived = serde_json::to_value(flexshape_record::json_lines_schema()).unwrap();
     let (path, published) = docs_schema();
     if std::env::var("FLEXSHAPE_BLESS").is_ok_and(|v| v == "1") {
         let text = serde_json::to_string_pretty(&derived).unwrap() + "\n";

@@ -1,8 +1,9 @@
 //! A tracked shape against the simulator's truth, and figures over many frames.
 
 use flexshape_model::nalgebra_types::Point3;
+use flexshape_record::quantile;
 use flexshape_recording::{RightBounds, Truth, TruthErrors};
-use flexshape_track::{Pipeline, Tracked, quantile};
+use flexshape_track::{Pipeline, Tracked};
 
 /// A shape against the simulator's truth, mm (curvature in 1/mm).
 #[derive(Debug, Clone, PartialEq)]

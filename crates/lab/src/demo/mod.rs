@@ -33,9 +33,10 @@ use std::sync::Arc;
 
 use flexshape_input::NewestSource;
 use flexshape_model::{Model, Sweep};
+use flexshape_record::{ModelFrame, TrackRecord};
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, Simulator};
-use flexshape_track::{ModelFrame, Pipeline, Processed, TrackRecord};
+use flexshape_track::{Pipeline, Processed};
 
 pub use errors::{DemoFigures, ShapeErrors};
 pub use flexshape_recording::RightBounds;
@@ -125,7 +126,7 @@ impl Demo {
             1,
             &std::sync::atomic::AtomicBool::new(false),
             |p| {
-                tracked.push((TrackRecord::from_processed(&p), p));
+                tracked.push((p.record(), p));
                 std::ops::ControlFlow::Continue(())
             },
         );

@@ -3,7 +3,8 @@
 
 use std::time::Duration;
 
-use flexshape_track::{Processed, Tally, TrackRecord, TrackSummary};
+use flexshape_record::{TrackRecord, TrackSummary};
+use flexshape_track::{Processed, Tally};
 
 use super::{Demo, DemoFigures, ShapeErrors};
 

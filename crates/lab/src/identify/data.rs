@@ -8,8 +8,9 @@ use std::sync::atomic::AtomicBool;
 
 use flexshape_model::nalgebra_types::DVector;
 use flexshape_model::{Model, SensedPose};
+use flexshape_record::TrackRecord;
 use flexshape_recording::PoseRole;
-use flexshape_track::{Processed, Recording, TrackRecord};
+use flexshape_track::{Processed, Recording};
 
 use crate::LabError;
 
@@ -148,7 +149,7 @@ pub fn records_of(
     stop: &AtomicBool,
 ) -> Result<Vec<(usize, TrackRecord)>, LabError> {
     if !data.is_dir() {
-        return Ok(flexshape_track::read_records(data)?);
+        return Ok(flexshape_record::read_records(data)?);
     }
     let read_as_recording = |e: &dyn std::fmt::Display| {
         LabError::data(
@@ -167,7 +168,7 @@ pub fn records_of(
         workers,
         stop,
         |p: Processed| {
-            records.push((records.len(), TrackRecord::from_processed(&p)));
+            records.push((records.len(), p.record()));
             ControlFlow::Continue(())
         },
     );

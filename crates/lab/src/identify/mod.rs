@@ -14,8 +14,8 @@ use flexshape_model::{
     ManipulatorParams, Model, Observation, SensedPose, SensingAccuracy, SensorFrame,
     estimate_stiffness, estimate_tendons, tip_error,
 };
+use flexshape_record::ModelFrame;
 use flexshape_recording::PoseRole;
-use flexshape_track::ModelFrame;
 
 pub use data::{Experiment, ExperimentPose, read_displacements, records_of};
 pub use report::{HeldReport, JointReport, ModelFitReport, TendonReport};

@@ -6,7 +6,7 @@ use std::sync::atomic::AtomicBool;
 
 use flexshape_lab::demo::{Demo, DemoFigures};
 use flexshape_model::{ManipulatorParams, Model};
-use flexshape_track::{Processed, TrackRecord};
+use flexshape_track::Processed;
 
 #[test]
 fn the_demo_tracks_the_sweep_within_a_tenth_of_a_millimetre() {
@@ -28,7 +28,7 @@ fn the_demo_tracks_the_sweep_within_a_tenth_of_a_millimetre() {
         1,
         &AtomicBool::new(false),
         |p: Processed| {
-            let record = TrackRecord::from_processed(&p).with_model_frame(&demo.model_frame);
+            let record = p.record().with_model_frame(&demo.model_frame);
             statuses.push(record.status.to_string());
             // The simulator built the catheter in the model's frame: κx, κz are reported, as
             // the model defines them.

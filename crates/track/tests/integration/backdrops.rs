@@ -8,7 +8,7 @@ use crate::common;
 
 use flexshape_shape::Status;
 use flexshape_sim::{Catheter, CatheterPose, RenderSettings, SimConfig, Simulator};
-use flexshape_track::{Pipeline, TrackRecord};
+use flexshape_track::Pipeline;
 use image::RgbImage;
 use nalgebra::Point3;
 
@@ -337,7 +337,7 @@ fn run(sim: &Simulator, pipeline: &Pipeline, poses: &[CatheterPose]) -> (usize, 
         let frame = sim.render(i as u64, pose).unwrap();
         let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
         let t = pipeline.process(&images).unwrap();
-        let record = TrackRecord::from_tracked(i as u64, &t);
+        let record = t.record(i as u64);
         let changes: Vec<_> = record
             .background_updated
             .iter()

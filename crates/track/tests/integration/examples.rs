@@ -5,8 +5,8 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
+use flexshape_record::{TrackLine, parse_line};
 use flexshape_sim::{SimConfig, Simulator};
-use flexshape_track::{TrackLine, parse_line};
 
 /// An example's executable: `cargo test` builds the examples beside the test binaries
 /// (`target/PROFILE/examples/`).

@@ -16,10 +16,11 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 
+use flexshape_record::{ModelFrame, TrackRecord};
 use flexshape_recording::RecordingReader;
 use flexshape_rig::import::{self, Format, ImportOptions, Unit};
 use flexshape_rig::{Rig, Volume, camera_file, files};
-use flexshape_track::{ModelFrame, Pipeline, TrackRecord};
+use flexshape_track::Pipeline;
 
 /// Tokens spliced into inputs: special numbers, syntax, and keys the readers look for.
 const TOKENS: &[&str] = &[

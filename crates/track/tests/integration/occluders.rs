@@ -9,7 +9,7 @@ use crate::common;
 use flexshape_camera::{Camera, Pose};
 use flexshape_recording::RightBounds;
 use flexshape_sim::{RenderSettings, SimConfig, Simulator};
-use flexshape_track::{Pipeline, TrackRecord};
+use flexshape_track::Pipeline;
 use nalgebra::{Rotation3, Vector3};
 
 /// Three occluders, one before each camera (`flexshape simulate --occluders 3 --seed 1`).
@@ -44,7 +44,7 @@ fn ok_and_right(sim: &Simulator, pipeline: &Pipeline) -> usize {
         let frame = sim.render(i as u64, pose).unwrap();
         let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
         let t = pipeline.process(&images).unwrap();
-        let record = TrackRecord::from_tracked(i as u64, &t);
+        let record = t.record(i as u64);
         println!("frame {i}: {} {:?}", record.status, record.reason);
         if record.status == "ok" {
             ok += 1;
@@ -104,7 +104,7 @@ fn a_camera_masked_whole_says_nothing_and_the_others_are_judged_alone() {
         let frame = sim.render(i as u64, pose).unwrap();
         let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
         let t = pipeline.process(&images).unwrap();
-        let record = TrackRecord::from_tracked(i as u64, &t);
+        let record = t.record(i as u64);
         let reason = record.reason.clone().unwrap_or_default();
         println!("frame {i}: {} {reason}", record.status);
         assert!(!reason.contains("camera cam0"), "frame {i}: {reason}");
@@ -126,7 +126,7 @@ fn a_tip_an_occluder_hides_is_said_to_be_hidden_by_it() {
     let frame = sim.render(1, pose).unwrap();
     let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
     let t = pipeline.process(&images).unwrap();
-    let record = TrackRecord::from_tracked(1, &t);
+    let record = t.record(1);
     let reason = record.reason.unwrap_or_default();
     println!("{}: {reason}", record.status);
     assert_eq!(record.status, "ambiguous");

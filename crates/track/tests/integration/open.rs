@@ -4,11 +4,9 @@
 use std::ops::ControlFlow;
 use std::sync::atomic::AtomicBool;
 
+use flexshape_record::{SummaryLine, TrackLine, parse_line, read_records};
 use flexshape_sim::{SimConfig, Simulator};
-use flexshape_track::{
-    Recording, SummaryLine, Tally, TrackError, TrackLine, TrackRecord, parse_line, read_records,
-    run,
-};
+use flexshape_track::{Recording, Tally, run};
 
 #[test]
 fn a_recording_is_tracked_and_its_records_read_back() {
@@ -31,7 +29,7 @@ fn a_recording_is_tracked_and_its_records_read_back() {
         2,
         &AtomicBool::new(false),
         |p| {
-            let record = TrackRecord::from_processed(&p);
+            let record = p.record();
             tally.add(&record);
             lines.push(serde_json::to_string(&record).unwrap());
             ControlFlow::Continue(())
@@ -80,7 +78,10 @@ fn a_recording_is_tracked_and_its_records_read_back() {
     let e = read_records(&jsonl).unwrap_err().to_string();
     assert!(e.contains("line 1: not JSON"), "{e}");
     let e = read_records(&dir.path().join("none.jsonl")).unwrap_err();
-    assert!(matches!(e, TrackError::Records { line: None, .. }), "{e}");
+    assert!(
+        matches!(e, flexshape_record::RecordError::Records { line: None, .. }),
+        "{e}"
+    );
     // A recording without its backgrounds names the camera and the file.
     std::fs::remove_file(rec.join("background").join("cam1.png")).unwrap();
     let e = Recording::open(&rec).err().unwrap().to_string();

@@ -2,7 +2,7 @@
 
 use crate::common;
 
-use flexshape_track::{TrackError, TrackRecord};
+use flexshape_track::TrackError;
 
 #[test]
 fn a_frame_becomes_a_record_in_world_coordinates() {
@@ -10,7 +10,7 @@ fn a_frame_becomes_a_record_in_world_coordinates() {
     let frame = sim.render(2, &sim.sweep(3)[2]).unwrap();
     let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
     let tracked = pipeline.process(&images).unwrap();
-    let record = TrackRecord::from_tracked(7, &tracked);
+    let record = tracked.record(7);
     assert_eq!((record.frame, record.status.as_str()), (7, "ok"));
     assert_eq!(record.voxels, tracked.occupancy.len());
     assert_eq!(record.centerline.len(), record.curvature.len());
@@ -53,7 +53,7 @@ fn a_silhouette_covering_most_of_the_image_is_bad_not_carved() {
     }
     let images = vec![&frame.views[0].image, &dark, &frame.views[2].image];
     let t = pipeline.process(&images).unwrap();
-    let record = TrackRecord::from_tracked(0, &t);
+    let record = t.record(0);
     assert_eq!(record.status, "bad_silhouette");
     let reason = record.reason.unwrap();
     assert!(
@@ -63,10 +63,7 @@ fn a_silhouette_covering_most_of_the_image_is_bad_not_carved() {
     assert!(t.occupancy.is_empty() && t.fit.is_none() && record.centerline.is_empty());
     // The undarkened frame is fine.
     let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
-    assert_eq!(
-        TrackRecord::from_tracked(0, &pipeline.process(&images).unwrap()).status,
-        "ok"
-    );
+    assert_eq!(pipeline.process(&images).unwrap().record(0).status, "ok");
 }
 
 /// After a few right frames the chain knows how much of each image the tube covers; a frame
@@ -87,7 +84,7 @@ fn a_silhouette_far_larger_than_usual_is_bad() {
         }
     }
     let images = vec![&last.views[0].image, &dark, &last.views[2].image];
-    let fresh = TrackRecord::from_tracked(7, &pipeline.clone().process(&images).unwrap());
+    let fresh = pipeline.clone().process(&images).unwrap().record(7);
     assert!(
         !fresh.reason.clone().unwrap_or_default().contains("usual"),
         "{fresh:?}"
@@ -96,10 +93,10 @@ fn a_silhouette_far_larger_than_usual_is_bad() {
         let frame = sim.render(i as u64, pose).unwrap();
         let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
         let t = pipeline.process(&images).unwrap();
-        assert_eq!(TrackRecord::from_tracked(i as u64, &t).status, "ok");
+        assert_eq!(t.record(i as u64).status, "ok");
     }
     let t = pipeline.process(&images).unwrap();
-    let record = TrackRecord::from_tracked(7, &t);
+    let record = t.record(7);
     assert_eq!(record.status, "bad_silhouette");
     let reason = record.reason.unwrap();
     println!("{reason}");
@@ -109,10 +106,7 @@ fn a_silhouette_far_larger_than_usual_is_bad() {
     );
     // The same frame undarkened is fine.
     let images: Vec<_> = last.views.iter().map(|v| &v.image).collect();
-    assert_eq!(
-        TrackRecord::from_tracked(7, &pipeline.process(&images).unwrap()).status,
-        "ok"
-    );
+    assert_eq!(pipeline.process(&images).unwrap().record(7).status, "ok");
 }
 
 /// Lights down over the middle of every camera's view, each silhouette under
@@ -138,7 +132,7 @@ fn a_hull_filling_much_of_the_volume_is_bad_not_fitted() {
         .collect();
     let images: Vec<_> = dark.iter().collect();
     let t = pipeline.process(&images).unwrap();
-    let record = TrackRecord::from_tracked(0, &t);
+    let record = t.record(0);
     let share = t.occupancy.len() as f64 / 256f64.powi(3);
     println!("hull {share:.3} of the volume: {:?}", record.reason);
     assert_eq!(record.status, "bad_silhouette");

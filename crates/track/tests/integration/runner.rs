@@ -10,7 +10,8 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use flexshape_input::{FrameImage, FrameSet, FrameSource, InputError};
-use flexshape_track::{Pipeline, Processed, Recent, Tally, TrackRecord, Tracked, run};
+use flexshape_record::TrackRecord;
+use flexshape_track::{Pipeline, Processed, Recent, Tally, Tracked, run};
 
 /// Pre-rendered frames; `bad` frames have an image of the wrong size, and the source breaks
 /// (as a video whose camera ends early) after `breaks_after` frames; `slow` frames take a
@@ -105,7 +106,7 @@ fn records_from(
         &AtomicBool::new(false),
         |p: Processed| {
             assert_eq!(p.images.len(), if p.result.is_ok() { 3 } else { 0 });
-            out.push(TrackRecord::from_processed(&p));
+            out.push(p.record());
             match stop_after {
                 Some(k) if out.len() >= k => ControlFlow::Break(()),
                 _ => ControlFlow::Continue(()),
@@ -185,7 +186,7 @@ fn a_followed_recording_starts_each_frame_from_a_fixed_earlier_one() {
             let p = Processed::of(&pipeline, set.clone(), prior.as_deref());
             recent.update(k as u64, p.result.as_ref().ok().and_then(Tracked::prior));
             after.push(recent.clone());
-            expected.push(TrackRecord::from_processed(&p));
+            expected.push(p.record());
         }
         let followed = expected
             .iter()

@@ -9,7 +9,6 @@ use crate::common;
 
 use flexshape_recording::RightBounds;
 use flexshape_sim::{RenderSettings, SimConfig};
-use flexshape_track::TrackRecord;
 
 /// The sharp-shadow scene: lamp radius 3 mm, the backdrops 160 mm behind the volume's
 /// centre.
@@ -36,7 +35,7 @@ fn sweep(config: SimConfig, frames: usize) -> (usize, usize, usize) {
         let frame = sim.render(i as u64, pose).unwrap();
         let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
         let t = pipeline.process(&images).unwrap();
-        let record = TrackRecord::from_tracked(i as u64, &t);
+        let record = t.record(i as u64);
         let right = common::errors(&frame.truth, &sim, &t.shape)
             .filter(|e| e.within(RightBounds::default()));
         dropped += usize::from(record.shadow_voxels > 0);
@@ -125,7 +124,7 @@ fn a_second_instrument_is_no_shadow() {
             }
             let images: Vec<_> = frame.views.iter().map(|v| &v.image).collect();
             let t = pipeline.process(&images).unwrap();
-            let record = TrackRecord::from_tracked(i as u64, &t);
+            let record = t.record(i as u64);
             println!(
                 "albedo {albedo:?} frame {i}: {} {:?}, shadow voxels {}",
                 record.status, record.reason, record.shadow_voxels

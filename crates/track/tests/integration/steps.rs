@@ -100,7 +100,7 @@ fn a_steps_radii_are_fitted_when_the_rig_does_not_give_them() {
         );
         assert_eq!(t.shape.radius, tip);
         // The record carries both.
-        let record = flexshape_track::TrackRecord::from_tracked(i as u64, t);
+        let record = t.record(i as u64);
         assert_eq!(record.radius_steps.len(), 1);
         assert_eq!(record.radius_steps[0].radius_mm, base);
     }

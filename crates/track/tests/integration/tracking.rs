@@ -8,7 +8,7 @@ use common::{rms, tip_error};
 use flexshape_fit::{FitSettings, Method};
 use flexshape_shape::Status;
 use flexshape_sim::{SimConfig, SimRigConfig, Simulator};
-use flexshape_track::{Pipeline, Recent, Start, TrackRecord};
+use flexshape_track::{Pipeline, Recent, Start};
 use image::RgbImage;
 
 /// The chain with tracking on (it is off by default).
@@ -72,7 +72,7 @@ fn a_smooth_motion_is_tracked_without_carving_and_as_accurately() {
         assert_eq!(t.start, expected, "frame {i}");
         // The right way round, and the tip where it is.
         assert!(tip < 0.3, "frame {i}: tip {tip:.3} mm off");
-        let record = TrackRecord::from_tracked(i as u64, &t);
+        let record = t.record(i as u64);
         if t.start == Start::Previous {
             assert!(t.occupancy.is_empty() && t.bands.is_empty());
             assert_eq!(record.voxels, 0);
@@ -264,7 +264,7 @@ fn two_cameras_start_from_the_views_when_the_hull_is_in_pieces() {
     assert_eq!(t.shape.status, Status::Ok);
     // Measured 0.035 mm.
     assert!(e < 0.08, "rms {e:.3} mm");
-    let record = TrackRecord::from_tracked(0, &t);
+    let record = t.record(0);
     assert_eq!(record.start.as_deref(), Some("views"));
     assert!(record.ghost_mm.is_none());
     // With the hull method nothing is started from the views.

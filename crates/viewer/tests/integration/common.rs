@@ -3,7 +3,8 @@
 
 use std::time::{Duration, Instant};
 
-use flexshape_track::{Processed, TrackRecord};
+use flexshape_record::TrackRecord;
+use flexshape_track::Processed;
 use flexshape_viewer::{Scene, Stats, Update, Viewer};
 use futures_util::StreamExt;
 use tokio_tungstenite::tungstenite::Message;

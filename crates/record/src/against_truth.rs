@@ -9,7 +9,7 @@ use flexshape_recording::{Layout, RecordingError, RightBounds, Truth};
 use flexshape_rig::Volume;
 use serde::{Deserialize, Serialize};
 
-use crate::record::{TrackRecord, quantile};
+use crate::{TrackRecord, quantile};
 
 /// A run's records against the truth ([`TruthTally`]); the summary's `truth` (additive).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]

@@ -6,7 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::record::quantile;
+use crate::quantile;
 
 /// One camera's clock as a run measured it (rig order in the summary).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -28,7 +28,7 @@ const ADVISE_SHARE: f64 = 0.05;
 
 /// Collects each camera's capture times from the records of a run.
 #[derive(Debug, Clone, Default)]
-pub(crate) struct ClockTally {
+pub struct ClockTally {
     /// Per camera, rig order.
     cameras: Vec<CameraTally>,
     /// Frames ambiguous because the motion between their cameras' captures was not known.
@@ -49,7 +49,7 @@ struct CameraTally {
 impl ClockTally {
     /// Counts one frame: its instant, its cameras' captures (rig order) and whether its shape
     /// may lie between them (`lag_ms`).
-    pub(crate) fn add(&mut self, at_s: Option<f64>, cameras_s: &[f64], between: bool) {
+    pub fn add(&mut self, at_s: Option<f64>, cameras_s: &[f64], between: bool) {
         self.between += usize::from(between);
         let Some(at) = at_s.filter(|t| t.is_finite()) else {
             return;
@@ -72,7 +72,7 @@ impl ClockTally {
     }
 
     /// Each camera's clock (rig order), empty when the input gave no camera's own times.
-    pub(crate) fn clocks(&self) -> Vec<CameraClock> {
+    pub fn clocks(&self) -> Vec<CameraClock> {
         self.cameras
             .iter()
             .map(|c| {
@@ -89,7 +89,7 @@ impl ClockTally {
     }
 
     /// Frames ambiguous because the motion between their cameras' captures was not known.
-    pub(crate) fn between(&self) -> usize {
+    pub fn between(&self) -> usize {
         self.between
     }
 }
