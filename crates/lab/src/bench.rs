@@ -15,11 +15,11 @@
 use std::fmt::Write as _;
 use std::time::Instant;
 
-use flexshape_record::{StageSummary, quantile, stage_summaries};
+use flexshape_record::{StageSummary, Start, quantile, stage_summaries};
 use flexshape_recording::Truth;
 use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, Simulator};
-use flexshape_track::{Pipeline, Recent, Start, TrackError, Tracked};
+use flexshape_track::{Pipeline, Recent, TrackError, Tracked};
 use image::RgbImage;
 use rayon::prelude::*;
 use serde::Serialize;

@@ -91,7 +91,7 @@ impl PyTracker {
             recent.update(n, tracked.prior_at(at_s));
             let mut record = tracked.record(n);
             record.captured_s = at_s;
-            record.captured_from = at_s.map(|_| "given".to_string());
+            record.captured_from = at_s.map(|_| flexshape_record::CapturedFrom::Given);
             record.camera_captured_s = camera_times.unwrap_or_default();
             Ok::<_, flexshape_track::TrackError>(record)
         });

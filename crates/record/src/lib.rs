@@ -10,11 +10,13 @@
 
 mod against_truth;
 mod camera_clocks;
+mod hull;
 mod precision;
 mod read;
 mod record;
 mod schema;
 mod status;
+mod strings;
 mod summary;
 mod timings;
 
@@ -24,12 +26,14 @@ use thiserror::Error;
 
 pub use against_truth::{TruthCheck, TruthTally};
 pub use camera_clocks::{CameraClock, ClockTally};
+pub use hull::HullRecord;
 pub use read::{TrackLine, parse_line, read_records};
 pub use record::{
     BackgroundUpdate, ModelFrame, TrackArcFit, TrackBand, TrackCompression, TrackRecord,
 };
 pub use schema::{json_lines_schema, record_schema};
 pub use status::{RecordStatus, STATUSES};
+pub use strings::{CapturedFrom, Method, Start};
 pub use summary::{StageSummary, SummaryLine, TrackSummary, quantile, stage_summaries};
 pub use timings::StageTimings;
 

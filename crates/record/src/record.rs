@@ -6,7 +6,7 @@ use flexshape_fit::CameraCheck;
 use flexshape_recording::{Command, PoseRole};
 use serde::{Deserialize, Serialize};
 
-use crate::{RecordStatus, StageTimings};
+use crate::{CapturedFrom, Method, RecordStatus, StageTimings, Start};
 
 /// A band on the centerline.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -176,7 +176,7 @@ pub struct TrackRecord {
     /// `file_time` (the first camera's image file's modification time), `stream` (videos'
     /// timelines, live devices' driver timestamps) or `given` (the Python `Tracker`'s caller).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub captured_from: Option<String>,
+    pub captured_from: Option<CapturedFrom>,
     /// Each camera's own capture time, rig order, seconds in `captured_s`'s time base, where
     /// the input knows them (a recording's `timestamps/<cam>.csv`): cameras that
     /// are not triggered together see the tube at these instants (additive; empty otherwise).
@@ -188,7 +188,7 @@ pub struct TrackRecord {
     /// How the centerline was found: `fit` (the tube fitted to every camera's outline) or
     /// `hull` (the visual hull's centerline alone).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub method: Option<String>,
+    pub method: Option<Method>,
     /// Tube radius, mm: fitted to the images, given in the rig, or the hull's estimate.
     #[serde(
         default,
@@ -249,7 +249,7 @@ pub struct TrackRecord {
     /// Where the fit started: `hull` (this frame's visual hull, carved) or `previous` (an
     /// earlier frame's shape, tracking: nothing carved, `voxels` is 0 and `ghost_mm` absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub start: Option<String>,
+    pub start: Option<Start>,
     /// Voxels dropped from the hull as a sharp shadow's before the shape was found from the
     /// rest: held in one camera by pixels of the backdrop's colour, darker (a shadow cast on
     /// it), and in another by the tube's own colour (absent: none, the hull as carved gave

@@ -41,9 +41,9 @@ fn track() -> Result<(), Box<dyn std::error::Error>> {
         recent.update(n as u64, tracked.prior());
         let record = tracked.record(n as u64);
         println!(
-            "frame {n}: {} (from {:?}) tip {:?} mm, {:.2} ms",
+            "frame {n}: {} (from {}) tip {:?} mm, {:.2} ms",
             record.status,
-            record.start,
+            record.start.as_ref().map_or("-", |s| s.as_str()),
             record.tip.map(|t| t.map(|v| (v * 100.0).round() / 100.0)),
             tracked.timings.total()
         );

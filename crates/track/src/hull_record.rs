@@ -1,52 +1,14 @@
 //! The visual hull alone, for any object (`flexshape carve`): one frame's hull as files and
-//! as its line of `hull.jsonl` (`docs/formats.md`).
+//! as its line of `hull.jsonl` ([`HullRecord`], `docs/formats.md`).
 
 use std::path::Path;
 
 use flexshape_carve::PlyEncoding;
 use flexshape_input::FrameSet;
-use serde::Serialize;
+use flexshape_record::{HullRecord, RecordStatus};
 
-use flexshape_record::RecordStatus;
-
+use crate::recorded::captured_from;
 use crate::{Hull, Pipeline, TrackError};
-
-/// One frame's line of `hull.jsonl` (`docs/formats.md`).
-#[derive(Debug, Serialize)]
-pub struct HullRecord {
-    /// Frame number.
-    pub frame: u64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    /// The frame's name, when its input has one.
-    pub name: Option<String>,
-    /// `ok`, `no_object`, `bad_silhouette` or `error` (as `track`'s records write them).
-    pub status: RecordStatus,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    /// Why, when not `ok`.
-    pub reason: Option<String>,
-    /// Occupied voxels.
-    pub voxels: usize,
-    /// Their volume, mm³.
-    pub volume_mm3: f64,
-    /// The watertight hull surface's area, mm² (0 unless `ok`; see `Occupancy::surface`).
-    pub surface_mm2: f64,
-    /// Smallest and largest corner of the occupied voxels' box, world mm.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub bounds: Option<[[f64; 3]; 2]>,
-    /// Object pixels per camera, in the rig's order.
-    pub silhouette_pixels: Vec<usize>,
-    /// Time of the silhouette stage, ms.
-    pub silhouettes_ms: f64,
-    /// Time of the carving stage, ms.
-    pub carve_ms: f64,
-    /// When the frame was captured, seconds, and where that comes from, as in `track`'s
-    /// records (`captured_s`, `captured_from`; additive; absent when the input does not say).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub captured_s: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    /// Where `captured_s` comes from (`timestamps`, `file_time`, `stream`, `clock`).
-    pub captured_from: Option<&'static str>,
-}
 
 /// One frame's visual hull for any object: its voxel centres (`NNNNNN.ply`) and surface
 /// (`NNNNNN.surface.ply`) written to `dir` when carved; a frame that cannot be read or carved
@@ -61,7 +23,7 @@ pub fn carve_frame(
     let captured = set.capture_time;
     let timed = |record: HullRecord| HullRecord {
         captured_s: captured.map(|c| c.seconds),
-        captured_from: captured.map(|c| c.source.name()),
+        captured_from: captured.map(|c| captured_from(c.source)),
         ..record
     };
     let images = match pipeline.load(set.images) {
@@ -73,7 +35,7 @@ pub fn carve_frame(
         Ok(h) => h,
         Err(e) => return Ok(timed(HullRecord::error(frame, name, e.to_string()))),
     };
-    let mut record = timed(HullRecord::of(frame, name, &hull));
+    let mut record = timed(hull.record(frame, name));
     if record.status.is_ok() {
         let cloud = dir.join(format!("{frame:06}.ply"));
         hull.occupancy
@@ -90,9 +52,10 @@ pub fn carve_frame(
     Ok(record)
 }
 
-impl HullRecord {
-    /// The record of `hull` (frame `frame`, named `name`).
-    pub fn of(frame: u64, name: Option<String>, hull: &Hull) -> Self {
+impl Hull {
+    /// This hull's line of `hull.jsonl` (frame `frame`, named `name`).
+    pub fn record(&self, frame: u64, name: Option<String>) -> HullRecord {
+        let hull = self;
         let occ = &hull.occupancy;
         let (status, reason) = match (&hull.implausible, occ.is_empty()) {
             (Some(r), _) => (RecordStatus::BadSilhouette, Some(r.clone())),
@@ -126,25 +89,6 @@ impl HullRecord {
             silhouette_pixels: hull.silhouettes.iter().map(|s| s.object.count()).collect(),
             silhouettes_ms: hull.timings.silhouettes,
             carve_ms: hull.timings.carve,
-            captured_s: None,
-            captured_from: None,
-        }
-    }
-
-    /// The record of a frame that could not be carved, and why.
-    pub fn error(frame: u64, name: Option<String>, reason: String) -> Self {
-        HullRecord {
-            frame,
-            name,
-            status: RecordStatus::Error,
-            reason: Some(reason),
-            voxels: 0,
-            volume_mm3: 0.0,
-            surface_mm2: 0.0,
-            bounds: None,
-            silhouette_pixels: Vec::new(),
-            silhouettes_ms: 0.0,
-            carve_ms: 0.0,
             captured_s: None,
             captured_from: None,
         }

@@ -189,7 +189,7 @@ fn fitted(report: &mut String, record: &TrackRecord, t: &Tracked) {
             .as_deref()
             .map(|r| format!(": {r}"))
             .unwrap_or_default(),
-        record.method.as_deref().unwrap_or("-")
+        record.method.as_ref().map_or("-", |m| m.as_str())
     );
     for c in t.fit.iter().flat_map(|fit| &fit.cameras) {
         let _ = writeln!(

@@ -47,11 +47,11 @@ use flexshape_shape::ShapeError;
 use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
-pub use hull_record::{HullRecord, carve_frame};
+pub use hull_record::carve_frame;
 pub use inspect::Inspection;
 pub use instants::{CameraTimes, Instants};
 pub use open::{Recording, load_backgrounds};
-pub use pipeline::{Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, Start, Tracked};
+pub use pipeline::{Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, Tracked};
 pub use recorded::Tally;
 pub use refine::{
     CameraRefinement, MIN_FRAMES, MIN_GAIN, OutlineResiduals, PRIOR_PX, Refinement, Verdict,

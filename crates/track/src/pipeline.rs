@@ -28,13 +28,12 @@ use flexshape_silhouette::{
 };
 use image::RgbImage;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 use crate::backdrop::{Backdrop, hull_pixels, models};
 use crate::instants::{CameraTimes, Instants, MotionEstimate, judge_instant, largest_sigma};
 use crate::state::{RunState, Shared, Turn};
 use crate::usual::share;
-use flexshape_record::{BackgroundUpdate, RecordStatus, StageTimings};
+use flexshape_record::{BackgroundUpdate, RecordStatus, StageTimings, Start};
 
 use crate::TrackError;
 
@@ -87,19 +86,6 @@ pub struct Hull {
     pub grown: Option<String>,
     /// Milliseconds of the silhouettes and the carving.
     pub timings: StageTimings,
-}
-
-/// Where a frame's shape started.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Start {
-    /// The visual hull of this frame (carved).
-    Hull,
-    /// An earlier frame's fitted shape (tracking; nothing carved).
-    Previous,
-    /// The two cameras' silhouettes matched along epipolar lines (two-camera rigs, when the
-    /// hull's start gave no right shape: its ghosts mislead it).
-    Views,
 }
 
 /// The largest share of the working volume a tube's carved hull may fill; beyond it the

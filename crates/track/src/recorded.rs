@@ -1,14 +1,15 @@
 //! A processed frame as the record `flexshape track` writes ([`flexshape_record`]), and the
 //! tally of a run's records for progress and the summary.
 
+use flexshape_input::CaptureSource;
 use flexshape_record::{
-    ClockTally, RecordStatus, StageSummary, StageTimings, TrackArcFit, TrackBand, TrackCompression,
-    TrackRecord, TrackSummary, quantile, stage_summaries,
+    CapturedFrom, ClockTally, Method, RecordStatus, StageSummary, StageTimings, TrackArcFit,
+    TrackBand, TrackCompression, TrackRecord, TrackSummary, quantile, stage_summaries,
 };
 use flexshape_shape::Status;
 
 use crate::instants::Instants;
-use crate::pipeline::{Start, Tracked};
+use crate::pipeline::Tracked;
 use crate::runner::{Processed, RunEnd};
 
 impl Tracked {
@@ -84,7 +85,11 @@ impl Tracked {
             captured_from: None,
             camera_captured_s: Vec::new(),
             processed_s: None,
-            method: Some(if t.fit.is_some() { "fit" } else { "hull" }.into()),
+            method: Some(if t.fit.is_some() {
+                Method::Fit
+            } else {
+                Method::Hull
+            }),
             radius: has_shape.then_some(s.radius),
             radius_steps: t
                 .fit
@@ -102,14 +107,7 @@ impl Tracked {
                 Instants::Unknown { lag_s, centre_s } => Some((centre_s.abs() + lag_s) * 1e3),
                 _ => None,
             },
-            start: t.fit.as_ref().map(|_| {
-                match t.start {
-                    Start::Hull => "hull",
-                    Start::Previous => "previous",
-                    Start::Views => "views",
-                }
-                .into()
-            }),
+            start: t.fit.as_ref().map(|_| t.start.clone()),
             background_updated: t.background_updated.clone(),
             shadow_voxels: t.shadow_voxels,
             background_restored: t.background_restored.clone(),
@@ -131,11 +129,21 @@ impl Processed {
             image: p.name.clone(),
             latency_ms: Some(p.latency_ms),
             captured_s: p.capture_time.map(|c| c.seconds),
-            captured_from: p.capture_time.map(|c| c.source.name().to_string()),
+            captured_from: p.capture_time.map(|c| captured_from(c.source)),
             camera_captured_s: p.camera_times.clone().unwrap_or_default(),
             processed_s: p.processed_s,
             ..record.with_command(p.command.clone())
         }
+    }
+}
+
+/// What a record calls where a capture time came from.
+pub(crate) fn captured_from(source: CaptureSource) -> CapturedFrom {
+    match source {
+        CaptureSource::Clock => CapturedFrom::Clock,
+        CaptureSource::Timestamps => CapturedFrom::Timestamps,
+        CaptureSource::FileTime => CapturedFrom::FileTime,
+        CaptureSource::Stream => CapturedFrom::Stream,
     }
 }
 
@@ -187,7 +195,7 @@ impl Tally {
         }
         self.direction_guessed += usize::from(record.direction_guessed);
         self.shadow_frames += usize::from(record.shadow_voxels > 0);
-        self.file_times += usize::from(record.captured_from.as_deref() == Some("file_time"));
+        self.file_times += usize::from(record.captured_from == Some(CapturedFrom::FileTime));
         self.clocks.add(
             record.captured_s,
             &record.camera_captured_s,

@@ -5,9 +5,10 @@
 use std::io::Write;
 
 use anyhow::{Context, bail};
+use flexshape_record::HullRecord;
 use flexshape_record::RecordStatus;
+use flexshape_track::carve_frame;
 use flexshape_track::output::{refuse_existing, refuse_inputs};
-use flexshape_track::{HullRecord, carve_frame};
 
 use super::frames;
 use crate::cli::CarveArgs;

@@ -85,7 +85,7 @@ fn frames_from_ones_own_driver_are_followed() {
     assert!(
         frames[1..]
             .iter()
-            .all(|l| l.contains(": ok (from Some(\"previous\"))")),
+            .all(|l| l.contains(": ok (from previous)")),
         "{text}"
     );
 }

@@ -190,7 +190,7 @@ fn a_followed_recording_starts_each_frame_from_a_fixed_earlier_one() {
         }
         let followed = expected
             .iter()
-            .filter(|r| r.start.as_deref() == Some("previous"))
+            .filter(|r| r.start == Some(flexshape_record::Start::Previous))
             .count();
         assert!(
             followed >= 10,

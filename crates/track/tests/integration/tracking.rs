@@ -6,9 +6,10 @@ use crate::common;
 use common::{rms, tip_error};
 
 use flexshape_fit::{FitSettings, Method};
+use flexshape_record::Start;
 use flexshape_shape::Status;
 use flexshape_sim::{SimConfig, SimRigConfig, Simulator};
-use flexshape_track::{Pipeline, Recent, Start};
+use flexshape_track::{Pipeline, Recent};
 use image::RgbImage;
 
 /// The chain with tracking on (it is off by default).
@@ -76,11 +77,11 @@ fn a_smooth_motion_is_tracked_without_carving_and_as_accurately() {
         if t.start == Start::Previous {
             assert!(t.occupancy.is_empty() && t.bands.is_empty());
             assert_eq!(record.voxels, 0);
-            assert_eq!(record.start.as_deref(), Some("previous"));
+            assert_eq!(record.start, Some(Start::Previous));
             assert_eq!(record.ghost_mm, None);
             assert!(t.timings.carve == 0.0 && t.timings.shape == 0.0);
         } else {
-            assert_eq!(record.start.as_deref(), Some("hull"));
+            assert_eq!(record.start, Some(Start::Hull));
             assert!(record.ghost_mm.is_some());
         }
         // From the third frame on the start is carried on from the two before, close enough
@@ -265,7 +266,7 @@ fn two_cameras_start_from_the_views_when_the_hull_is_in_pieces() {
     // Measured 0.035 mm.
     assert!(e < 0.08, "rms {e:.3} mm");
     let record = t.record(0);
-    assert_eq!(record.start.as_deref(), Some("views"));
+    assert_eq!(record.start, Some(Start::Views));
     assert!(record.ghost_mm.is_none());
     // With the hull method nothing is started from the views.
     let hull = pipeline
