@@ -53,7 +53,7 @@
 //! for camera in &fit.expect("a fit").cameras {
 //!     assert!(camera.residual_px < 0.5, "{camera:?}");
 //! }
-//! let tip_error = nalgebra::distance(&fitted.tip.into(), &frame.truth.tip.into());
+//! let tip_error = frame.truth.tip_off(fitted.tip);
 //! assert!(tip_error < 0.3, "{tip_error} mm");
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

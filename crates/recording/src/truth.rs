@@ -135,6 +135,11 @@ impl Truth {
         })
     }
 
+    /// How far a sensed tip (world mm) lies from the true one, mm.
+    pub fn tip_off(&self, tip: [f64; 3]) -> f64 {
+        (Point3::from(tip) - Point3::from(self.tip)).norm()
+    }
+
     /// [`TruthErrors::between`] this frame's true centerline and a sensed one.
     pub fn errors(
         &self,

@@ -34,7 +34,7 @@
 //! let shape = estimator.estimate(&hull, &[]);
 //! // No bands were given, so the status says they are missing; the centerline is there.
 //! assert!(shape.status != Status::Ok && shape.points.len() > 100);
-//! let tip_error = nalgebra::distance(&shape.tip.into(), &frame.truth.tip.into());
+//! let tip_error = frame.truth.tip_off(shape.tip);
 //! assert!(tip_error < 1.5, "{tip_error} mm");
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

@@ -38,7 +38,7 @@ fn rms_to(truth: &Truth, sim: &Simulator, curve: &[[f64; 3]]) -> f64 {
 }
 
 fn errors(sim: &Simulator, truth: &Truth, r: &ShapeRecord, cloud: &[[f64; 3]]) -> Errors {
-    let tip = (Point3::from(r.tip) - Point3::from(truth.tip)).norm();
+    let tip = truth.tip_off(r.tip);
     let bands = truth
         .bands
         .iter()

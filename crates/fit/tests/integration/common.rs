@@ -197,7 +197,7 @@ pub fn centerline_rms(truth: &Truth, sim: &Simulator, curve: &[[f64; 3]]) -> f64
 
 /// Distance between the record's tip and the true one, mm.
 pub fn tip_error(truth: &Truth, r: &ShapeRecord) -> f64 {
-    (Point3::from(r.tip) - Point3::from(truth.tip)).norm()
+    truth.tip_off(r.tip)
 }
 
 /// Worst distance from a true band centre in the volume to the nearest estimated one, mm.

@@ -464,7 +464,7 @@ fn follow_starts_each_frame_from_the_previous_one() {
 
 /// Distance of a record's tip from the truth's, mm.
 fn tip_error(record: &Value, truth: &Truth) -> f64 {
-    (Point3::from(point(&record["tip"])) - Point3::from(truth.tip)).norm()
+    truth.tip_off(point(&record["tip"]))
 }
 
 /// A JSON `[x, y, z]`.

@@ -34,8 +34,7 @@ pub fn rms(truth: &Truth, sim: &Simulator, r: &ShapeRecord) -> f64 {
 
 /// Distance between the record's tip and the true one, mm.
 pub fn tip_error(truth: &Truth, r: &ShapeRecord) -> f64 {
-    let d: [f64; 3] = std::array::from_fn(|a| r.tip[a] - truth.tip[a]);
-    d.iter().map(|v| v * v).sum::<f64>().sqrt()
+    truth.tip_off(r.tip)
 }
 
 /// Cloth whose folds (valleys losing 30 % of the light, 70 mm apart) slid `shift` mm between
