@@ -17,7 +17,6 @@ use std::time::Instant;
 
 use flexshape_record::{StageSummary, Start, quantile, stage_summaries};
 use flexshape_recording::Truth;
-use flexshape_silhouette::BackgroundModel;
 use flexshape_sim::{SimConfig, Simulator};
 use flexshape_track::{Pipeline, Recent, TrackError, Tracked};
 use image::RgbImage;
@@ -68,10 +67,8 @@ pub fn bench(config: SimConfig, settings: &BenchSettings) -> Result<BenchReport,
     }
     let sim = Simulator::new(config).map_err(LabError::simulator)?;
     let frames = render(&sim, &sim.sweep(s.frames)).map_err(LabError::simulator)?;
-    let backgrounds = BackgroundModel::each(&sim.backgrounds())
-        .map_err(|e| LabError::data("the simulated backgrounds", e.to_string()))?;
     let rig = sim.rig();
-    let pipeline = Pipeline::new(rig, &backgrounds, &rig.volume)?;
+    let pipeline = crate::simulate::chain(&sim)?;
     // Tracking is measured whatever the rig's default (it is off unless asked for).
     let following = pipeline.clone().following(true)?;
     let motion = if following.tracks() {

@@ -9,6 +9,10 @@
 //!   the simulator's truth (`flexshape demo`).
 //! - [`soak`]: the demo left running for many thousand frames, reported per window of frames
 //!   (`flexshape bench --soak N`): whether a long run keeps saying `ok` to right shapes.
+//! - [`refine`]: camera poses refined from many tracked frames, as few cameras moved as
+//!   explain them (`flexshape rig refine`).
+//! - [`inspect`]: one frame looked at closely — every stage's figures, each classifier's
+//!   silhouette, images of what the chain saw (`flexshape silhouettes`).
 //! - [`simulate`]: simulated recordings (sweep, motion, a model experiment) and calibration
 //!   sessions with their ground truth (`flexshape simulate`).
 //!
@@ -27,6 +31,8 @@
 pub mod bench;
 pub mod demo;
 pub mod identify;
+pub mod inspect;
+pub mod refine;
 pub mod simulate;
 pub mod soak;
 
@@ -40,6 +46,9 @@ pub enum LabError {
     /// Opening or tracking failed.
     #[error(transparent)]
     Track(#[from] flexshape_track::TrackError),
+    /// The tube could not be fitted to the images (refining poses, inspecting a frame).
+    #[error(transparent)]
+    Fit(#[from] flexshape_fit::FitError),
     /// Reading records failed.
     #[error(transparent)]
     Records(#[from] flexshape_record::RecordError),
@@ -70,6 +79,9 @@ pub enum LabError {
         /// Why.
         reason: String,
     },
+    /// Camera poses cannot be refined from the frames given.
+    #[error("cannot refine the camera poses: {0}")]
+    Refine(String),
     /// Stopped on request.
     #[error("interrupted while tracking {}", path.display())]
     Interrupted {

@@ -13,6 +13,9 @@ use flexshape_sim::{
     SimConfig, SimFrame, Simulator, calibration_views,
 };
 
+use flexshape_silhouette::BackgroundModel;
+use flexshape_track::Pipeline;
+
 use crate::LabError;
 
 /// What a simulated recording shows.
@@ -78,6 +81,15 @@ impl Scenario {
             Scenario::Experiment { commands, .. } => commands.len(),
         }
     }
+}
+
+/// The sensing chain set up for a simulated rig: its rig (with the `[processing]` describing
+/// its catheter) and its backgrounds as captured, carving the rig's volume.
+pub fn chain(sim: &Simulator) -> Result<Pipeline, LabError> {
+    let backgrounds = BackgroundModel::each(&sim.backgrounds())
+        .map_err(|e| LabError::data("the simulated backgrounds", e.to_string()))?;
+    let rig = sim.rig();
+    Ok(Pipeline::new(rig, &backgrounds, &rig.volume)?)
 }
 
 /// Writes the recording of `scenario` on the rig of `config` into `out` (an existing one

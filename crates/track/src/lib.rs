@@ -25,14 +25,11 @@
 
 mod backdrop;
 mod hull_record;
-mod inspect;
 mod instants;
 mod open;
 pub mod output;
 mod pipeline;
 mod recorded;
-mod refine;
-mod refine_report;
 mod runner;
 mod source;
 mod state;
@@ -48,15 +45,10 @@ use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
 pub use hull_record::carve_frame;
-pub use inspect::Inspection;
 pub use instants::{CameraTimes, Instants};
 pub use open::{Recording, load_backgrounds};
 pub use pipeline::{Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, Tracked};
 pub use recorded::Tally;
-pub use refine::{
-    CameraRefinement, MIN_FRAMES, MIN_GAIN, OutlineResiduals, PRIOR_PX, Refinement, Verdict,
-    refine_cameras, refined_camera_file, sample_frames,
-};
 pub use runner::{Processed, Recent, RunEnd, run};
 pub use source::{Input, SourceSpec};
 
@@ -89,9 +81,6 @@ pub enum TrackError {
     /// The image fit.
     #[error(transparent)]
     Fit(#[from] FitError),
-    /// Camera poses cannot be refined from the frames given.
-    #[error("cannot refine the camera poses: {0}")]
-    Refine(String),
     /// A recording folder.
     #[error(transparent)]
     Recording(#[from] RecordingError),

@@ -1,12 +1,12 @@
 //! `flexshape rig refine`: the camera poses refined from tracked frames
-//! ([`flexshape_track::refine_cameras`]), written as a new rig.
+//! ([`flexshape_lab::refine::refine_cameras`]), written as a new rig.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
+use flexshape_lab::refine::{refine_cameras, refined_camera_file, sample_frames};
 use flexshape_rig::Rig;
 use flexshape_track::output::{refuse_existing, refuse_inputs};
-use flexshape_track::{refine_cameras, refined_camera_file, sample_frames};
 
 use super::frames;
 use crate::cli::RigRefineArgs;

@@ -2,8 +2,8 @@
 //! drawn — from a recording or any input `track` takes.
 
 use anyhow::{Context, bail};
+use flexshape_lab::inspect::Inspection;
 use flexshape_recording::RecordingReader;
-use flexshape_track::Inspection;
 
 use super::frames;
 use crate::cli::SilhouettesArgs;

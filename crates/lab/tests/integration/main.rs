@@ -2,5 +2,7 @@
 //! link).
 
 mod bench;
+mod common;
 mod demo;
+mod refine;
 mod soak;

@@ -9,7 +9,6 @@ mod fuzz;
 mod occluders;
 mod open;
 mod pipeline;
-mod refine;
 mod runner;
 mod settings;
 mod shadows;

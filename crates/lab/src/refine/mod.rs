@@ -24,7 +24,11 @@ use flexshape_shape::Status;
 use image::RgbImage;
 use rayon::prelude::*;
 
-use crate::{Pipeline, TrackError, Tracked};
+use flexshape_track::{Pipeline, Tracked};
+
+use crate::LabError;
+
+mod report;
 
 /// Outline residuals of one camera over the frames used.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -220,13 +224,13 @@ pub fn sample_frames(
     pipeline: &Pipeline,
     wanted: usize,
     stop: &std::sync::atomic::AtomicBool,
-) -> Result<(Vec<Vec<RgbImage>>, Vec<String>), TrackError> {
+) -> Result<(Vec<Vec<RgbImage>>, Vec<String>), LabError> {
     let stride = source.len_hint().map_or(1, |n| n.div_ceil(wanted).max(1));
     let (mut frames, mut left_out) = (Vec::new(), Vec::new());
     let mut seen = 0usize;
     while let Some(next) = source.next_frame() {
         if stop.load(std::sync::atomic::Ordering::Relaxed) {
-            return Err(TrackError::Input(
+            return Err(LabError::Refine(
                 "interrupted while reading frames: nothing written".into(),
             ));
         }
@@ -235,7 +239,7 @@ pub fn sample_frames(
         let set = match next {
             Ok(set) => set,
             Err(e) if e.ends_input() => {
-                return Err(TrackError::Input(format!(
+                return Err(LabError::Refine(format!(
                     "the input broke after {index} frames: {e}"
                 )));
             }
@@ -268,17 +272,17 @@ pub fn refine_cameras(
     pipeline: &Pipeline,
     frames: &[Vec<RgbImage>],
     hold: Option<usize>,
-) -> Result<Refinement, TrackError> {
+) -> Result<Refinement, LabError> {
     let names = pipeline.camera_names().to_vec();
     if let Some(hold) = hold.filter(|&h| h >= names.len()) {
-        return Err(TrackError::Refine(format!(
+        return Err(LabError::Refine(format!(
             "the camera to hold is number {} but the rig has {}",
             hold + 1,
             names.len()
         )));
     }
     if names.len() < 2 {
-        return Err(TrackError::Refine(
+        return Err(LabError::Refine(
             "a rig of one camera has nothing to refine against".into(),
         ));
     }
@@ -295,7 +299,7 @@ pub fn refine_cameras(
     // The residuals are compared over the frames used at first.
     let (first, _) = usable_frames(&tracked);
     if first.len() < MIN_FRAMES {
-        return Err(TrackError::Refine(format!(
+        return Err(LabError::Refine(format!(
             "{} of {} frames have a fitted tube that every camera sees along most of its outline; at least {MIN_FRAMES} are needed (track the recording to see why frames fail: a tube that leaves a view, a camera off by more than the fit's search_px)",
             first.len(),
             frames.len()
@@ -410,7 +414,7 @@ fn to_move(
     cameras: usize,
     hold: Option<usize>,
     fit: impl Fn(&[usize]) -> Result<Bundle, flexshape_fit::FitError>,
-) -> Result<Choice, TrackError> {
+) -> Result<Choice, LabError> {
     let mut sets: Vec<Vec<usize>> = if cameras <= EVERY_SET_UP_TO {
         (0..1u32 << cameras)
             .map(|bits| (0..cameras).filter(|c| bits >> c & 1 == 1).collect())

@@ -16,7 +16,9 @@ use image::{GrayImage, RgbImage};
 
 use flexshape_record::TrackRecord;
 
-use crate::{Pipeline, TrackError, Tracked};
+use flexshape_track::{Pipeline, TrackError, Tracked};
+
+use crate::LabError;
 
 /// A frame tracked and looked at; printing it gives the report.
 pub struct Inspection {
@@ -42,7 +44,7 @@ impl Inspection {
         frame: u64,
         truth: &[Option<GrayImage>],
         backgrounds: Option<&[BackgroundModel]>,
-    ) -> Result<Self, TrackError> {
+    ) -> Result<Self, LabError> {
         let refs: Vec<&RgbImage> = images.iter().collect();
         let started = Instant::now();
         let tracked = pipeline.process(&refs)?;
@@ -94,13 +96,14 @@ impl Inspection {
         pipeline: &Pipeline,
         images: &[RgbImage],
         out: &Path,
-    ) -> Result<Vec<PathBuf>, TrackError> {
-        let failed = |path: &Path, e: &dyn fmt::Display| {
-            TrackError::Output(format!("cannot write {}: {e}", path.display()))
+    ) -> Result<Vec<PathBuf>, LabError> {
+        let failed = |path: &Path, e: &dyn fmt::Display| LabError::Write {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
         };
         std::fs::create_dir_all(out).map_err(|e| failed(out, &e))?;
         let mut written = Vec::new();
-        let mut save = |file: String, img: image::DynamicImage| -> Result<(), TrackError> {
+        let mut save = |file: String, img: image::DynamicImage| -> Result<(), LabError> {
             let path = out.join(file);
             img.save(&path).map_err(|e| failed(&path, &e))?;
             written.push(path);
@@ -145,7 +148,7 @@ fn classifiers(
     backgrounds: &[BackgroundModel],
     images: &[RgbImage],
     tracked: &Tracked,
-) -> Result<(), TrackError> {
+) -> Result<(), LabError> {
     let _ = writeln!(
         report,
         "classifiers on this frame (object share of the image, components):"

@@ -5,9 +5,10 @@
 use crate::common;
 
 use flexshape_camera::{Camera, Pose};
+use flexshape_lab::refine::{Refinement, Verdict, refine_cameras};
 use flexshape_sim::{SimConfig, SimRigConfig};
 use flexshape_sim::{SimFrame, Simulator};
-use flexshape_track::{Pipeline, Refinement, Verdict, refine_cameras};
+use flexshape_track::Pipeline;
 use image::RgbImage;
 use nalgebra::{Point3, Rotation3, Vector3};
 

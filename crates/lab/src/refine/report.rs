@@ -3,7 +3,7 @@
 
 use std::fmt;
 
-use crate::refine::{OutlineResiduals, PRIOR_PX, Refinement, Verdict};
+use super::{OutlineResiduals, PRIOR_PX, Refinement, Verdict};
 
 /// The frames used, and per camera its outline RMS, image shift, rotation and move, before
 /// and after.
