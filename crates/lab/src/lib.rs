@@ -5,6 +5,8 @@
 //!   paper's Table I (`flexshape model fit`).
 //! - [`bench`](mod@bench): the chain's per-stage times and throughput on the simulated rig (`flexshape
 //!   bench`).
+//! - [`carve`]: the visual hull of every frame, for objects that are not tubes (`flexshape
+//!   carve`).
 //! - [`demo`]: the model-driven catheter on the simulated rig, tracked and measured against
 //!   the simulator's truth (`flexshape demo`).
 //! - [`soak`]: the demo left running for many thousand frames, reported per window of frames
@@ -29,6 +31,7 @@
 //! ```
 
 pub mod bench;
+pub mod carve;
 pub mod demo;
 pub mod identify;
 pub mod inspect;

@@ -1,56 +1,9 @@
-//! The visual hull alone, for any object (`flexshape carve`): one frame's hull as files and
-//! as its line of `hull.jsonl` ([`HullRecord`], `docs/formats.md`).
+//! A frame's visual hull alone as its line of `flexshape carve`'s `hull.jsonl` ([`HullRecord`],
+//! `docs/formats.md`).
 
-use std::path::Path;
-
-use flexshape_carve::PlyEncoding;
-use flexshape_input::FrameSet;
 use flexshape_record::{HullRecord, RecordStatus};
 
-use crate::recorded::captured_from;
-use crate::{Hull, Pipeline, TrackError};
-
-/// One frame's visual hull for any object: its voxel centres (`NNNNNN.ply`) and surface
-/// (`NNNNNN.surface.ply`) written to `dir` when carved; a frame that cannot be read or carved
-/// is an `error` record. Fails only when a file cannot be written.
-pub fn carve_frame(
-    pipeline: &Pipeline,
-    set: FrameSet,
-    dir: &Path,
-    encoding: PlyEncoding,
-) -> Result<HullRecord, TrackError> {
-    let (frame, name) = (set.frame, set.name.clone());
-    let captured = set.capture_time;
-    let timed = |record: HullRecord| HullRecord {
-        captured_s: captured.map(|c| c.seconds),
-        captured_from: captured.map(|c| captured_from(c.source)),
-        ..record
-    };
-    let images = match pipeline.load(set.images) {
-        Ok((i, _)) => i,
-        Err(e) => return Ok(timed(HullRecord::error(frame, name, e))),
-    };
-    let refs: Vec<_> = images.iter().collect();
-    let hull = match pipeline.hull(&refs) {
-        Ok(h) => h,
-        Err(e) => return Ok(timed(HullRecord::error(frame, name, e.to_string()))),
-    };
-    let mut record = timed(hull.record(frame, name));
-    if record.status.is_ok() {
-        let cloud = dir.join(format!("{frame:06}.ply"));
-        hull.occupancy
-            .to_cloud()
-            .write_ply(&cloud, encoding)
-            .map_err(|e| TrackError::Output(format!("cannot write {}: {e}", cloud.display())))?;
-        let surface = hull.occupancy.surface();
-        let mesh = dir.join(format!("{frame:06}.surface.ply"));
-        surface
-            .write_ply(&mesh, encoding)
-            .map_err(|e| TrackError::Output(format!("cannot write {}: {e}", mesh.display())))?;
-        record.surface_mm2 = surface.area_mm2;
-    }
-    Ok(record)
-}
+use crate::Hull;
 
 impl Hull {
     /// This hull's line of `hull.jsonl` (frame `frame`, named `name`).

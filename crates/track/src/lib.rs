@@ -44,11 +44,10 @@ use flexshape_shape::ShapeError;
 use flexshape_silhouette::SilhouetteError;
 use thiserror::Error;
 
-pub use hull_record::carve_frame;
 pub use instants::{CameraTimes, Instants};
 pub use open::{Recording, load_backgrounds};
 pub use pipeline::{Hull, MASK_P90_PX, MAX_HULL_SHARE, Pipeline, Prior, Tracked};
-pub use recorded::Tally;
+pub use recorded::{Tally, captured_from};
 pub use runner::{Processed, Recent, RunEnd, run};
 pub use source::{Input, SourceSpec};
 

@@ -137,8 +137,8 @@ impl Processed {
     }
 }
 
-/// What a record calls where a capture time came from.
-pub(crate) fn captured_from(source: CaptureSource) -> CapturedFrom {
+/// What a record calls where a frame's capture time came from.
+pub fn captured_from(source: CaptureSource) -> CapturedFrom {
     match source {
         CaptureSource::Clock => CapturedFrom::Clock,
         CaptureSource::Timestamps => CapturedFrom::Timestamps,

@@ -2,12 +2,9 @@
 //! silhouettes and carving only, written as a PLY cloud and a PLY surface per frame and one
 //! JSON record per frame in `hull.jsonl`.
 
-use std::io::Write;
-
 use anyhow::{Context, bail};
-use flexshape_record::HullRecord;
+use flexshape_lab::carve::{Carved, carve_all};
 use flexshape_record::RecordStatus;
-use flexshape_track::carve_frame;
 use flexshape_track::output::{refuse_existing, refuse_inputs};
 
 use super::frames;
@@ -27,45 +24,35 @@ pub fn run(args: &CarveArgs) -> anyhow::Result<()> {
     refuse_existing([&records], args.overwrite)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let mut out = std::fs::File::create(&records)
-        .with_context(|| format!("cannot create {}", records.display()))?;
-    let (mut frames_done, mut carved, mut failed) = (0usize, 0usize, 0usize);
-    while let Some(next) = input.source.next_frame() {
-        if stop.requested() {
-            break;
-        }
-        let record = match next {
-            Ok(set) => carve_frame(
-                &pipeline,
-                set,
-                &args.out,
-                super::ply_encoding(args.ascii_ply),
-            )?,
-            Err(e) if e.ends_input() => bail!("the input broke after {frames_done} frames: {e}"),
-            Err(e) => HullRecord::error(frames_done as u64, None, e.to_string()),
-        };
-        if record.status == RecordStatus::Error {
-            eprintln!(
-                "frame {:06}: {}",
-                record.frame,
-                record.reason.as_deref().unwrap_or("")
-            );
-        }
-        carved += usize::from(record.status.is_ok());
-        failed += usize::from(record.status == RecordStatus::Error);
-        let line = serde_json::to_string(&record).context("cannot encode a record")?;
-        writeln!(out, "{line}")
-            .and_then(|_| out.flush())
-            .with_context(|| format!("cannot write {}", records.display()))?;
-        frames_done += 1;
-    }
+    let done = carve_all(
+        input.source.as_mut(),
+        &pipeline,
+        &args.out,
+        super::ply_encoding(args.ascii_ply),
+        stop.flag(),
+        |record| {
+            if record.status == RecordStatus::Error {
+                eprintln!(
+                    "frame {:06}: {}",
+                    record.frame,
+                    record.reason.as_deref().unwrap_or("")
+                );
+            }
+        },
+    )?;
+    let Carved {
+        frames: frames_done,
+        carved,
+        failed,
+        ..
+    } = done;
     eprintln!(
         "{frames_done} frames ({carved} carved) into {}: NNNNNN.ply (voxel centres), NNNNNN.surface.ply (hull surface), hull.jsonl",
         args.out.display()
     );
     // As `track`: an interrupted run, or one in which every frame failed, did not do what was
     // asked.
-    if stop.requested() {
+    if done.stopped || stop.requested() {
         bail!("interrupted after {frames_done} frames (every record written is whole)");
     }
     if frames_done > 0 && failed == frames_done {

@@ -2,6 +2,7 @@
 //! link).
 
 mod bench;
+mod carve;
 mod common;
 mod demo;
 mod refine;
