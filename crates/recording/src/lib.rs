@@ -16,6 +16,7 @@ mod command;
 mod error;
 mod layout;
 mod reader;
+pub mod timestamps;
 mod truth;
 mod writer;
 

@@ -198,7 +198,7 @@ impl RecordingReader {
     /// Each frame's capture time from `timestamps.csv` (lines `frame,seconds`; a header line
     /// and `#` comments are skipped), or an empty map when there is none.
     pub fn read_timestamps(&self) -> Result<BTreeMap<u64, f64>, RecordingError> {
-        read_times(&self.layout.timestamps())
+        crate::timestamps::read(&self.layout.timestamps())
     }
 
     /// Each camera's own capture times, rig order, from `timestamps/<cam>.csv` (as
@@ -221,7 +221,7 @@ impl RecordingReader {
             .iter()
             .map(|path| {
                 if path.exists() {
-                    read_times(path)
+                    crate::timestamps::read(path)
                 } else {
                     Err(RecordingError::Layout {
                         path: path.clone(),
@@ -294,40 +294,4 @@ pub(crate) fn read_json<T: serde::de::DeserializeOwned>(
     serde_json::from_slice(&text)
         .map(Some)
         .map_err(|e| invalid(path, e.to_string()))
-}
-
-/// The `frame,seconds` lines of a timestamps file (a header line and `#` comments skipped), or
-/// an empty map when there is none.
-fn read_times(path: &Path) -> Result<BTreeMap<u64, f64>, RecordingError> {
-    let mut out = BTreeMap::new();
-    if !path.exists() {
-        return Ok(out);
-    }
-    let text = flexshape_rig::files::read_text(path, "timestamps file").map_err(|e| {
-        RecordingError::Layout {
-            path: path.to_path_buf(),
-            problem: e.reason(),
-        }
-    })?;
-    for (n, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') || (n == 0 && line.starts_with("frame")) {
-            continue;
-        }
-        let parsed = line.split_once(',').and_then(|(f, t)| {
-            Some((f.trim().parse::<u64>().ok()?, t.trim().parse::<f64>().ok()?))
-        });
-        match parsed {
-            Some((frame, t)) if t.is_finite() => {
-                out.insert(frame, t);
-            }
-            _ => {
-                return Err(RecordingError::Layout {
-                    path: path.to_path_buf(),
-                    problem: format!("line {}: `{line}` is not `frame,seconds`", n + 1),
-                });
-            }
-        }
-    }
-    Ok(out)
 }

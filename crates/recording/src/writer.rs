@@ -153,7 +153,10 @@ impl RecordingWriter {
     /// Writes `timestamps.csv`: each frame's capture time, seconds (`frame,seconds` lines after
     /// a header).
     pub fn write_timestamps(&self, times: &[(u64, f64)]) -> Result<(), RecordingError> {
-        write_atomic(&self.layout.timestamps(), timestamps_csv(times).as_bytes())
+        write_atomic(
+            &self.layout.timestamps(),
+            crate::timestamps::text(times).as_bytes(),
+        )
     }
 
     /// Writes `timestamps/<cam>.csv`: camera `cam`'s own capture time of each of its frames,
@@ -167,7 +170,7 @@ impl RecordingWriter {
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir).map_err(|e| RecordingError::io(dir, e))?;
         }
-        write_atomic(&path, timestamps_csv(times).as_bytes())
+        write_atomic(&path, crate::timestamps::text(times).as_bytes())
     }
 
     /// Writes `truth/<frame:06>.json`.
@@ -268,13 +271,4 @@ pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RecordingErr
     tmp.as_mut_os_string().push(".partial");
     std::fs::write(&tmp, bytes).map_err(|e| RecordingError::io(&tmp, e))?;
     std::fs::rename(&tmp, path).map_err(|e| RecordingError::io(path, e))
-}
-
-/// `frame,seconds` lines after a header.
-fn timestamps_csv(times: &[(u64, f64)]) -> String {
-    let mut text = String::from("frame,seconds\n");
-    for (frame, t) in times {
-        text.push_str(&format!("{frame},{t:?}\n"));
-    }
-    text
 }

@@ -157,6 +157,17 @@ pub fn read_text(path: &Path, what: &'static str) -> Result<String, FileError> {
     })
 }
 
+/// The data lines of a CSV text: each line that is neither blank nor a `#` comment, with its
+/// number (from 1) and its fields split at commas and trimmed. Every CSV file flexshape reads
+/// (numbers, points, timestamps) goes through it; each reader says what a line must hold.
+pub fn csv_lines(text: &str) -> impl Iterator<Item = (usize, &str, Vec<&str>)> + '_ {
+    text.lines().enumerate().filter_map(|(i, line)| {
+        let line = line.trim();
+        (!line.is_empty() && !line.starts_with('#'))
+            .then(|| (i + 1, line, line.split(',').map(str::trim).collect()))
+    })
+}
+
 /// The rows of a CSV file of numbers, each of `columns` finite numbers: blank lines and `#`
 /// comments are skipped, and a first line that is not numbers (a header). `expected` says
 /// what a line should hold (`` `x,y,z` (three numbers) ``) in the error that names the line.
@@ -167,19 +178,15 @@ pub fn read_csv_numbers(
 ) -> Result<Vec<Vec<f64>>, FileError> {
     let text = read_text(path, "CSV file")?;
     let mut rows = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let v: Result<Vec<f64>, _> = line.split(',').map(|x| x.trim().parse::<f64>()).collect();
+    for (number, line, fields) in csv_lines(&text) {
+        let v: Result<Vec<f64>, _> = fields.iter().map(|x| x.parse::<f64>()).collect();
         match v {
             Ok(v) if v.len() == columns && v.iter().all(|x| x.is_finite()) => rows.push(v),
-            Err(_) if rows.is_empty() && i == 0 => continue, // a header
+            Err(_) if rows.is_empty() && number == 1 => continue, // a header
             _ => {
                 return Err(FileError::Line {
                     path: path.to_path_buf(),
-                    line: i + 1,
+                    line: number,
                     message: format!("expected {expected}, found `{line}`"),
                 });
             }

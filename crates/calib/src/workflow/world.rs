@@ -117,12 +117,8 @@ fn measured_points(
         )
     };
     let (mut world, mut seen) = (Vec::new(), Vec::new());
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+    for (number, line, f) in flexshape_rig::files::csv_lines(&text) {
+        let i = number - 1;
         let parsed = (f.len() == 6)
             .then(|| {
                 let c = f[1].parse::<usize>().ok()?;

@@ -42,10 +42,8 @@ fn rows(args: &ModelArgs) -> anyhow::Result<Vec<(String, Vec<f64>)>> {
         (None, Some(path)) => {
             // Bounded, and regular files only (a FIFO or /dev/zero was read without end).
             let text = flexshape_rig::files::read_text(path, "CSV file")?;
-            text.lines()
-                .enumerate()
-                .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
-                .map(|(i, l)| parse(format!("{} line {}", path.display(), i + 1), l))
+            flexshape_rig::files::csv_lines(&text)
+                .map(|(n, line, _)| parse(format!("{} line {n}", path.display()), line))
                 .collect()
         }
         _ => bail!("give the input with --values or --csv"),
