@@ -4,6 +4,7 @@
 
 mod common;
 
+mod architecture;
 mod calibrate;
 mod capture;
 mod carve;
