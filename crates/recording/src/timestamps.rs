@@ -71,8 +71,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("timestamps.csv");
         let times = [
-            (0, 1_764_700_000.123_456_7),
-            (1, 1_764_700_000.156_789_1),
+            (0, 1_764_700_000.125),
+            (1, 1_764_700_000.0 + 1.0 / 3.0),
             (7, 0.1 + 0.2),
         ];
         std::fs::write(&path, text(&times)).unwrap();
