@@ -307,10 +307,16 @@ impl TrackRecord {
 
     /// The record of a frame that could not be processed.
     pub fn error(frame: u64, reason: String) -> Self {
+        TrackRecord::bare(frame, RecordStatus::Error, Some(reason))
+    }
+
+    /// A record of frame `frame` with its status and reason and nothing else yet: no shape, no
+    /// times, no checks (whoever makes a record fills in what it has).
+    pub fn bare(frame: u64, status: RecordStatus, reason: Option<String>) -> Self {
         TrackRecord {
             frame,
-            status: RecordStatus::Error,
-            reason: Some(reason),
+            status,
+            reason,
             centerline: Vec::new(),
             tip: None,
             tip_direction: None,

@@ -49,9 +49,6 @@ impl Tracked {
             }
         });
         TrackRecord {
-            frame,
-            status,
-            reason,
             centerline: s.points.clone(),
             tip: has_shape.then_some(s.tip),
             tip_direction: has_shape.then_some(s.tip_direction),
@@ -77,14 +74,6 @@ impl Tracked {
                     length: c.length,
                 })
                 .collect(),
-            tendon_displacements: None,
-            role: None,
-            image: None,
-            latency_ms: None,
-            captured_s: None,
-            captured_from: None,
-            camera_captured_s: Vec::new(),
-            processed_s: None,
             method: Some(if t.fit.is_some() {
                 Method::Fit
             } else {
@@ -112,6 +101,7 @@ impl Tracked {
             shadow_voxels: t.shadow_voxels,
             background_restored: t.background_restored.clone(),
             direction_guessed: s.direction_guessed,
+            ..TrackRecord::bare(frame, status, reason)
         }
     }
 }
