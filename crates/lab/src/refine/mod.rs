@@ -4,7 +4,7 @@
 //! compromises between cameras that disagree, and its self-check calls the frames
 //! `inconsistent`. The tubes of frames of different shapes pin the cameras down better than
 //! one frame can: every frame is tracked with the rig's poses, and the poses and the tubes of
-//! the frames every camera saw are then fitted together ([`TubeFitter::bundle`]).
+//! the frames every camera saw are then fitted together ([`flexshape_fit::TubeFitter::bundle`]).
 //!
 //! Which cameras move: as few as explain the frames. A knocked camera's frames are
 //! `inconsistent` in every camera (the tube settles between them), so the outlines' residuals
